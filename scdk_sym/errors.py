@@ -1,0 +1,84 @@
+"""Exception hierarchy: every failure of the package is an :class:`ScdkError`.
+
+Each exception keeps the offending data as attributes so callers can react
+programmatically, and its message is one line that names the cause.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+
+class ScdkError(Exception):
+    """Base class of every error raised by scdk_sym."""
+
+
+class ModelError(ScdkError):
+    """A model description (URDF or YAML) is malformed or inconsistent."""
+
+    def __init__(self, message: str, path: str | None = None) -> None:
+        self.path = path
+        super().__init__(f"{path}: {message}" if path else message)
+
+
+class UnknownNameError(ModelError):
+    """A frame, joint or coordinate name does not exist.
+
+    Attributes:
+        kind: what was looked up ("frame", "joint", ...).
+        name: the name that was not found.
+        valid: the valid names.
+    """
+
+    def __init__(self, kind: str, name: str, valid: Iterable[str], path: str | None = None):
+        self.kind = kind
+        self.name = name
+        self.valid = tuple(valid)
+        listed = ", ".join(self.valid) if self.valid else "(none)"
+        super().__init__(f"unknown {kind} {name!r}; {kind}s: {listed}", path)
+
+
+class NonSquareSystemError(ModelError):
+    """The loop-closure system cannot be reduced to an independent square one."""
+
+    def __init__(self, message: str, rows: int, unknowns: int, rank: int, path: str | None = None):
+        self.rows = rows
+        self.unknowns = unknowns
+        self.rank = rank
+        super().__init__(message, path)
+
+
+class NotAssembledError(ModelError):
+    """A configuration given as assembled violates the loop closures."""
+
+    def __init__(self, message: str, residual: float, path: str | None = None):
+        self.residual = residual
+        super().__init__(message, path)
+
+
+class InputError(ScdkError, ValueError):
+    """A numeric argument has the wrong shape, is not finite, or is out of range."""
+
+
+class SolveError(ScdkError):
+    """A solver could not produce a verified solution."""
+
+
+class PathError(SolveError):
+    """The singularity-consistent solution curve never reached its target (s = 1)."""
+
+
+class UnreachableError(SolveError):
+    """No assembled configuration exists (or was found) for the requested input."""
+
+
+class VerificationError(SolveError):
+    """A computed configuration failed its residual check."""
+
+    def __init__(self, message: str, residual: float):
+        self.residual = residual
+        super().__init__(message)
+
+
+class BuildError(ScdkError):
+    """Building or compiling kernels failed (e.g. no C compiler)."""

@@ -1,0 +1,488 @@
+"""Closed-chain models: URDF spanning tree + loop closures, loaded and reduced to a square system.
+
+Loading validates every name, assembles the home configuration, and reduces a closure system
+that is not square as written (redundant rows, idle freedoms) to an independent square one.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from collections.abc import Mapping, Sequence
+from functools import cached_property
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+
+from ..errors import (
+    InputError,
+    ModelError,
+    NonSquareSystemError,
+    NotAssembledError,
+    UnknownNameError,
+    UnreachableError,
+)
+from ..results import Configuration
+from .spec import Spec, parse_spec
+from .urdf import Tree, parse_urdf, rpy_matrix, tree_to_urdf
+
+#: Relative tolerance of the assembled-configuration checks (scaled by the model size).
+RESIDUAL_TOL = 1e-9
+
+
+def as_vector(value, size: int, what: str) -> np.ndarray:
+    """Validate a finite 1-D array of a given size (raises :class:`InputError`)."""
+    try:
+        arr = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{what} must be {size} numbers, got {value!r}") from exc
+    if arr.size != size:
+        raise InputError(f"{what} must have {size} values, got {arr.size}: {arr.tolist()}")
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f"{what} must be finite, got {arr.tolist()}")
+    return arr
+
+
+def _rot_log(R: np.ndarray) -> np.ndarray:
+    c = np.clip((np.trace(R) - 1) / 2, -1.0, 1.0)
+    angle = math.acos(c)
+    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    if angle < 1e-9:
+        return 0.5 * w
+    if math.pi - angle < 1e-6:  # half turn: axis from the symmetric part
+        B = (R + np.eye(3)) / 2
+        axis = np.sqrt(np.clip(np.diag(B), 0, None))
+        i = int(np.argmax(axis))
+        axis = B[:, i] / axis[i]
+        return angle * axis / np.linalg.norm(axis)
+    return angle / (2 * math.sin(angle)) * w
+
+
+def _rot_exp(w: np.ndarray) -> np.ndarray:
+    angle = float(np.linalg.norm(w))
+    if angle < 1e-12:
+        return np.eye(3)
+    k = w / angle
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+
+
+def _pivoted_selection(M: np.ndarray, count: int) -> list[int]:
+    """Indices of ``count`` columns of M chosen by Gram-Schmidt with column pivoting."""
+    A = np.array(M, dtype=float)
+    chosen: list[int] = []
+    for _ in range(count):
+        norms = np.linalg.norm(A, axis=0)
+        norms[chosen] = -1
+        i = int(np.argmax(norms))
+        chosen.append(i)
+        u = A[:, i] / norms[i]
+        A = A - np.outer(u, u @ A)
+    return sorted(chosen)
+
+
+class Model:
+    """A closed-chain manipulator: spanning tree, closures, actuated and unknown joints.
+
+    Use :func:`load_model` or a builder of :mod:`scdk_sym.builders` to make one.
+
+    Attributes:
+        name: robot name.
+        tree: the URDF spanning tree.
+        spec: the parsed loop-closure side file.
+        actuated: actuated joint names (theta order).
+        unknowns: unknown joint names (y order), after the square reduction.
+        locked: idle joints held at their home value -> value.
+        rows: indices of the closure rows kept by the reduction.
+        workspace: names of the workspace coordinates x.
+        frame: link whose pose is x (the platform).
+        reduction: one line describing the square reduction, or ``None``.
+        length_scale: characteristic size of the model [model length unit].
+    """
+
+    def __init__(
+        self,
+        tree: Tree,
+        spec: Spec,
+        path: str | None = None,
+        frame: str | None = None,
+        urdf_text: str | None = None,
+    ) -> None:
+        self.tree = tree
+        self.spec = spec
+        self.path = path
+        self.name = tree.name
+        self._urdf_text = urdf_text if urdf_text is not None else tree_to_urdf(tree)
+        links = tree.links
+        movable = tree.movable_joints
+        for c in spec.closures:
+            for f in (c.frame_a, c.frame_b):
+                if f not in links:
+                    raise UnknownNameError("frame", f, links, path)
+        for a in spec.actuated:
+            if a not in movable:
+                raise UnknownNameError("joint", a, movable, path)
+        for j in spec.home:
+            if j not in movable:
+                raise UnknownNameError("joint", j, movable, path)
+        chosen = frame or spec.platform
+        if chosen is None:
+            chosen = "effector" if "effector" in links else links[-1]
+        if chosen not in links:
+            raise UnknownNameError("frame", chosen, links, path)
+        self.frame = chosen
+        if spec.workspace is not None:
+            workspace = spec.workspace
+        elif spec.platform is not None:
+            workspace = ("x", "y", "z", "roll", "pitch", "yaw")
+        else:
+            workspace = ("x", "y", "z")
+        rot = {"roll", "pitch", "yaw"} & set(workspace)
+        if rot and rot != {"yaw"} and rot != {"roll", "pitch", "yaw"}:
+            raise ModelError(f"workspace {list(workspace)}: give all of roll, pitch, yaw or only yaw", path)
+        self.workspace = tuple(workspace)
+        self.actuated = tuple(spec.actuated)
+        self.closures = spec.closures
+        candidates = tuple(j for j in movable if j not in self.actuated)
+        if not candidates:
+            raise ModelError("no unknown joints: every movable joint is actuated", path)
+        if not spec.closures:
+            raise ModelError("no loop closures: 'closed_loop' is empty", path)
+        self.length_scale = self._size()
+        self.tolerance = RESIDUAL_TOL * max(1.0, self.length_scale)
+        self._reduce(candidates)
+
+    # ------------------------------------------------------------------ loading helpers
+
+    def _size(self) -> float:
+        # a numeric forward pass with every joint at zero
+        from ..symbolic.kinematics import link_placements
+
+        T = link_placements(self.tree, dict.fromkeys(self.tree.movable_joints, 0.0))
+        pos = np.array([np.array(ca.DM(t[:3, 3])).ravel() for t in T.values()])
+        return float(np.max(np.linalg.norm(pos - pos[0], axis=1)))
+
+    def _reduce(self, candidates: tuple[str, ...]) -> None:
+        from ..symbolic.system import build_symbolic
+
+        full = build_symbolic(
+            self.tree, self.closures, self.actuated, candidates, {}, None, self.frame, self.workspace
+        )
+        f_all = ca.Function(
+            "all", [full.y, full.theta], [full.g_all, ca.jacobian(full.g_all, full.y), full.g_check]
+        )
+        y0 = np.array([self.spec.home.get(j, 0.0) for j in candidates])
+        th0 = np.array([self.spec.home.get(j, 0.0) for j in self.actuated])
+        check = np.abs(np.array(f_all(y0, th0)[2])).ravel()
+        if self.spec.home:
+            if check.max() > self.tolerance:
+                raise NotAssembledError(
+                    f"'home' is not assembled: {self._worst(check)} (tolerance {self.tolerance:.1e})",
+                    float(check.max()),
+                    self.path,
+                )
+        else:
+            y0 = self._project(f_all, y0, th0)
+            check = np.abs(np.array(f_all(y0, th0)[2])).ravel()
+            if check.max() > self.tolerance:
+                raise NotAssembledError(
+                    "no 'home' given and the neutral configuration does not assemble by least "
+                    f"squares: {self._worst(check)}; add 'home' to the YAML",
+                    float(check.max()),
+                    self.path,
+                )
+        G = np.array(f_all(y0, th0)[1])
+        nrows, ncols = G.shape
+        sv = np.linalg.svd(G, compute_uv=False)
+        rank = int(np.sum(sv > 1e-8 * max(1.0, sv[0] if sv.size else 1.0)))
+        rows = list(range(nrows))
+        keep = list(range(ncols))
+        note = None
+        if rank == 0:
+            raise NonSquareSystemError(
+                f"the closures do not constrain any unknown joint ({', '.join(candidates)})",
+                nrows,
+                ncols,
+                rank,
+                self.path,
+            )
+        if not (rank == nrows == ncols):
+            rows = _pivoted_selection(G.T, rank)
+            keep = _pivoted_selection(G[rows], rank)
+            idle = [c for c in range(ncols) if c not in keep]
+            if idle:
+                # idle freedoms must not move the reported frame: otherwise the actuators
+                # do not determine the mechanism and nothing can be reduced
+                _, _, Vt = np.linalg.svd(G)
+                null = Vt[rank:].T
+                Jx = np.array(
+                    ca.Function("jx", [full.y, full.theta], [ca.jacobian(ca.vec(full.pose[:3, :]), full.y)])(
+                        y0, th0
+                    )
+                )
+                moved = np.abs(Jx @ null).max() if null.size else 0.0
+                if moved > 1e-7 * max(1.0, self.length_scale):
+                    names = [candidates[c] for c in idle]
+                    raise NonSquareSystemError(
+                        f"{ncols} unknown joints, {nrows} closure rows, rank {rank}: "
+                        f"{ncols - rank} freedom(s) left undetermined by the actuators "
+                        f"{list(self.actuated)} move frame {self.frame!r} (free joints among "
+                        f"{names}); cannot reduce to a square system",
+                        nrows,
+                        ncols,
+                        rank,
+                        self.path,
+                    )
+            labels = self._row_labels()
+            dropped = [labels[r] for r in range(nrows) if r not in rows]
+            parts = [f"{nrows} rows x {ncols} unknowns, rank {rank}"]
+            if dropped:
+                parts.append(f"dropped {len(dropped)} redundant row(s) {dropped}")
+            if idle:
+                parts.append(f"locked idle joint(s) {[candidates[c] for c in idle]} at home")
+            note = "reduced to a square system: " + "; ".join(parts)
+        self.rows = tuple(rows)
+        self.unknowns = tuple(candidates[c] for c in keep)
+        self.locked = {candidates[c]: float(y0[c]) for c in range(ncols) if c not in keep}
+        self.reduction = note
+        self._home_y = np.array([y0[c] for c in keep])
+        self._home_theta = th0
+
+    def _row_labels(self) -> list[str]:
+        labels = []
+        for c in self.closures:
+            comps = {"3d": "xyz", "2d": "xy", "distance": ["d"], "6d": ["x", "y", "z", "rx", "ry", "rz"]}
+            labels.extend(f"{c.label}.{k}" for k in comps[c.type])
+        return labels
+
+    def _worst(self, check: np.ndarray) -> str:
+        sizes = [c.rows + (9 if c.type == "6d" else 0) for c in self.closures]
+        i = int(np.argmax(check))
+        start = 0
+        for c, n in zip(self.closures, sizes, strict=True):
+            if i < start + n:
+                return f"closure {c.label} violated by {check[i]:.3g}"
+            start += n
+        return f"residual {check.max():.3g}"
+
+    @staticmethod
+    def _project(f_all: ca.Function, y: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        """Levenberg-Marquardt least squares on the closures over y (theta fixed)."""
+        mu = 1e-3
+        g, J, _ = (np.array(v) for v in f_all(y, theta))
+        g = g.ravel()
+        cost = g @ g
+        for _ in range(200):
+            if cost < 1e-30:
+                break
+            A = J.T @ J
+            dy = np.linalg.solve(A + mu * (np.diag(np.diag(A)) + 1e-12 * np.eye(len(y))), -J.T @ g)
+            yn = y + dy
+            gn, Jn, _ = (np.array(v) for v in f_all(yn, theta))
+            gn = gn.ravel()
+            if gn @ gn < cost:
+                y, g, J, cost = yn, gn, Jn, gn @ gn
+                mu = max(mu / 3, 1e-12)
+                if np.linalg.norm(dy) < 1e-15:
+                    break
+            else:
+                mu *= 4
+                if mu > 1e12:
+                    break
+        return y
+
+    # ------------------------------------------------------------------ products
+
+    @cached_property
+    def symbolic(self):
+        """The symbolic system (:class:`~scdk_sym.symbolic.system.Symbolic`)."""
+        from ..symbolic.system import build_symbolic
+
+        return build_symbolic(
+            self.tree,
+            self.closures,
+            self.actuated,
+            self.unknowns,
+            self.locked,
+            self.rows,
+            self.frame,
+            self.workspace,
+        )
+
+    @cached_property
+    def kernels(self):
+        """CasADi Functions of this model (:class:`~scdk_sym.kernels.functions.Kernels`)."""
+        from ..kernels.functions import build_kernels
+
+        return build_kernels(self.symbolic)
+
+    @property
+    def m(self) -> int:
+        """Number of unknowns (= independent closure rows)."""
+        return len(self.unknowns)
+
+    @property
+    def k(self) -> int:
+        """Number of actuated joints."""
+        return len(self.actuated)
+
+    @cached_property
+    def content_hash(self) -> str:
+        """SHA-256 of the URDF, the YAML and the reported frame (cache key)."""
+        h = hashlib.sha256()
+        for part in (self._urdf_text, self.spec.to_yaml(), self.frame, "|".join(self.workspace)):
+            h.update(part.encode())
+            h.update(b"\0")
+        return h.hexdigest()
+
+    # ------------------------------------------------------------------ configurations
+
+    @cached_property
+    def home(self) -> Configuration:
+        """The assembled home configuration (fixes the working modes)."""
+        return self.configuration(self._home_y, self._home_theta)
+
+    def residual(self, y: np.ndarray, theta: np.ndarray) -> float:
+        """Max |closure row| including the dropped redundant rows [model length unit]."""
+        return float(np.max(np.abs(np.array(self.kernels.check(y, theta)))))
+
+    def configuration(self, y: Sequence[float], theta: Sequence[float]) -> Configuration:
+        """Assemble a :class:`Configuration` from unknowns ``y`` (m,) and actuated ``theta`` (k,)."""
+        y = as_vector(y, self.m, "y")
+        theta = as_vector(theta, self.k, "theta")
+        T, x = self.kernels.pose(y, theta)
+        joints = dict(self.locked)
+        joints.update(zip(self.unknowns, y.tolist(), strict=True))
+        joints.update(zip(self.actuated, theta.tolist(), strict=True))
+        ordered = {j: joints[j] for j in self.tree.movable_joints}
+        return Configuration(
+            theta, y, np.array(x).ravel(), np.array(T), ordered, self.residual(y, theta)
+        )
+
+    def target_pose(self, x: Sequence[float]) -> np.ndarray:
+        """The 4x4 placement with workspace coordinates ``x`` (other components from home)."""
+        x = as_vector(x, len(self.workspace), f"x ({', '.join(self.workspace)})")
+        T = np.array(self.home.platform_pose)
+        vals = dict(zip(self.workspace, x, strict=True))
+        for i, axis in enumerate("xyz"):
+            if axis in vals:
+                T[i, 3] = vals[axis]
+        if "phi" in vals or set(vals) & {"roll", "pitch", "yaw"}:
+            yaw = vals.get("phi", vals.get("yaw", 0.0))
+            T[:3, :3] = rpy_matrix(vals.get("roll", 0.0), vals.get("pitch", 0.0), yaw)
+        return T
+
+    def inverse_kinematics(self, x: Sequence[float]) -> Configuration:
+        """An assembled configuration whose platform has workspace coordinates ``x``.
+
+        Continuation from the home configuration along a straight line in position and a
+        geodesic in orientation, with Newton corrections on ``[g; pose error]`` over all
+        joints: the result stays in the working modes of ``home``.
+
+        Args:
+            x: (n,) workspace coordinates, in the order of ``model.workspace``.
+
+        Raises:
+            InputError: wrong size or non-finite values.
+            UnreachableError: no configuration in the home working mode reaches ``x``.
+        """
+        if len(self.workspace) != self.k:
+            raise InputError(
+                f"inverse kinematics needs as many workspace coordinates as actuators: "
+                f"workspace {list(self.workspace)} vs actuated {list(self.actuated)}"
+            )
+        T_goal = self.target_pose(x)
+        T0 = np.array(self.home.platform_pose)
+        dp = T_goal[:3, 3] - T0[:3, 3]
+        w = _rot_log(T0[:3, :3].T @ T_goal[:3, :3])
+        z = np.concatenate([self.home.y, self.home.theta])
+        lam, step = 0.0, 1.0
+        tol = self.tolerance * 1e-2
+        scale = max(1.0, self.length_scale)
+        while lam < 1.0:
+            trial = min(1.0, lam + step)
+            T = np.eye(4)
+            T[:3, 3] = T0[:3, 3] + trial * dp
+            T[:3, :3] = T0[:3, :3] @ _rot_exp(trial * w)
+            zk, ok = z.copy(), False
+            for _ in range(12):
+                zn, res = self.kernels.ik_step(zk, T)
+                zn = np.array(zn).ravel()
+                if not np.all(np.isfinite(zn)) or np.linalg.norm(zn - z, np.inf) > 0.5 * scale:
+                    break
+                zk = zn
+                if float(res) < tol:
+                    ok = True
+                    break
+            if ok:
+                z, lam = zk, trial
+                step = min(1.0, step * 2)
+            else:
+                step /= 2
+                if step < 1e-5:
+                    raise UnreachableError(
+                        f"pose x={list(map(float, as_vector(x, len(self.workspace), 'x')))} "
+                        f"is not reachable in the home working mode (continuation stalled at "
+                        f"{lam:.3f} of the way from home)"
+                    )
+        cfg = self.configuration(z[: self.m], z[self.m :])
+        if cfg.residual > self.tolerance:
+            raise UnreachableError(f"inverse kinematics did not assemble (residual {cfg.residual:.2e})")
+        return cfg
+
+    # ------------------------------------------------------------------ saving
+
+    def save(self, directory: str | Path) -> Path:
+        """Write ``robot.urdf`` and ``robot.yaml`` into ``directory`` (created if needed)."""
+        d = Path(directory)
+        d.mkdir(parents=True, exist_ok=True)
+        (d / "robot.urdf").write_text(self._urdf_text)
+        (d / "robot.yaml").write_text(self.spec.to_yaml())
+        return d
+
+    def __repr__(self) -> str:
+        return (
+            f"Model({self.name!r}, actuated={list(self.actuated)}, unknowns={list(self.unknowns)}, "
+            f"workspace={list(self.workspace)}, frame={self.frame!r})"
+        )
+
+
+def load_model(path: str | Path, frame: str | None = None) -> Model:
+    """Load a model from a directory holding ``robot.urdf`` + ``robot.yaml`` (or the YAML path).
+
+    Args:
+        path: model directory, or the path of its YAML file (the URDF is ``robot.urdf`` beside
+            it, or the YAML's name with ``.urdf``).
+        frame: link whose pose is reported as x (default: the YAML's ``platform``, else
+            ``effector`` if present).
+
+    Raises:
+        ModelError: missing files, malformed URDF/YAML, unknown names, non-square systems.
+    """
+    p = Path(path)
+    if p.is_dir():
+        yaml_path, urdf_path = p / "robot.yaml", p / "robot.urdf"
+    elif p.suffix in (".yaml", ".yml"):
+        yaml_path = p
+        urdf_path = p.with_suffix(".urdf")
+        if not urdf_path.exists():
+            urdf_path = p.parent / "robot.urdf"
+    else:
+        raise ModelError("expected a model directory or a .yaml file", str(p))
+    for f in (yaml_path, urdf_path):
+        if not f.exists():
+            raise ModelError("file not found", str(f))
+    urdf_text = urdf_path.read_text()
+    tree = parse_urdf(urdf_text, str(urdf_path))
+    spec = parse_spec(yaml_path.read_text(), str(yaml_path))
+    return Model(tree, spec, str(yaml_path), frame, urdf_text)
+
+
+def model_from_tree(tree: Tree, spec: Spec, frame: str | None = None) -> Model:
+    """Make a model from an in-memory tree and spec (used by the builders)."""
+    return Model(tree, spec, None, frame)
+
+
+def _as_mapping(values: Mapping[str, float]) -> dict[str, float]:
+    return {str(k): float(v) for k, v in values.items()}

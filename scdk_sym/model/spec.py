@@ -1,0 +1,175 @@
+"""The loop-closure side file (``robot.yaml``): parsing and validation.
+
+A strict superset of the Gepetto "extended URDF" YAML (``closed_loop``, ``type``,
+``name_mot``) with the extensions ``format_version``, ``platform``, ``workspace``, ``home``,
+the closure types ``2d`` and ``distance`` and the per-closure ``length`` list.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import yaml
+
+from ..errors import ModelError
+
+CLOSURE_TYPES = ("3d", "6d", "2d", "distance")
+#: Number of residual rows of each closure type.
+CLOSURE_ROWS = {"3d": 3, "6d": 6, "2d": 2, "distance": 1}
+WORKSPACE_NAMES = ("x", "y", "z", "roll", "pitch", "yaw", "phi")
+KNOWN_KEYS = (
+    "closed_loop",
+    "type",
+    "name_mot",
+    "format_version",
+    "platform",
+    "workspace",
+    "home",
+    "length",
+)
+
+
+@dataclass(frozen=True)
+class Closure:
+    """One loop closure between two frames (URDF link names).
+
+    Attributes:
+        frame_a: first frame.
+        frame_b: second frame.
+        type: "3d" (points coincide), "6d" (frames coincide), "2d" (x-y of the points
+            coincide in the base frame) or "distance" (|a - b| = length).
+        length: distance for "distance" closures [model length unit], else ``nan``.
+    """
+
+    frame_a: str
+    frame_b: str
+    type: str
+    length: float = math.nan
+
+    @property
+    def rows(self) -> int:
+        return CLOSURE_ROWS[self.type]
+
+    @property
+    def label(self) -> str:
+        return f"{self.type}({self.frame_a},{self.frame_b})"
+
+
+@dataclass(frozen=True)
+class Spec:
+    """Parsed ``robot.yaml``."""
+
+    closures: tuple[Closure, ...]
+    actuated: tuple[str, ...]
+    platform: str | None = None
+    workspace: tuple[str, ...] | None = None
+    home: dict[str, float] = field(default_factory=dict)
+    raw: dict[str, Any] = field(default_factory=dict)
+
+    def to_yaml(self) -> str:
+        data: dict[str, Any] = {
+            "closed_loop": [[c.frame_a, c.frame_b] for c in self.closures],
+            "type": [c.type for c in self.closures],
+            "name_mot": list(self.actuated),
+            "format_version": 1,
+        }
+        if any(c.type == "distance" for c in self.closures):
+            data["length"] = [None if math.isnan(c.length) else c.length for c in self.closures]
+        if self.platform is not None:
+            data["platform"] = self.platform
+        if self.workspace is not None:
+            data["workspace"] = list(self.workspace)
+        if self.home:
+            data["home"] = {k: float(v) for k, v in self.home.items()}
+        return yaml.safe_dump(data, sort_keys=False, default_flow_style=None)
+
+
+def _str_list(data: dict, key: str, path: str | None) -> list[str]:
+    value = data.get(key)
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise ModelError(f"'{key}' must be a list of names, got {value!r}", path)
+    return value
+
+
+def parse_spec(text: str, path: str | None = None) -> Spec:
+    """Parse and validate the YAML side file (names are checked later against the URDF).
+
+    Raises:
+        ModelError: malformed YAML, missing keys, inconsistent lengths, unknown types.
+    """
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        first = str(exc).replace("\n", " ")
+        raise ModelError(f"malformed YAML: {first}", path) from exc
+    if not isinstance(data, dict):
+        raise ModelError("YAML must be a mapping with keys closed_loop, type, name_mot", path)
+    unknown = sorted(set(data) - set(KNOWN_KEYS))
+    if unknown:
+        raise ModelError(f"unknown keys {unknown}; keys: {', '.join(KNOWN_KEYS)}", path)
+    for key in ("closed_loop", "type", "name_mot"):
+        if key not in data:
+            raise ModelError(f"missing key '{key}'", path)
+    version = data.get("format_version", 1)
+    if version != 1:
+        raise ModelError(f"unsupported format_version {version!r}; supported: 1", path)
+    loops = data["closed_loop"]
+    if not isinstance(loops, list) or not all(
+        isinstance(p, list) and len(p) == 2 and all(isinstance(n, str) for n in p) for p in loops
+    ):
+        raise ModelError(f"'closed_loop' must be a list of [frame_a, frame_b] pairs, got {loops!r}", path)
+    types = _str_list(data, "type", path)
+    if len(types) != len(loops):
+        raise ModelError(f"'type' has {len(types)} entries but 'closed_loop' has {len(loops)}", path)
+    for t in types:
+        if t not in CLOSURE_TYPES:
+            raise ModelError(f"unknown closure type {t!r}; types: {', '.join(CLOSURE_TYPES)}", path)
+    lengths = data.get("length")
+    if any(t == "distance" for t in types):
+        if not isinstance(lengths, list) or len(lengths) != len(loops):
+            raise ModelError("'distance' closures need 'length', one entry per closure", path)
+    closures = []
+    for i, ((a, b), t) in enumerate(zip(loops, types, strict=True)):
+        length = math.nan
+        if t == "distance":
+            value = lengths[i]
+            if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+                raise ModelError(f"closure {i} ({a}, {b}): length must be > 0, got {value!r}", path)
+            length = float(value)
+        closures.append(Closure(a, b, t, length))
+    actuated = _str_list(data, "name_mot", path)
+    if not actuated:
+        raise ModelError("'name_mot' is empty: at least one actuated joint is needed", path)
+    if len(set(actuated)) != len(actuated):
+        raise ModelError(f"'name_mot' has duplicates: {actuated}", path)
+    platform = data.get("platform")
+    if platform is not None and not isinstance(platform, str):
+        raise ModelError(f"'platform' must be a link name, got {platform!r}", path)
+    workspace = data.get("workspace")
+    if workspace is not None:
+        workspace = _str_list(data, "workspace", path)
+        for w in workspace:
+            if w not in WORKSPACE_NAMES:
+                raise ModelError(
+                    f"unknown workspace coordinate {w!r}; coordinates: {', '.join(WORKSPACE_NAMES)}",
+                    path,
+                )
+        if "phi" in workspace and set(workspace) & {"roll", "pitch", "yaw"}:
+            raise ModelError("workspace mixes 'phi' with roll/pitch/yaw", path)
+        workspace = tuple(workspace)
+    home = data.get("home") or {}
+    if not isinstance(home, dict):
+        raise ModelError(f"'home' must map joint names to values, got {home!r}", path)
+    for k, v in home.items():
+        if not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise ModelError(f"home value of {k!r} must be a finite number, got {v!r}", path)
+    return Spec(
+        tuple(closures),
+        tuple(actuated),
+        platform,
+        workspace,
+        {str(k): float(v) for k, v in home.items()},
+        data,
+    )

@@ -1,0 +1,260 @@
+"""URDF spanning trees: parsing (with yourdfpy) and writing.
+
+The tree is reduced to what kinematics needs: for each joint its parent and child links,
+its origin (4x4 homogeneous transform, parent link frame -> joint frame), its axis and type.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ModelError
+
+#: Joint types with one coordinate.
+MOVABLE_TYPES = ("revolute", "continuous", "prismatic")
+SUPPORTED_TYPES = (*MOVABLE_TYPES, "fixed")
+
+
+@dataclass(frozen=True)
+class Joint:
+    """One URDF joint.
+
+    Attributes:
+        name: joint name.
+        type: "revolute", "continuous", "prismatic" or "fixed".
+        parent: parent link name.
+        child: child link name.
+        origin: (4, 4) transform from the parent link frame to the joint frame [m].
+        axis: (3,) unit axis in the joint frame.
+        lower: lower limit [rad or m] (``-inf`` when absent).
+        upper: upper limit [rad or m] (``+inf`` when absent).
+    """
+
+    name: str
+    type: str
+    parent: str
+    child: str
+    origin: np.ndarray
+    axis: np.ndarray
+    lower: float = -math.inf
+    upper: float = math.inf
+
+    @property
+    def movable(self) -> bool:
+        return self.type in MOVABLE_TYPES
+
+
+@dataclass(frozen=True)
+class Tree:
+    """A URDF kinematic tree.
+
+    Attributes:
+        name: robot name.
+        root: the root link.
+        links: every link name, root first, parents before children.
+        joints: every joint, parents before children.
+    """
+
+    name: str
+    root: str
+    links: tuple[str, ...]
+    joints: tuple[Joint, ...]
+
+    @property
+    def movable_joints(self) -> tuple[str, ...]:
+        return tuple(j.name for j in self.joints if j.movable)
+
+    def joint(self, name: str) -> Joint:
+        for j in self.joints:
+            if j.name == name:
+                return j
+        from ..errors import UnknownNameError
+
+        raise UnknownNameError("joint", name, [j.name for j in self.joints])
+
+    def parent_joint(self, link: str) -> Joint | None:
+        for j in self.joints:
+            if j.child == link:
+                return j
+        return None
+
+
+def parse_urdf(text: str, path: str | None = None) -> Tree:
+    """Parse URDF text into a :class:`Tree`.
+
+    Args:
+        text: the URDF XML.
+        path: file name used in error messages.
+
+    Raises:
+        ModelError: malformed XML, unsupported joint types, or not a tree.
+    """
+    import logging
+
+    import yourdfpy
+
+    logging.getLogger("yourdfpy").setLevel(logging.ERROR)
+    try:
+        urdf = yourdfpy.URDF.load(
+            io.StringIO(text),
+            build_scene_graph=False,
+            load_meshes=False,
+            build_collision_scene_graph=False,
+            load_collision_meshes=False,
+        )
+    except Exception as exc:  # yourdfpy raises lxml and assorted errors
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise ModelError(f"malformed URDF: {msg}", path) from exc
+    robot = urdf.robot
+    links = [lk.name for lk in robot.links]
+    if not links:
+        raise ModelError("URDF has no links", path)
+    if len(set(links)) != len(links):
+        raise ModelError("URDF has duplicate link names", path)
+    joints = []
+    for j in robot.joints:
+        if j.type not in SUPPORTED_TYPES:
+            raise ModelError(
+                f"joint {j.name!r} has unsupported type {j.type!r}; "
+                f"supported: {', '.join(SUPPORTED_TYPES)}",
+                path,
+            )
+        for end in (j.parent, j.child):
+            if end not in links:
+                raise ModelError(f"joint {j.name!r} refers to unknown link {end!r}", path)
+        origin = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
+        axis = np.array([1.0, 0.0, 0.0]) if j.axis is None else np.asarray(j.axis, float)
+        if j.type != "fixed":
+            norm = float(np.linalg.norm(axis))
+            if not np.isfinite(norm) or norm < 1e-12:
+                raise ModelError(f"joint {j.name!r} has a zero axis", path)
+            axis = axis / norm
+        lower, upper = -math.inf, math.inf
+        if j.type in ("revolute", "prismatic") and j.limit is not None:
+            if j.limit.lower is not None:
+                lower = float(j.limit.lower)
+            if j.limit.upper is not None:
+                upper = float(j.limit.upper)
+            if lower == 0.0 and upper == 0.0:  # unspecified limits in many exports
+                lower, upper = -math.inf, math.inf
+        if not np.all(np.isfinite(origin)):
+            raise ModelError(f"joint {j.name!r} has a non-finite origin", path)
+        joints.append(Joint(j.name, j.type, j.parent, j.child, origin, axis, lower, upper))
+    names = [j.name for j in joints]
+    if len(set(names)) != len(names):
+        raise ModelError("URDF has duplicate joint names", path)
+    children = [j.child for j in joints]
+    if len(set(children)) != len(children):
+        dup = sorted({c for c in children if children.count(c) > 1})
+        raise ModelError(f"links with more than one parent joint: {', '.join(dup)}", path)
+    roots = [lk for lk in links if lk not in children]
+    if len(roots) != 1:
+        raise ModelError(f"URDF must have exactly one root link, found {roots}", path)
+    # order parents before children
+    order_links = [roots[0]]
+    order_joints: list[Joint] = []
+    frontier = [roots[0]]
+    while frontier:
+        link = frontier.pop(0)
+        for j in joints:
+            if j.parent == link:
+                order_joints.append(j)
+                order_links.append(j.child)
+                frontier.append(j.child)
+    if len(order_links) != len(links):
+        raise ModelError("URDF is not a connected tree", path)
+    return Tree(robot.name, roots[0], tuple(order_links), tuple(order_joints))
+
+
+# ---------------------------------------------------------------------------- writing
+
+
+def _fmt(values: Sequence[float]) -> str:
+    return " ".join(repr(float(v)) for v in values)
+
+
+def rpy_from_matrix(rot: np.ndarray) -> np.ndarray:
+    """URDF roll-pitch-yaw of a rotation matrix (R = Rz(yaw) Ry(pitch) Rx(roll))."""
+    pitch = math.atan2(-rot[2, 0], math.hypot(rot[0, 0], rot[1, 0]))
+    roll = math.atan2(rot[2, 1], rot[2, 2])
+    yaw = math.atan2(rot[1, 0], rot[0, 0])
+    return np.array([roll, pitch, yaw])
+
+
+def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """Rotation matrix of URDF roll-pitch-yaw angles [rad]."""
+    cr, sr, cp, sp, cy, sy = (
+        math.cos(roll),
+        math.sin(roll),
+        math.cos(pitch),
+        math.sin(pitch),
+        math.cos(yaw),
+        math.sin(yaw),
+    )
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
+
+
+def tree_to_urdf(tree: Tree) -> str:
+    """Write a :class:`Tree` as URDF text (links without inertia or geometry)."""
+    out = [f'<robot name="{tree.name}">']
+    for link in tree.links:
+        out.append(f'  <link name="{link}"/>')
+    for j in tree.joints:
+        xyz = j.origin[:3, 3]
+        rpy = rpy_from_matrix(j.origin[:3, :3])
+        out.append(f'  <joint name="{j.name}" type="{j.type}">')
+        out.append(f'    <parent link="{j.parent}"/>')
+        out.append(f'    <child link="{j.child}"/>')
+        out.append(f'    <origin xyz="{_fmt(xyz)}" rpy="{_fmt(rpy)}"/>')
+        if j.type != "fixed":
+            out.append(f'    <axis xyz="{_fmt(j.axis)}"/>')
+        if j.type in ("revolute", "prismatic"):
+            lo = -1e6 if not math.isfinite(j.lower) else j.lower
+            hi = 1e6 if not math.isfinite(j.upper) else j.upper
+            out.append(f'    <limit lower="{lo!r}" upper="{hi!r}" effort="0" velocity="0"/>')
+        out.append("  </joint>")
+    out.append("</robot>")
+    return "\n".join(out) + "\n"
+
+
+class TreeBuilder:
+    """Small helper to assemble a :class:`Tree` programmatically (used by the builders)."""
+
+    def __init__(self, name: str, root: str = "base") -> None:
+        self.name = name
+        self.links: list[str] = [root]
+        self.joints: list[Joint] = []
+
+    def add(
+        self,
+        name: str,
+        type: str,
+        parent: str,
+        child: str,
+        xyz: Sequence[float] = (0.0, 0.0, 0.0),
+        rpy: Sequence[float] = (0.0, 0.0, 0.0),
+        axis: Sequence[float] = (0.0, 0.0, 1.0),
+        limits: tuple[float, float] | None = None,
+    ) -> TreeBuilder:
+        origin = np.eye(4)
+        origin[:3, :3] = rpy_matrix(*rpy)
+        origin[:3, 3] = xyz
+        lo, hi = limits if limits is not None else (-math.inf, math.inf)
+        ax = np.asarray(axis, float)
+        self.joints.append(Joint(name, type, parent, child, origin, ax / np.linalg.norm(ax), lo, hi))
+        self.links.append(child)
+        return self
+
+    def build(self) -> Tree:
+        return parse_urdf(tree_to_urdf(Tree(self.name, self.links[0], tuple(self.links), tuple(self.joints))))

@@ -1,0 +1,147 @@
+"""Result types: immutable configurations and solver outputs."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+import numpy as np
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True)
+class Configuration:
+    """An assembled configuration of a closed-chain model.
+
+    Attributes:
+        theta: (k,) actuated joint values [rad or model length unit].
+        y: (m,) unknown joint values.
+        x: (n,) workspace coordinates of the platform (or reported) frame.
+        platform_pose: (4, 4) homogeneous placement of that frame in the base frame.
+        joints: every movable URDF joint name -> value (locked idle joints included).
+        residual: max |closure row| at this configuration [model length unit].
+    """
+
+    theta: np.ndarray
+    y: np.ndarray
+    x: np.ndarray
+    platform_pose: np.ndarray
+    joints: Mapping[str, float]
+    residual: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("theta", "y", "x", "platform_pose"):
+            object.__setattr__(self, name, _frozen(getattr(self, name)))
+        object.__setattr__(self, "joints", MappingProxyType(dict(self.joints)))
+
+    def to_dict(self) -> dict:
+        return {
+            "x": self.x.tolist(),
+            "y": self.y.tolist(),
+            "theta": self.theta.tolist(),
+            "platform_pose": self.platform_pose.tolist(),
+            "joints": dict(self.joints),
+            "residual": float(self.residual),
+        }
+
+
+@dataclass(frozen=True)
+class Crossing:
+    """A crossing of the singular manifold (``det J_p`` changes sign) along a path.
+
+    Attributes:
+        s: path parameter at the crossing (theta = theta1 + s (theta0 - theta1)).
+        x: (n,) workspace coordinates at the crossing.
+        y: (m,) unknown joint values at the crossing.
+        theta: (k,) actuated joint values at the crossing.
+        index: for tracks, the sample index after which the crossing occurs (else -1).
+    """
+
+    s: float
+    x: np.ndarray
+    y: np.ndarray
+    theta: np.ndarray
+    index: int = -1
+
+    def __post_init__(self) -> None:
+        for name in ("x", "y", "theta"):
+            object.__setattr__(self, name, _frozen(getattr(self, name)))
+
+    def to_dict(self) -> dict:
+        d = {"s": float(self.s), "x": self.x.tolist(), "y": self.y.tolist(), "theta": self.theta.tolist()}
+        if self.index >= 0:
+            d["index"] = self.index
+        return d
+
+
+@dataclass(frozen=True)
+class PathSamples:
+    """The sampled SC solution curve of a solve, for plots.
+
+    Attributes:
+        s: (N,) path parameter.
+        y: (N, m) unknowns.
+        x: (N, n) workspace coordinates.
+        det_jp: (N,) ``det J_p``.
+        sdot: (N,) ``s' = b det J_p`` (the paper's unnormalised field, b = +-1).
+        arc: (N,) arc length along the curve (metric |dy|^2 + (|dtheta| ds)^2).
+    """
+
+    s: np.ndarray
+    y: np.ndarray
+    x: np.ndarray
+    det_jp: np.ndarray
+    sdot: np.ndarray
+    arc: np.ndarray
+
+
+@dataclass(frozen=True)
+class SolveResult:
+    """A verified direct-kinematics solution found by the SC method.
+
+    Attributes:
+        x: (n,) workspace coordinates of the solution.
+        y: (m,) unknown joint values.
+        theta: (k,) actuated joint values (= theta0).
+        platform_pose: (4, 4) placement of the platform frame.
+        joints: every movable joint -> value.
+        residual: max |closure row| [model length unit] (verified <= tolerance).
+        crossings: singular-manifold crossings along the path, in order.
+        status: "converged".
+        branch: "convergent" or "divergent" (sign of b det J_p at the start).
+        b: the signed scalar of the field (+1 or -1 relative to nu).
+        start: the start configuration.
+        path: the sampled solution curve.
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    theta: np.ndarray
+    platform_pose: np.ndarray
+    joints: Mapping[str, float]
+    residual: float
+    crossings: tuple[Crossing, ...]
+    status: str
+    branch: str
+    b: float
+    start: Configuration
+    path: PathSamples | None = field(default=None, repr=False)
+
+    @property
+    def configuration(self) -> Configuration:
+        return Configuration(self.theta, self.y, self.x, self.platform_pose, self.joints, self.residual)
+
+    def to_dict(self) -> dict:
+        d = self.configuration.to_dict()
+        d.update(
+            crossings=[c.to_dict() for c in self.crossings],
+            status=self.status,
+            branch=self.branch,
+        )
+        return d

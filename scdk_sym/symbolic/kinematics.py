@@ -1,0 +1,118 @@
+"""CasADi SX forward kinematics of a URDF tree and loop-closure residuals.
+
+Built directly from the joint origins, axes and types (the pip ``pin`` wheel has no
+``pinocchio.casadi``); :mod:`scdk_sym.verify.pinocchio` checks it against Pinocchio.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import casadi as ca
+import numpy as np
+
+from ..model.spec import Closure
+from ..model.urdf import Tree
+
+
+def skew(v: ca.SX) -> ca.SX:
+    return ca.vertcat(
+        ca.horzcat(0, -v[2], v[1]),
+        ca.horzcat(v[2], 0, -v[0]),
+        ca.horzcat(-v[1], v[0], 0),
+    )
+
+
+def joint_motion(kind: str, axis: np.ndarray, q: ca.SX) -> ca.SX:
+    """4x4 transform of a one-coordinate joint about/along ``axis`` by ``q``."""
+    T = ca.SX.eye(4)
+    if kind == "prismatic":
+        T[:3, 3] = ca.DM(axis) * q
+    else:
+        K = skew(ca.DM(axis))
+        T[:3, :3] = ca.SX.eye(3) + ca.sin(q) * K + (1 - ca.cos(q)) * (K @ K)
+    return T
+
+
+def link_placements(tree: Tree, joint_values: Mapping[str, ca.SX | float]) -> dict[str, ca.SX]:
+    """World placements (4x4 SX) of every link.
+
+    Args:
+        tree: the URDF tree.
+        joint_values: a value (symbolic or numeric) for every movable joint.
+    """
+    out: dict[str, ca.SX] = {tree.root: ca.SX.eye(4)}
+    for j in tree.joints:
+        T = out[j.parent] @ ca.DM(j.origin)
+        if j.movable:
+            T = T @ joint_motion(j.type, j.axis, joint_values[j.name])
+        out[j.child] = T
+    return out
+
+
+def rotation_error(R_a: ca.SX, R_b: ca.SX) -> ca.SX:
+    """Rotation error vee(skew part of R_a^T R_b): zero when equal, = log3 to first order."""
+    R = R_a.T @ R_b
+    return 0.5 * ca.vertcat(R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1])
+
+
+def closure_residual(closure: Closure, T_a: ca.SX, T_b: ca.SX) -> ca.SX:
+    """Residual rows of one closure (length unit of the model; radians for 6d rotations)."""
+    d = T_a[:3, 3] - T_b[:3, 3]
+    if closure.type == "3d":
+        return d
+    if closure.type == "2d":
+        return d[:2]
+    if closure.type == "distance":
+        L = closure.length
+        return (ca.dot(d, d) - L * L) / (2 * L)
+    return ca.vertcat(d, rotation_error(T_a[:3, :3], T_b[:3, :3]))
+
+
+def closure_check(closure: Closure, T_a: ca.SX, T_b: ca.SX) -> ca.SX:
+    """Rows that vanish only at a true closure (used to verify solutions).
+
+    For 6d closures the whole matrix ``R_a^T R_b - I`` is included, so a half-turn (where the
+    skew part vanishes too) is not mistaken for a closure.
+    """
+    rows = closure_residual(closure, T_a, T_b)
+    if closure.type == "6d":
+        E = T_a[:3, :3].T @ T_b[:3, :3] - ca.SX.eye(3)
+        rows = ca.vertcat(rows, ca.reshape(E, 9, 1))
+    return rows
+
+
+def workspace_coordinates(names: tuple[str, ...], T: ca.SX) -> ca.SX:
+    """Workspace coordinates of a placement: x, y, z, roll, pitch, yaw (URDF rpy), phi."""
+    R = T[:3, :3]
+    values = {
+        "x": T[0, 3],
+        "y": T[1, 3],
+        "z": T[2, 3],
+        "phi": ca.atan2(R[1, 0], R[0, 0]),
+        "yaw": ca.atan2(R[1, 0], R[0, 0]),
+        "pitch": ca.atan2(-R[2, 0], ca.sqrt(R[0, 0] ** 2 + R[1, 0] ** 2)),
+        "roll": ca.atan2(R[2, 1], R[2, 2]),
+    }
+    return ca.vertcat(*[values[n] for n in names])
+
+
+def pose_error(names: tuple[str, ...], T: ca.SX, T_target: ca.SX) -> ca.SX:
+    """Rows that vanish when ``T`` has the target's workspace coordinates.
+
+    Positions are compared directly; orientations through a rotation error expressed in the
+    world frame (no Euler-angle singularity): ``phi`` uses its z component, a spatial
+    workspace (roll, pitch, yaw) all three.
+    """
+    rows = []
+    for i, axis in enumerate("xyz"):
+        if axis in names:
+            rows.append(T[i, 3] - T_target[i, 3])
+    R = T[:3, :3] @ T_target[:3, :3].T
+    w = 0.5 * ca.vertcat(R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1])
+    rot = {"roll", "pitch", "yaw"} & set(names)
+    if "phi" in names or rot == {"yaw"}:
+        rows.append(w[2])
+    elif rot:
+        rows.extend([w[0], w[1], w[2]])
+    return ca.vertcat(*rows)

@@ -1,0 +1,101 @@
+"""The symbolic loop-closure system ``g(y, theta) = 0`` and its derivatives.
+
+``y`` (m unknown joint coordinates) and ``theta`` (k actuated ones) are CasADi SX symbols;
+locked joints (idle freedoms removed by the square reduction) are constants.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import casadi as ca
+
+from ..model.spec import Closure
+from ..model.urdf import Tree
+from .kinematics import closure_check, closure_residual, link_placements, workspace_coordinates
+
+
+@dataclass(frozen=True)
+class Symbolic:
+    """Symbolic kinematics of a closed-chain model (CasADi SX expressions).
+
+    Attributes:
+        y: (m,) unknown joint coordinates.
+        theta: (k,) actuated joint coordinates.
+        g: (m,) closure residual rows kept by the square reduction.
+        g_all: (r,) every closure residual row.
+        g_check: verification rows (6d closures with their full rotation matrix).
+        J_p: (m, m) ``dg/dy``.
+        J_s: (m, k) ``-dg/dtheta``.
+        pose: (4, 4) placement of the platform (or reported) frame.
+        x: (n,) workspace coordinates of ``pose``.
+        placements: link name -> (4, 4) world placement.
+        workspace: names of the coordinates of ``x``.
+    """
+
+    y: ca.SX
+    theta: ca.SX
+    g: ca.SX
+    g_all: ca.SX
+    g_check: ca.SX
+    J_p: ca.SX
+    J_s: ca.SX
+    pose: ca.SX
+    x: ca.SX
+    placements: Mapping[str, ca.SX]
+    workspace: tuple[str, ...] = ()
+
+    @property
+    def m(self) -> int:
+        return int(self.y.numel())
+
+    @property
+    def k(self) -> int:
+        return int(self.theta.numel())
+
+
+def build_symbolic(
+    tree: Tree,
+    closures: Sequence[Closure],
+    actuated: Sequence[str],
+    unknowns: Sequence[str],
+    locked: Mapping[str, float],
+    rows: Sequence[int] | None,
+    frame: str,
+    workspace: tuple[str, ...],
+) -> Symbolic:
+    """Build the symbolic system.
+
+    Args:
+        tree: URDF tree.
+        closures: loop closures.
+        actuated: actuated joint names (theta order).
+        unknowns: unknown joint names (y order).
+        locked: joints held constant -> value [rad or model length unit].
+        rows: indices of ``g_all`` rows kept in ``g`` (``None``: all).
+        frame: link whose placement is ``pose``.
+        workspace: workspace coordinate names of ``x``.
+    """
+    y = ca.SX.sym("y", len(unknowns))
+    theta = ca.SX.sym("theta", len(actuated))
+    values: dict[str, ca.SX | float] = dict(locked)
+    values.update({n: y[i] for i, n in enumerate(unknowns)})
+    values.update({n: theta[i] for i, n in enumerate(actuated)})
+    T = link_placements(tree, values)
+    g_all = ca.vertcat(*[closure_residual(c, T[c.frame_a], T[c.frame_b]) for c in closures])
+    g_check = ca.vertcat(*[closure_check(c, T[c.frame_a], T[c.frame_b]) for c in closures])
+    g = g_all if rows is None else g_all[list(rows)]
+    return Symbolic(
+        y=y,
+        theta=theta,
+        g=g,
+        g_all=g_all,
+        g_check=g_check,
+        J_p=ca.jacobian(g, y),
+        J_s=-ca.jacobian(g, theta),
+        pose=T[frame],
+        x=workspace_coordinates(workspace, T[frame]),
+        placements=T,
+        workspace=tuple(workspace),
+    )
