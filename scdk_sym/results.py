@@ -74,7 +74,12 @@ class Crossing:
             object.__setattr__(self, name, _frozen(getattr(self, name)))
 
     def to_dict(self) -> dict:
-        d = {"s": float(self.s), "x": self.x.tolist(), "y": self.y.tolist(), "theta": self.theta.tolist()}
+        d = {
+            "s": float(self.s),
+            "x": self.x.tolist(),
+            "y": self.y.tolist(),
+            "theta": self.theta.tolist(),
+        }
         if self.index >= 0:
             d["index"] = self.index
         return d
@@ -135,7 +140,9 @@ class SolveResult:
 
     @property
     def configuration(self) -> Configuration:
-        return Configuration(self.theta, self.y, self.x, self.platform_pose, self.joints, self.residual)
+        return Configuration(
+            self.theta, self.y, self.x, self.platform_pose, self.joints, self.residual
+        )
 
     def to_dict(self) -> dict:
         d = self.configuration.to_dict()

@@ -35,15 +35,19 @@ class Kernels:
     """CasADi Functions of one model.
 
     Attributes:
-        g: (y[m], theta[k]) -> g[m].
-        check: (y, theta) -> verification rows.
-        jac: (y, theta) -> (J_p[m,m], J_s[m,k]).
-        pose: (y, theta) -> (T[4,4], x[n]).
-        field: (q[m+1], p) -> dq/dtau, p = (theta1[k], dtheta[k], v[m+1], scale, K).
-        probe: (q, p) -> (tangent[m+1], vec(J_p)[m*m], x[n]).
-        finish: (y_a[m], s_a, theta1, dtheta) -> (y at s = 1, max|g|): RK4 in s + Newton.
-        cross: (q, p) -> q on the singular manifold (Newton on [g; t_s]).
-        ik_step: (z[m+k], T_target[4,4]) -> (z_new, max|F|): a Newton step on [g; pose error].
+        Every kernel takes last the chart ``c`` (reference rotations of the floating joints,
+        see :func:`~scdk_sym.symbolic.kinematics.floating_motion`; empty without them), and
+        ``y`` in that local chart.
+
+        g: (y[m], theta[k], c) -> g[m].
+        check: (y, theta, c) -> verification rows.
+        jac: (y, theta, c) -> (J_p[m,m], J_s[m,k]).
+        pose: (y, theta, c) -> (T[4,4], x[n]).
+        field: (q[m+1], p, c) -> dq/dtau, p = (theta1[k], dtheta[k], v[m+1], scale, K).
+        probe: (q, p, c) -> (tangent[m+1], vec(J_p)[m*m], x[n]).
+        finish: (y_a[m], s_a, theta1, dtheta, c) -> (y at s = 1, max|g|): RK4 in s + Newton.
+        cross: (q, p, c) -> q on the singular manifold (Newton on [g; t_s]).
+        ik_step: (z[m+k], T_target[4,4], c) -> (z_new, max|F|): Newton step on [g; pose error].
     """
 
     g: ca.Function
@@ -85,56 +89,61 @@ def _sc_parts(sym: Symbolic):
 
 def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
     """Build every kernel of a model (a few milliseconds for m <= 6)."""
-    y, theta = sym.y, sym.theta
+    y, theta, c = sym.y, sym.theta, sym.c
     m, k = sym.m, sym.k
-    f_g = ca.Function(f"{name}_g", [y, theta], [sym.g], ["y", "theta"], ["g"])
-    f_check = ca.Function(f"{name}_check", [y, theta], [sym.g_check], ["y", "theta"], ["rows"])
-    f_jac = ca.Function(f"{name}_jac", [y, theta], [sym.J_p, sym.J_s], ["y", "theta"], ["J_p", "J_s"])
-    f_pose = ca.Function(f"{name}_pose", [y, theta], [sym.pose, sym.x], ["y", "theta"], ["T", "x"])
+    yt = ["y", "theta", "c"]
+    f_g = ca.Function(f"{name}_g", [y, theta, c], [sym.g], yt, ["g"])
+    f_check = ca.Function(f"{name}_check", [y, theta, c], [sym.g_check], yt, ["rows"])
+    f_jac = ca.Function(f"{name}_jac", [y, theta, c], [sym.J_p, sym.J_s], yt, ["J_p", "J_s"])
+    f_pose = ca.Function(f"{name}_pose", [y, theta, c], [sym.pose, sym.x], yt, ["T", "x"])
 
     q, p, g, Jp, js, t, tangent, corr, scale, gain, theta1, dtheta, s = _sc_parts(sym)
     dq = scale * tangent + gain * corr
-    f_field = ca.Function(f"{name}_field", [q, p], [dq], ["q", "p"], ["dq"])
+    f_field = ca.Function(f"{name}_field", [q, p, c], [dq], ["q", "p", "c"], ["dq"])
     x_s = ca.substitute(sym.x, sym.theta, theta1 + s * dtheta)
     f_probe = ca.Function(
-        f"{name}_probe", [q, p], [tangent, ca.vec(Jp), x_s], ["q", "p"], ["tangent", "J_p", "x"]
+        f"{name}_probe",
+        [q, p, c],
+        [tangent, ca.vec(Jp), x_s],
+        ["q", "p", "c"],
+        ["tangent", "J_p", "x"],
     )
 
     # finish: from a point of the curve at s_a, follow dy/ds = J_p^-1 j_s to s = 1, then Newton
     ya = ca.SX.sym("y_a", m)
     sa = ca.SX.sym("s_a")
-    dyds = ca.Function("dyds", [y, s, theta1, dtheta], [ca.solve(Jp, js)])
+    dyds = ca.Function("dyds", [y, s, theta1, dtheta, c], [ca.solve(Jp, js)])
     h = (1 - sa) / FINISH_RK_STEPS
     yk = ya
     sk = sa
     for _ in range(FINISH_RK_STEPS):
-        k1 = dyds(yk, sk, theta1, dtheta)
-        k2 = dyds(yk + h / 2 * k1, sk + h / 2, theta1, dtheta)
-        k3 = dyds(yk + h / 2 * k2, sk + h / 2, theta1, dtheta)
-        k4 = dyds(yk + h * k3, sk + h, theta1, dtheta)
+        k1 = dyds(yk, sk, theta1, dtheta, c)
+        k2 = dyds(yk + h / 2 * k1, sk + h / 2, theta1, dtheta, c)
+        k3 = dyds(yk + h / 2 * k2, sk + h / 2, theta1, dtheta, c)
+        k4 = dyds(yk + h * k3, sk + h, theta1, dtheta, c)
         yk = yk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
         sk = sk + h
-    newton = ca.Function("newton1", [y, theta], [y - ca.solve(sym.J_p, sym.g)])
+    newton = ca.Function("newton1", [y, theta, c], [y - ca.solve(sym.J_p, sym.g)])
     theta0 = theta1 + dtheta
     for _ in range(NEWTON_STEPS):
-        yk = newton(yk, theta0)
+        yk = newton(yk, theta0, c)
     res = ca.norm_inf(ca.substitute(sym.g, ca.vertcat(y, theta), ca.vertcat(yk, theta0)))
     f_finish = ca.Function(
         f"{name}_finish",
-        [ya, sa, theta1, dtheta],
+        [ya, sa, theta1, dtheta, c],
         [yk, res],
-        ["y_a", "s_a", "theta1", "dtheta"],
+        ["y_a", "s_a", "theta1", "dtheta", "c"],
         ["y", "residual"],
     )
 
     # cross: Newton on F(q) = [g(y, theta(s)); t_s] = 0 (t_s vanishes exactly where det J_p does)
     F = ca.vertcat(g, t[m])
-    step = ca.Function("cross1", [q, p], [q - ca.solve(ca.jacobian(F, q), F)])
+    step = ca.Function("cross1", [q, p, c], [q - ca.solve(ca.jacobian(F, q), F)])
     qk = ca.SX.sym("q0", m + 1)
     qi = qk
     for _ in range(CROSS_NEWTON_STEPS):
-        qi = step(qi, p)
-    f_cross = ca.Function(f"{name}_cross", [qk, p], [qi], ["q", "p"], ["q_singular"])
+        qi = step(qi, p, c)
+    f_cross = ca.Function(f"{name}_cross", [qk, p, c], [qi], ["q", "p", "c"], ["q_singular"])
 
     # ik_step: Newton step on [g(y, theta); pose error] over z = (y, theta)
     from ..symbolic.kinematics import pose_error
@@ -148,9 +157,9 @@ def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
     Jik = ca.jacobian(Fik, z)
     f_ik = ca.Function(
         f"{name}_ik_step",
-        [z, T_target],
+        [z, T_target, c],
         [z - ca.solve(Jik, Fik) if Jik.shape[0] == Jik.shape[1] else z, ca.norm_inf(Fik)],
-        ["z", "T_target"],
+        ["z", "T_target", "c"],
         ["z_new", "residual"],
     )
     return Kernels(f_g, f_check, f_jac, f_pose, f_field, f_probe, f_finish, f_cross, f_ik)

@@ -24,6 +24,7 @@ from ..errors import (
     UnreachableError,
 )
 from ..results import Configuration
+from .chart import Chart, rot_exp, rot_log
 from .spec import Spec, parse_spec
 from .urdf import Tree, parse_urdf, rpy_matrix, tree_to_urdf
 
@@ -42,30 +43,6 @@ def as_vector(value, size: int, what: str) -> np.ndarray:
     if not np.all(np.isfinite(arr)):
         raise InputError(f"{what} must be finite, got {arr.tolist()}")
     return arr
-
-
-def _rot_log(R: np.ndarray) -> np.ndarray:
-    c = np.clip((np.trace(R) - 1) / 2, -1.0, 1.0)
-    angle = math.acos(c)
-    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    if angle < 1e-9:
-        return 0.5 * w
-    if math.pi - angle < 1e-6:  # half turn: axis from the symmetric part
-        B = (R + np.eye(3)) / 2
-        axis = np.sqrt(np.clip(np.diag(B), 0, None))
-        i = int(np.argmax(axis))
-        axis = B[:, i] / axis[i]
-        return angle * axis / np.linalg.norm(axis)
-    return angle / (2 * math.sin(angle)) * w
-
-
-def _rot_exp(w: np.ndarray) -> np.ndarray:
-    angle = float(np.linalg.norm(w))
-    if angle < 1e-12:
-        return np.eye(3)
-    k = w / angle
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
 
 
 def _pivoted_selection(M: np.ndarray, count: int) -> list[int]:
@@ -115,14 +92,18 @@ class Model:
         self.name = tree.name
         self._urdf_text = urdf_text if urdf_text is not None else tree_to_urdf(tree)
         links = tree.links
-        movable = tree.movable_joints
+        movable = tree.coordinates
+        single = tuple(j.name for j in tree.joints if j.movable and j.type != "floating")
         for c in spec.closures:
             for f in (c.frame_a, c.frame_b):
                 if f not in links:
                     raise UnknownNameError("frame", f, links, path)
         for a in spec.actuated:
-            if a not in movable:
-                raise UnknownNameError("joint", a, movable, path)
+            if a not in single:
+                raise UnknownNameError("joint", a, single, path)
+        for c in spec.closures:
+            if c.length_joint is not None and c.length_joint not in single:
+                raise UnknownNameError("joint", c.length_joint, single, path)
         for j in spec.home:
             if j not in movable:
                 raise UnknownNameError("joint", j, movable, path)
@@ -140,7 +121,9 @@ class Model:
             workspace = ("x", "y", "z")
         rot = {"roll", "pitch", "yaw"} & set(workspace)
         if rot and rot != {"yaw"} and rot != {"roll", "pitch", "yaw"}:
-            raise ModelError(f"workspace {list(workspace)}: give all of roll, pitch, yaw or only yaw", path)
+            raise ModelError(
+                f"workspace {list(workspace)}: give all of roll, pitch, yaw or only yaw", path
+            )
         self.workspace = tuple(workspace)
         self.actuated = tuple(spec.actuated)
         self.closures = spec.closures
@@ -159,7 +142,7 @@ class Model:
         # a numeric forward pass with every joint at zero
         from ..symbolic.kinematics import link_placements
 
-        T = link_placements(self.tree, dict.fromkeys(self.tree.movable_joints, 0.0))
+        T = link_placements(self.tree, dict.fromkeys(self.tree.coordinates, 0.0))
         pos = np.array([np.array(ca.DM(t[:3, 3])).ravel() for t in T.values()])
         return float(np.max(np.linalg.norm(pos - pos[0], axis=1)))
 
@@ -167,13 +150,27 @@ class Model:
         from ..symbolic.system import build_symbolic
 
         full = build_symbolic(
-            self.tree, self.closures, self.actuated, candidates, {}, None, self.frame, self.workspace
+            self.tree,
+            self.closures,
+            self.actuated,
+            candidates,
+            {},
+            None,
+            self.frame,
+            self.workspace,
         )
-        f_all = ca.Function(
-            "all", [full.y, full.theta], [full.g_all, ca.jacobian(full.g_all, full.y), full.g_check]
-        )
+        chart = Chart.for_unknowns(candidates, self.tree.floating_joints)
         y0 = np.array([self.spec.home.get(j, 0.0) for j in candidates])
         th0 = np.array([self.spec.home.get(j, 0.0) for j in self.actuated])
+        y0, c0 = chart.to_local(y0)
+        f_all = ca.Function(
+            "all",
+            [full.y, full.theta],
+            [
+                ca.substitute(e, full.c, ca.DM(c0))
+                for e in (full.g_all, ca.jacobian(full.g_all, full.y), full.g_check)
+            ],
+        )
         check = np.abs(np.array(f_all(y0, th0)[2])).ravel()
         if self.spec.home:
             if check.max() > self.tolerance:
@@ -216,11 +213,8 @@ class Model:
                 # do not determine the mechanism and nothing can be reduced
                 _, _, Vt = np.linalg.svd(G)
                 null = Vt[rank:].T
-                Jx = np.array(
-                    ca.Function("jx", [full.y, full.theta], [ca.jacobian(ca.vec(full.pose[:3, :]), full.y)])(
-                        y0, th0
-                    )
-                )
+                jx = ca.jacobian(ca.vec(full.pose[:3, :]), full.y)
+                Jx = np.array(ca.Function("jx", [full.y, full.theta, full.c], [jx])(y0, th0, c0))
                 moved = np.abs(Jx @ null).max() if null.size else 0.0
                 if moved > 1e-7 * max(1.0, self.length_scale):
                     names = [candidates[c] for c in idle]
@@ -244,15 +238,32 @@ class Model:
             note = "reduced to a square system: " + "; ".join(parts)
         self.rows = tuple(rows)
         self.unknowns = tuple(candidates[c] for c in keep)
+        floating_locked = [
+            candidates[c] for c in range(ncols) if c not in keep and "." in candidates[c]
+        ]
+        if floating_locked:
+            raise NonSquareSystemError(
+                f"the reduction would lock floating coordinates {floating_locked}",
+                nrows,
+                ncols,
+                rank,
+                self.path,
+            )
         self.locked = {candidates[c]: float(y0[c]) for c in range(ncols) if c not in keep}
         self.reduction = note
-        self._home_y = np.array([y0[c] for c in keep])
+        self.chart = Chart.for_unknowns(self.unknowns, self.tree.floating_joints)
+        self._home_y = chart.to_canonical(y0, c0)[keep]
         self._home_theta = th0
 
     def _row_labels(self) -> list[str]:
         labels = []
         for c in self.closures:
-            comps = {"3d": "xyz", "2d": "xy", "distance": ["d"], "6d": ["x", "y", "z", "rx", "ry", "rz"]}
+            comps = {
+                "3d": "xyz",
+                "2d": "xy",
+                "distance": ["d"],
+                "6d": ["x", "y", "z", "rx", "ry", "rz"],
+            }
             labels.extend(f"{c.label}.{k}" for k in comps[c.type])
         return labels
 
@@ -343,22 +354,41 @@ class Model:
         """The assembled home configuration (fixes the working modes)."""
         return self.configuration(self._home_y, self._home_theta)
 
-    def residual(self, y: np.ndarray, theta: np.ndarray) -> float:
-        """Max |closure row| including the dropped redundant rows [model length unit]."""
-        return float(np.max(np.abs(np.array(self.kernels.check(y, theta)))))
+    def residual(self, y: np.ndarray, theta: np.ndarray, c: np.ndarray | None = None) -> float:
+        """Max |closure row| including the dropped redundant rows [model length unit].
 
-    def configuration(self, y: Sequence[float], theta: Sequence[float]) -> Configuration:
-        """Assemble a :class:`Configuration` from unknowns ``y`` (m,) and actuated ``theta`` (k,)."""
+        Args:
+            y: (m,) unknowns, canonical (``c is None``) or in the local chart ``c``.
+            theta: (k,) actuated values.
+            c: chart of ``y`` (see :mod:`scdk_sym.model.chart`), ``None`` for canonical ``y``.
+        """
+        if c is None:
+            y, c = self.chart.to_local(y)
+        return float(np.max(np.abs(np.array(self.kernels.check(y, theta, c)))))
+
+    def configuration(
+        self, y: Sequence[float], theta: Sequence[float], c: np.ndarray | None = None
+    ) -> Configuration:
+        """Assemble a :class:`Configuration` from unknowns ``y`` (m,) and actuated ``theta`` (k,).
+
+        Args:
+            y: unknowns, canonical or (with ``c``) in a local chart.
+            theta: actuated joint values.
+            c: chart of ``y``; ``None`` when ``y`` is canonical.
+        """
         y = as_vector(y, self.m, "y")
         theta = as_vector(theta, self.k, "theta")
-        T, x = self.kernels.pose(y, theta)
+        if c is None:
+            y_loc, c = self.chart.to_local(y)
+        else:
+            y_loc, y = y, self.chart.to_canonical(y, c)
+        T, x = self.kernels.pose(y_loc, theta, c)
         joints = dict(self.locked)
         joints.update(zip(self.unknowns, y.tolist(), strict=True))
         joints.update(zip(self.actuated, theta.tolist(), strict=True))
-        ordered = {j: joints[j] for j in self.tree.movable_joints}
-        return Configuration(
-            theta, y, np.array(x).ravel(), np.array(T), ordered, self.residual(y, theta)
-        )
+        ordered = {j: joints[j] for j in self.tree.coordinates}
+        residual = float(np.max(np.abs(np.array(self.kernels.check(y_loc, theta, c)))))
+        return Configuration(theta, y, np.array(x).ravel(), np.array(T), ordered, residual)
 
     def target_pose(self, x: Sequence[float]) -> np.ndarray:
         """The 4x4 placement with workspace coordinates ``x`` (other components from home)."""
@@ -395,8 +425,9 @@ class Model:
         T_goal = self.target_pose(x)
         T0 = np.array(self.home.platform_pose)
         dp = T_goal[:3, 3] - T0[:3, 3]
-        w = _rot_log(T0[:3, :3].T @ T_goal[:3, :3])
-        z = np.concatenate([self.home.y, self.home.theta])
+        w = rot_log(T0[:3, :3].T @ T_goal[:3, :3])
+        y_loc, c = self.chart.to_local(self.home.y)
+        z = np.concatenate([y_loc, self.home.theta])
         lam, step = 0.0, 1.0
         tol = self.tolerance * 1e-2
         scale = max(1.0, self.length_scale)
@@ -404,10 +435,10 @@ class Model:
             trial = min(1.0, lam + step)
             T = np.eye(4)
             T[:3, 3] = T0[:3, 3] + trial * dp
-            T[:3, :3] = T0[:3, :3] @ _rot_exp(trial * w)
+            T[:3, :3] = T0[:3, :3] @ rot_exp(trial * w)
             zk, ok = z.copy(), False
             for _ in range(12):
-                zn, res = self.kernels.ik_step(zk, T)
+                zn, res = self.kernels.ik_step(zk, T, c)
                 zn = np.array(zn).ravel()
                 if not np.all(np.isfinite(zn)) or np.linalg.norm(zn - z, np.inf) > 0.5 * scale:
                     break
@@ -418,6 +449,8 @@ class Model:
             if ok:
                 z, lam = zk, trial
                 step = min(1.0, step * 2)
+                y_loc, c = self.chart.recentre(z[: self.m], c)
+                z = np.concatenate([y_loc, z[self.m :]])
             else:
                 step /= 2
                 if step < 1e-5:
@@ -426,9 +459,11 @@ class Model:
                         f"is not reachable in the home working mode (continuation stalled at "
                         f"{lam:.3f} of the way from home)"
                     )
-        cfg = self.configuration(z[: self.m], z[self.m :])
+        cfg = self.configuration(z[: self.m], z[self.m :], c)
         if cfg.residual > self.tolerance:
-            raise UnreachableError(f"inverse kinematics did not assemble (residual {cfg.residual:.2e})")
+            raise UnreachableError(
+                f"inverse kinematics did not assemble (residual {cfg.residual:.2e})"
+            )
         return cfg
 
     # ------------------------------------------------------------------ saving

@@ -41,12 +41,15 @@ class Closure:
         type: "3d" (points coincide), "6d" (frames coincide), "2d" (x-y of the points
             coincide in the base frame) or "distance" (|a - b| = length).
         length: distance for "distance" closures [model length unit], else ``nan``.
+        length_joint: for a "distance" closure whose length is a joint coordinate (the leg
+            length of an SPS/UPS leg, actuated prismatic joint), that joint's name.
     """
 
     frame_a: str
     frame_b: str
     type: str
     length: float = math.nan
+    length_joint: str | None = None
 
     @property
     def rows(self) -> int:
@@ -76,7 +79,10 @@ class Spec:
             "format_version": 1,
         }
         if any(c.type == "distance" for c in self.closures):
-            data["length"] = [None if math.isnan(c.length) else c.length for c in self.closures]
+            data["length"] = [
+                c.length_joint if c.length_joint else (None if math.isnan(c.length) else c.length)
+                for c in self.closures
+            ]
         if self.platform is not None:
             data["platform"] = self.platform
         if self.workspace is not None:
@@ -119,10 +125,14 @@ def parse_spec(text: str, path: str | None = None) -> Spec:
     if not isinstance(loops, list) or not all(
         isinstance(p, list) and len(p) == 2 and all(isinstance(n, str) for n in p) for p in loops
     ):
-        raise ModelError(f"'closed_loop' must be a list of [frame_a, frame_b] pairs, got {loops!r}", path)
+        raise ModelError(
+            f"'closed_loop' must be a list of [frame_a, frame_b] pairs, got {loops!r}", path
+        )
     types = _str_list(data, "type", path)
     if len(types) != len(loops):
-        raise ModelError(f"'type' has {len(types)} entries but 'closed_loop' has {len(loops)}", path)
+        raise ModelError(
+            f"'type' has {len(types)} entries but 'closed_loop' has {len(loops)}", path
+        )
     for t in types:
         if t not in CLOSURE_TYPES:
             raise ModelError(f"unknown closure type {t!r}; types: {', '.join(CLOSURE_TYPES)}", path)
@@ -132,13 +142,19 @@ def parse_spec(text: str, path: str | None = None) -> Spec:
             raise ModelError("'distance' closures need 'length', one entry per closure", path)
     closures = []
     for i, ((a, b), t) in enumerate(zip(loops, types, strict=True)):
-        length = math.nan
+        length, joint = math.nan, None
         if t == "distance":
             value = lengths[i]
-            if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-                raise ModelError(f"closure {i} ({a}, {b}): length must be > 0, got {value!r}", path)
-            length = float(value)
-        closures.append(Closure(a, b, t, length))
+            if isinstance(value, str):
+                joint = value
+            elif not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+                raise ModelError(
+                    f"closure {i} ({a}, {b}): length must be > 0 or a joint name, got {value!r}",
+                    path,
+                )
+            else:
+                length = float(value)
+        closures.append(Closure(a, b, t, length, joint))
     actuated = _str_list(data, "name_mot", path)
     if not actuated:
         raise ModelError("'name_mot' is empty: at least one actuated joint is needed", path)

@@ -16,8 +16,10 @@ import numpy as np
 from ..errors import ModelError
 
 #: Joint types with one coordinate.
-MOVABLE_TYPES = ("revolute", "continuous", "prismatic")
+MOVABLE_TYPES = ("revolute", "continuous", "prismatic", "floating")
 SUPPORTED_TYPES = (*MOVABLE_TYPES, "fixed")
+#: Coordinate suffixes of a floating joint: position, then local rotation parameters.
+FLOATING_COORDS = ("x", "y", "z", "rx", "ry", "rz")
 
 
 @dataclass(frozen=True)
@@ -48,6 +50,13 @@ class Joint:
     def movable(self) -> bool:
         return self.type in MOVABLE_TYPES
 
+    @property
+    def coordinates(self) -> tuple[str, ...]:
+        """Coordinate names: the joint name, or ``name.x ... name.rz`` for a floating joint."""
+        if self.type == "floating":
+            return tuple(f"{self.name}.{c}" for c in FLOATING_COORDS)
+        return (self.name,) if self.movable else ()
+
 
 @dataclass(frozen=True)
 class Tree:
@@ -68,6 +77,15 @@ class Tree:
     @property
     def movable_joints(self) -> tuple[str, ...]:
         return tuple(j.name for j in self.joints if j.movable)
+
+    @property
+    def coordinates(self) -> tuple[str, ...]:
+        """Every joint coordinate name, parents first (floating joints give six)."""
+        return tuple(c for j in self.joints for c in j.coordinates)
+
+    @property
+    def floating_joints(self) -> tuple[str, ...]:
+        return tuple(j.name for j in self.joints if j.type == "floating")
 
     def joint(self, name: str) -> Joint:
         for j in self.joints:
@@ -129,7 +147,7 @@ def parse_urdf(text: str, path: str | None = None) -> Tree:
                 raise ModelError(f"joint {j.name!r} refers to unknown link {end!r}", path)
         origin = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
         axis = np.array([1.0, 0.0, 0.0]) if j.axis is None else np.asarray(j.axis, float)
-        if j.type != "fixed":
+        if j.type not in ("fixed", "floating"):
             norm = float(np.linalg.norm(axis))
             if not np.isfinite(norm) or norm < 1e-12:
                 raise ModelError(f"joint {j.name!r} has a zero axis", path)
@@ -217,7 +235,7 @@ def tree_to_urdf(tree: Tree) -> str:
         out.append(f'    <parent link="{j.parent}"/>')
         out.append(f'    <child link="{j.child}"/>')
         out.append(f'    <origin xyz="{_fmt(xyz)}" rpy="{_fmt(rpy)}"/>')
-        if j.type != "fixed":
+        if j.type not in ("fixed", "floating"):
             out.append(f'    <axis xyz="{_fmt(j.axis)}"/>')
         if j.type in ("revolute", "prismatic"):
             lo = -1e6 if not math.isfinite(j.lower) else j.lower
@@ -252,9 +270,13 @@ class TreeBuilder:
         origin[:3, 3] = xyz
         lo, hi = limits if limits is not None else (-math.inf, math.inf)
         ax = np.asarray(axis, float)
-        self.joints.append(Joint(name, type, parent, child, origin, ax / np.linalg.norm(ax), lo, hi))
+        self.joints.append(
+            Joint(name, type, parent, child, origin, ax / np.linalg.norm(ax), lo, hi)
+        )
         self.links.append(child)
         return self
 
     def build(self) -> Tree:
-        return parse_urdf(tree_to_urdf(Tree(self.name, self.links[0], tuple(self.links), tuple(self.joints))))
+        return parse_urdf(
+            tree_to_urdf(Tree(self.name, self.links[0], tuple(self.links), tuple(self.joints)))
+        )

@@ -68,7 +68,8 @@ def engine(model: Model, backend: str = "casadi") -> Engine:
     m, k = model.m, model.k
     q = ca.MX.sym("q", m + 1)
     p = ca.MX.sym("p", 2 * k + m + 3)
-    dae = {"x": q, "p": p, "ode": kern.field(q, p)}
+    c = ca.MX.sym("c", model.chart.size)
+    dae = {"x": q, "p": ca.vertcat(p, c), "ode": kern.field(q, p, c)}
     grid = np.linspace(0.0, 1.0, GRID + 1)[1:]
     integ = ca.integrator("sc_chunk", "cvodes", dae, 0.0, grid, CVODES_OPTIONS)
     eng = Engine(model, kern, integ, kern.probe.map(GRID + 1), m, k)
@@ -94,13 +95,16 @@ def validate_start(model: Model, start: Configuration | None) -> Configuration:
     if start is None:
         return model.home
     if not isinstance(start, Configuration):
-        raise InputError(f"start must be a Configuration (e.g. model.inverse_kinematics(x)), got {start!r}")
+        raise InputError(
+            f"start must be a Configuration (e.g. model.inverse_kinematics(x)), got {start!r}"
+        )
     as_vector(start.y, model.m, "start.y")
     as_vector(start.theta, model.k, "start.theta")
     res = model.residual(start.y, start.theta)
     if res > model.tolerance:
         raise NotAssembledError(
-            f"start configuration is not assembled (residual {res:.3g} > {model.tolerance:.1e})", res
+            f"start configuration is not assembled (residual {res:.3g} > {model.tolerance:.1e})",
+            res,
         )
     return start
 
@@ -153,7 +157,9 @@ def solve(
     w = float(np.linalg.norm(dtheta))
     if w <= 1e-14 * max(1.0, float(np.linalg.norm(theta0))):
         return _result(model, start.y, theta0, (), "convergent", 1.0, start, None)
-    Jp, Js = (np.array(a) for a in kern.jac(start.y, theta1))
+    y_loc, c = model.chart.to_local(start.y)
+    floating = bool(model.chart.rotations)
+    Jp, Js = (np.array(a) for a in kern.jac(y_loc, theta1, c))
     js = Js @ dtheta
     nu = _null_direction(Jp, js)
     det0 = float(np.linalg.det(Jp))
@@ -173,7 +179,7 @@ def solve(
     ell0 = min(ell0, 1e3 * max(1.0, model.length_scale))
     budget = max_arc if max_arc is not None else 60.0 * ell0 + 20.0 * max(1.0, model.length_scale)
     scale = 0.5 * ell0
-    q = np.concatenate([start.y, [0.0]])
+    q = np.concatenate([y_loc, [0.0]])
     q_start = q.copy()
     arc = 0.0
     crossings: list[Crossing] = []
@@ -189,7 +195,7 @@ def solve(
             )
         p = np.concatenate([theta1, dtheta, tangent, [scale, GAIN]])
         try:
-            xf = np.array(eng.integrator(x0=q, p=p)["xf"])
+            xf = np.array(eng.integrator(x0=q, p=np.concatenate([p, c]))["xf"])
         except RuntimeError:
             xf = np.full((m + 1, GRID), np.nan)
         Q = np.hstack([q[:, None], xf])
@@ -198,7 +204,12 @@ def solve(
             if scale < 1e-12 * ell0:
                 raise PathError(f"integration of the SC field failed near q={q.tolist()}")
             continue
-        T, Jv, X = (np.array(a) for a in eng.probe(Q, np.tile(p[:, None], (1, GRID + 1))))
+        T, Jv, X = (
+            np.array(a)
+            for a in eng.probe(
+                Q, np.tile(p[:, None], (1, GRID + 1)), np.tile(c[:, None], (1, GRID + 1))
+            )
+        )
         t_end = T[:, -1]
         cosine = float(t_end[:-1] @ tangent[:-1] + w * w * t_end[-1] * tangent[-1])
         if cosine < 0.8:
@@ -211,13 +222,18 @@ def solve(
         done = None
         for i in range(GRID):
             if ts[i] * ts[i + 1] < 0:  # s' changes sign: a crossing of the singular manifold
-                crossings.append(_locate_crossing(eng, Q[:, i], Q[:, i + 1], ts[i], ts[i + 1], p, w))
+                crossings.append(
+                    _locate_crossing(eng, Q[:, i], Q[:, i + 1], ts[i], ts[i + 1], p, c)
+                )
             if (s_vals[i] - 1.0) * (s_vals[i + 1] - 1.0) <= 0 and s_vals[i] != s_vals[i + 1]:
                 done = i
                 break
         if record_path:
             upto = GRID + 1 if done is None else done + 1
-            rec_q.extend(Q[:, :upto].T)
+            Qc = Q[:, :upto].T
+            if floating:
+                Qc = np.array([np.append(model.chart.to_canonical(r[:-1], c), r[-1]) for r in Qc])
+            rec_q.extend(Qc)
             rec_t.extend(T[:, :upto].T)
             rec_J.extend(Jv[:, :upto].T)
             rec_x.extend(X[:, :upto].T)
@@ -229,7 +245,7 @@ def solve(
             if abs(sa - 1.0) < 1e-15:
                 y_end = ya
             else:
-                y_end, _ = kern.finish(ya, sa, theta1, dtheta)
+                y_end, _ = kern.finish(ya, sa, theta1, dtheta, c)
                 y_end = np.array(y_end).ravel()
             seg = np.linalg.norm(Q[:-1, done + 1] - ya) + 1e-12
             if not np.all(np.isfinite(y_end)) or np.linalg.norm(y_end - ya) > 3 * seg + 1e-9:
@@ -244,12 +260,19 @@ def solve(
                 continue
             path = None
             if record_path:
-                path = _samples(rec_q, rec_t, rec_J, rec_x, rec_arc, direction, y_end, model, theta0)
-            return _result(model, y_end, theta0, tuple(crossings), name, direction, start, path)
+                path = _samples(
+                    rec_q, rec_t, rec_J, rec_x, rec_arc, direction, y_end, model, theta0
+                )
+            return _result(model, y_end, theta0, tuple(crossings), name, direction, start, path, c)
         arc += scale
         q = Q[:, -1]
         tangent = t_end / _wnorm(t_end, w)
-        if arc > 2 * scale and np.linalg.norm(q - q_start) < 0.05 * scale:
+        if floating:  # re-centre the orientation chart on the current rotation
+            y_new, c = model.chart.recentre(q[:-1], c)
+            q = np.append(y_new, q[-1])
+            pn = np.concatenate([theta1, dtheta, tangent, [scale, GAIN]])
+            tangent = np.array(kern.probe(q, pn, c)[0]).ravel()
+        if not floating and arc > 2 * scale and np.linalg.norm(q - q_start) < 0.05 * scale:
             raise PathError(
                 f"the solution curve through the start closed on itself without reaching s = 1 "
                 f"for theta0={theta0.tolist()}: theta0 is not reachable along it"
@@ -258,16 +281,16 @@ def solve(
             scale = min(scale * 1.6, 2.0 * ell0)
 
 
-def _locate_crossing(eng: Engine, qa, qb, ta, tb, p, w) -> Crossing:
+def _locate_crossing(eng: Engine, qa, qb, ta, tb, p, c) -> Crossing:
     alpha = ta / (ta - tb)
     q0 = qa + alpha * (qb - qa)
-    q1 = np.array(eng.kernels.cross(q0, p)).ravel()
+    q1 = np.array(eng.kernels.cross(q0, p, c)).ravel()
     seg = np.linalg.norm(qb - qa)
     if not np.all(np.isfinite(q1)) or np.linalg.norm(q1 - q0) > 2 * seg + 1e-12:
         q1 = q0  # fall back on the interpolated point (accurate to the sample spacing)
     m, k = eng.m, eng.k
     theta = p[:k] + q1[-1] * p[k : 2 * k]
-    cfg = eng.model.configuration(q1[:m], theta)
+    cfg = eng.model.configuration(q1[:m], theta, c)
     return Crossing(float(q1[-1]), cfg.x, cfg.y, cfg.theta)
 
 
@@ -286,8 +309,8 @@ def _samples(rec_q, rec_t, rec_J, rec_x, rec_arc, direction, y_end, model, theta
     )
 
 
-def _result(model, y, theta0, crossings, branch, direction, start, path) -> SolveResult:
-    cfg = model.configuration(y, theta0)
+def _result(model, y, theta0, crossings, branch, direction, start, path, c=None) -> SolveResult:
+    cfg = model.configuration(y, theta0, c)
     if not cfg.residual <= model.tolerance:
         raise VerificationError(
             f"solution at theta0={np.asarray(theta0).tolist()} failed verification: residual "

@@ -34,17 +34,52 @@ def joint_motion(kind: str, axis: np.ndarray, q: ca.SX) -> ca.SX:
     return T
 
 
-def link_placements(tree: Tree, joint_values: Mapping[str, ca.SX | float]) -> dict[str, ca.SX]:
+def cayley(rho: ca.SX) -> ca.SX:
+    """Rotation of Rodrigues (Gibbs) parameters ``rho = tan(angle/2) axis``.
+
+    ``R = I + 2 (W + W^2) / (1 + |rho|^2)``, ``W = skew(rho)``: rational, regular for every
+    rotation of less than a half turn, with the identity at ``rho = 0``.
+    """
+    W = skew(rho)
+    return ca.SX.eye(3) + 2 * (W + W @ W) / (1 + ca.dot(rho, rho))
+
+
+def floating_motion(coords: ca.SX, R_ref: ca.SX) -> ca.SX:
+    """4x4 transform of a floating joint in its local chart: ``[R_ref cayley(rho), p]``.
+
+    The chart: position ``p = coords[:3]`` and Rodrigues parameters ``rho = coords[3:]`` of the
+    rotation relative to a reference rotation ``R_ref``. The solvers re-centre ``R_ref`` on the
+    current orientation as the platform moves, so ``rho`` stays small and the chart never adds
+    a singularity of its own (unlike Euler angles): every ``det J_p = 0`` reported is one of
+    the mechanism.
+    """
+    T = ca.SX.eye(4)
+    T[:3, :3] = R_ref @ cayley(coords[3:6])
+    T[:3, 3] = coords[:3]
+    return T
+
+
+def link_placements(
+    tree: Tree,
+    joint_values: Mapping[str, ca.SX | float],
+    charts: Mapping[str, ca.SX] | None = None,
+) -> dict[str, ca.SX]:
     """World placements (4x4 SX) of every link.
 
     Args:
         tree: the URDF tree.
-        joint_values: a value (symbolic or numeric) for every movable joint.
+        joint_values: a value (symbolic or numeric) for every joint coordinate (floating
+            joints: ``name.x`` ... ``name.rz``).
+        charts: floating joint name -> reference rotation (3x3) of its chart (identity if absent).
     """
     out: dict[str, ca.SX] = {tree.root: ca.SX.eye(4)}
     for j in tree.joints:
         T = out[j.parent] @ ca.DM(j.origin)
-        if j.movable:
+        if j.type == "floating":
+            coords = ca.vertcat(*[joint_values[c] for c in j.coordinates])
+            R_ref = (charts or {}).get(j.name, ca.SX.eye(3))
+            T = T @ floating_motion(coords, R_ref)
+        elif j.movable:
             T = T @ joint_motion(j.type, j.axis, joint_values[j.name])
         out[j.child] = T
     return out
@@ -56,26 +91,34 @@ def rotation_error(R_a: ca.SX, R_b: ca.SX) -> ca.SX:
     return 0.5 * ca.vertcat(R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1])
 
 
-def closure_residual(closure: Closure, T_a: ca.SX, T_b: ca.SX) -> ca.SX:
-    """Residual rows of one closure (length unit of the model; radians for 6d rotations)."""
+def closure_residual(
+    closure: Closure, T_a: ca.SX, T_b: ca.SX, values: Mapping[str, ca.SX | float] | None = None
+) -> ca.SX:
+    """Residual rows of one closure (length unit of the model; radians for 6d rotations).
+
+    ``values`` (joint coordinate -> value) supplies the length of a distance closure whose
+    length is a joint.
+    """
     d = T_a[:3, 3] - T_b[:3, 3]
     if closure.type == "3d":
         return d
     if closure.type == "2d":
         return d[:2]
     if closure.type == "distance":
-        L = closure.length
+        L = values[closure.length_joint] if closure.length_joint else closure.length
         return (ca.dot(d, d) - L * L) / (2 * L)
     return ca.vertcat(d, rotation_error(T_a[:3, :3], T_b[:3, :3]))
 
 
-def closure_check(closure: Closure, T_a: ca.SX, T_b: ca.SX) -> ca.SX:
+def closure_check(
+    closure: Closure, T_a: ca.SX, T_b: ca.SX, values: Mapping[str, ca.SX | float] | None = None
+) -> ca.SX:
     """Rows that vanish only at a true closure (used to verify solutions).
 
     For 6d closures the whole matrix ``R_a^T R_b - I`` is included, so a half-turn (where the
     skew part vanishes too) is not mistaken for a closure.
     """
-    rows = closure_residual(closure, T_a, T_b)
+    rows = closure_residual(closure, T_a, T_b, values)
     if closure.type == "6d":
         E = T_a[:3, :3].T @ T_b[:3, :3] - ca.SX.eye(3)
         rows = ca.vertcat(rows, ca.reshape(E, 9, 1))

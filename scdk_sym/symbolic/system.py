@@ -23,6 +23,8 @@ class Symbolic:
     Attributes:
         y: (m,) unknown joint coordinates.
         theta: (k,) actuated joint coordinates.
+        c: (9 f,) reference rotations (column-major 3x3) of the charts of the f floating
+            joints (empty without floating joints).
         g: (m,) closure residual rows kept by the square reduction.
         g_all: (r,) every closure residual row.
         g_check: verification rows (6d closures with their full rotation matrix).
@@ -36,6 +38,7 @@ class Symbolic:
 
     y: ca.SX
     theta: ca.SX
+    c: ca.SX
     g: ca.SX
     g_all: ca.SX
     g_check: ca.SX
@@ -71,7 +74,7 @@ def build_symbolic(
         tree: URDF tree.
         closures: loop closures.
         actuated: actuated joint names (theta order).
-        unknowns: unknown joint names (y order).
+        unknowns: unknown joint coordinate names (y order).
         locked: joints held constant -> value [rad or model length unit].
         rows: indices of ``g_all`` rows kept in ``g`` (``None``: all).
         frame: link whose placement is ``pose``.
@@ -79,16 +82,20 @@ def build_symbolic(
     """
     y = ca.SX.sym("y", len(unknowns))
     theta = ca.SX.sym("theta", len(actuated))
+    floating = tree.floating_joints
+    c = ca.SX.sym("c", 9 * len(floating))
+    charts = {n: ca.reshape(c[9 * i : 9 * i + 9], 3, 3) for i, n in enumerate(floating)}
     values: dict[str, ca.SX | float] = dict(locked)
     values.update({n: y[i] for i, n in enumerate(unknowns)})
     values.update({n: theta[i] for i, n in enumerate(actuated)})
-    T = link_placements(tree, values)
-    g_all = ca.vertcat(*[closure_residual(c, T[c.frame_a], T[c.frame_b]) for c in closures])
-    g_check = ca.vertcat(*[closure_check(c, T[c.frame_a], T[c.frame_b]) for c in closures])
+    T = link_placements(tree, values, charts)
+    g_all = ca.vertcat(*[closure_residual(cl, T[cl.frame_a], T[cl.frame_b], values) for cl in closures])
+    g_check = ca.vertcat(*[closure_check(cl, T[cl.frame_a], T[cl.frame_b], values) for cl in closures])
     g = g_all if rows is None else g_all[list(rows)]
     return Symbolic(
         y=y,
         theta=theta,
+        c=c,
         g=g,
         g_all=g_all,
         g_check=g_check,

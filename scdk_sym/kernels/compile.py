@@ -1,0 +1,74 @@
+"""Code generation: kernels -> C source -> shared library (gcc), cached by content hash.
+
+The generated C of every kernel (``casadi.CodeGenerator``) is compiled once with
+``gcc -O3 -shared -fPIC`` into the cache directory and loaded with ``casadi.external``; the
+result is a :class:`~scdk_sym.kernels.functions.Kernels` with the same signatures.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+from dataclasses import fields
+from pathlib import Path
+
+import casadi as ca
+
+from ..errors import BuildError
+from .cache import cache_dir
+from .functions import Kernels
+
+CFLAGS = ("-O3", "-shared", "-fPIC")
+
+
+def compiler() -> str:
+    """The C compiler (``$CC`` or gcc/cc on the PATH)."""
+    cc = os.environ.get("CC") or shutil.which("gcc") or shutil.which("cc")
+    if not cc:
+        raise BuildError("no C compiler found: install gcc (e.g. apt-get install gcc) or set $CC")
+    return cc
+
+
+def generate_c(kernels: Kernels, name: str, directory: Path, with_header: bool = True) -> Path:
+    """Write the C source (and header) of all kernels; returns the source path."""
+    gen = ca.CodeGenerator(f"{name}.c", {"with_header": with_header, "with_export": True})
+    for f in kernels.all():
+        gen.add(f)
+    gen.add(kernels.field.jacobian())  # "jac_<name>": CVODES asks for it
+    directory.mkdir(parents=True, exist_ok=True)
+    cwd = os.getcwd()
+    try:
+        os.chdir(directory)
+        gen.generate()
+    finally:
+        os.chdir(cwd)
+    return directory / f"{name}.c"
+
+
+def compile_shared(source: Path, target: Path) -> Path:
+    """Compile a C source into a shared library."""
+    cmd = [compiler(), *CFLAGS, str(source), "-o", str(target), "-lm"]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        first = (proc.stderr.strip().splitlines() or ["?"])[0]
+        raise BuildError(f"C compilation failed ({' '.join(cmd)}): {first}")
+    return target
+
+
+def compiled_kernels(model) -> Kernels:
+    """The model's kernels compiled to C and loaded with ``casadi.external`` (cached on disk)."""
+    kern = model.kernels
+    with tempfile.TemporaryDirectory() as tmp:
+        src = generate_c(kern, "scdk_kernels", Path(tmp), with_header=False)
+        code = src.read_text()
+        key = hashlib.sha256(code.encode() + " ".join(CFLAGS).encode()).hexdigest()[:20]
+        target = cache_dir() / f"kernels_{key}.so"
+        if not target.exists():
+            partial = target.with_suffix(f".{os.getpid()}.tmp")
+            compile_shared(src, partial)
+            os.replace(partial, target)
+    loaded = {f.name: ca.external(getattr(kern, f.name).name(), str(target)) for f in fields(kern)}
+    return Kernels(**loaded)

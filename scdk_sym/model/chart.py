@@ -1,0 +1,103 @@
+"""Charts of floating joints: canonical rotation vectors <-> local Rodrigues parameters.
+
+A :class:`~scdk_sym.results.Configuration` stores the rotation of a floating joint as its
+rotation vector (``log R``, canonical, chart-free). The kernels work in a local chart: Rodrigues
+(Gibbs) parameters ``rho`` of the rotation relative to a reference rotation ``R_ref`` passed as
+the parameter ``c`` (see :func:`scdk_sym.symbolic.kinematics.floating_motion`). The solvers
+re-centre the chart (``R_ref <- R_ref cayley(rho)``, ``rho <- 0``) as the platform turns, so a
+platform tilted 80 deg or turned 170 deg is as regular as one at rest.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def skew3(v: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def rot_exp(w: np.ndarray) -> np.ndarray:
+    """Rotation matrix of a rotation vector [rad]."""
+    angle = float(np.linalg.norm(w))
+    if angle < 1e-12:
+        return np.eye(3) + skew3(w)
+    K = skew3(np.asarray(w) / angle)
+    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+
+
+def rot_log(R: np.ndarray) -> np.ndarray:
+    """Rotation vector [rad] of a rotation matrix (angle in [0, pi])."""
+    c = float(np.clip((np.trace(R) - 1) / 2, -1.0, 1.0))
+    angle = math.acos(c)
+    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    if angle < 1e-9:
+        return 0.5 * w
+    if math.pi - angle < 1e-6:  # half turn: axis from the symmetric part
+        B = (R + np.eye(3)) / 2
+        i = int(np.argmax(np.diag(B)))
+        axis = B[:, i] / math.sqrt(max(B[i, i], 1e-300))
+        axis /= np.linalg.norm(axis)
+        if w @ axis < 0:
+            axis = -axis
+        return angle * axis
+    return angle / (2 * math.sin(angle)) * w
+
+
+def cayley(rho: np.ndarray) -> np.ndarray:
+    """Rotation of Rodrigues parameters (numeric twin of the symbolic chart)."""
+    W = skew3(rho)
+    return np.eye(3) + 2 * (W + W @ W) / (1 + float(rho @ rho))
+
+
+@dataclass(frozen=True)
+class Chart:
+    """Where the floating-joint rotations sit in ``y`` (indices of their three coordinates)."""
+
+    rotations: tuple[tuple[int, int, int], ...] = ()
+
+    @classmethod
+    def for_unknowns(cls, unknowns: tuple[str, ...], floating: tuple[str, ...]) -> Chart:
+        rots = []
+        for f in floating:
+            names = [f"{f}.rx", f"{f}.ry", f"{f}.rz"]
+            if all(n in unknowns for n in names):
+                rots.append(tuple(unknowns.index(n) for n in names))
+        return cls(tuple(rots))
+
+    @property
+    def size(self) -> int:
+        return 9 * len(self.rotations)
+
+    def to_local(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Canonical y -> (local y with rho = 0, chart c centred on it)."""
+        y = np.array(y, dtype=float)
+        c = np.zeros(self.size)
+        for i, idx in enumerate(self.rotations):
+            c[9 * i : 9 * i + 9] = rot_exp(y[list(idx)]).flatten(order="F")
+            y[list(idx)] = 0.0
+        return y, c
+
+    def to_canonical(self, y: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """Local (y, c) -> canonical y (rotation vectors)."""
+        y = np.array(y, dtype=float)
+        for i, idx in enumerate(self.rotations):
+            R = c[9 * i : 9 * i + 9].reshape(3, 3, order="F") @ cayley(y[list(idx)])
+            y[list(idx)] = rot_log(R)
+        return y
+
+    def recentre(self, y: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Move the chart centre to the current rotation (rho becomes 0)."""
+        if not self.rotations:
+            return y, c
+        y = np.array(y, dtype=float)
+        c = np.array(c, dtype=float)
+        for i, idx in enumerate(self.rotations):
+            R = c[9 * i : 9 * i + 9].reshape(3, 3, order="F") @ cayley(y[list(idx)])
+            u, _, vt = np.linalg.svd(R)  # re-orthonormalise
+            c[9 * i : 9 * i + 9] = (u @ vt).flatten(order="F")
+            y[list(idx)] = 0.0
+        return y, c

@@ -1,0 +1,125 @@
+"""Independent numeric cross-checks with Pinocchio.
+
+Pinocchio loads the same URDF; its frame placements must match the CasADi ones, and the
+closure residuals of solutions, evaluated through ``pin.RigidConstraintModel`` objects built
+from the YAML (CONTACT_3D for point-type closures, CONTACT_6D for welds), must vanish.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from functools import lru_cache
+
+import numpy as np
+
+from ..model.chart import rot_exp
+from ..model.model import Model
+
+
+@lru_cache(maxsize=32)
+def _pin_model(urdf_text: str):
+    import pinocchio as pin
+
+    return pin.buildModelFromXML(urdf_text)
+
+
+def pinocchio_model(model: Model):
+    """The Pinocchio model of a model's URDF (cached)."""
+    return _pin_model(model._urdf_text)
+
+
+def pin_configuration(model: Model, joints: Mapping[str, float]) -> np.ndarray:
+    """Pinocchio ``q`` of a joint-coordinate mapping (``Configuration.joints``)."""
+    import pinocchio as pin
+
+    pm = pinocchio_model(model)
+    q = pin.neutral(pm)
+    for jid in range(1, pm.njoints):
+        name = pm.names[jid]
+        jm = pm.joints[jid]
+        i, nq = jm.idx_q, jm.nq
+        if nq == 1:
+            q[i] = joints[name]
+        elif nq == 2:  # continuous joint: (cos, sin)
+            q[i : i + 2] = np.cos(joints[name]), np.sin(joints[name])
+        elif nq == 7:  # free flyer: position + quaternion (x, y, z, w)
+            p = [joints[f"{name}.{c}"] for c in ("x", "y", "z")]
+            R = rot_exp(np.array([joints[f"{name}.{c}"] for c in ("rx", "ry", "rz")]))
+            quat = pin.Quaternion(R)
+            q[i : i + 7] = np.concatenate([p, quat.coeffs()])
+        else:  # pragma: no cover - the loader refuses other joint types
+            raise NotImplementedError(f"joint {name!r} with nq={nq}")
+    return q
+
+
+def frame_placements(model: Model, joints: Mapping[str, float]) -> dict[str, np.ndarray]:
+    """World placements (4x4) of every link, computed by Pinocchio."""
+    import pinocchio as pin
+
+    pm = pinocchio_model(model)
+    data = pm.createData()
+    pin.framesForwardKinematics(pm, data, pin_configuration(model, joints))
+    out = {}
+    for link in model.tree.links:
+        fid = pm.getFrameId(link)
+        out[link] = data.oMf[fid].homogeneous.copy()
+    return out
+
+
+def placement_error(model: Model, y, theta) -> float:
+    """Max |symbolic - Pinocchio| over every link placement at canonical (y, theta)."""
+    import casadi as ca
+
+    from ..symbolic.kinematics import link_placements
+
+    cfg = model.configuration(y, theta)
+    pin_T = frame_placements(model, cfg.joints)
+    y_loc, c = model.chart.to_local(cfg.y)
+    sym = model.symbolic
+    f = ca.Function("placements", [sym.y, sym.theta, sym.c], [ca.vertcat(*sym.placements.values())])
+    ours = np.array(f(y_loc, cfg.theta, c)).reshape(len(sym.placements), 4, 4)
+    del link_placements
+    return float(max(np.abs(ours[i] - pin_T[n]).max() for i, n in enumerate(sym.placements)))
+
+
+def constraint_models(model: Model) -> list:
+    """One ``pin.RigidConstraintModel`` per closure of the YAML."""
+    import pinocchio as pin
+
+    pm = pinocchio_model(model)
+    out = []
+    for c in model.closures:
+        kind = pin.ContactType.CONTACT_6D if c.type == "6d" else pin.ContactType.CONTACT_3D
+        fa, fb = pm.frames[pm.getFrameId(c.frame_a)], pm.frames[pm.getFrameId(c.frame_b)]
+        cm = pin.RigidConstraintModel(kind, pm, fa.parentJoint, fa.placement, fb.parentJoint, fb.placement)
+        cm.name = f"{c.frame_a}|{c.frame_b}"
+        out.append(cm)
+    return out
+
+
+def closure_residuals(model: Model, joints: Mapping[str, float]) -> np.ndarray:
+    """Per-closure residual norms evaluated by Pinocchio through its constraint models.
+
+    3d: |p_a - p_b|; 2d: |(p_a - p_b)_xy|; distance: ||p_a - p_b| - length|;
+    6d: |log6(M_a^-1 M_b)|.
+    """
+    import pinocchio as pin
+
+    pm = pinocchio_model(model)
+    data = pm.createData()
+    pin.forwardKinematics(pm, data, pin_configuration(model, joints))
+    out = []
+    for c, cm in zip(model.closures, constraint_models(model), strict=True):
+        Ma = data.oMi[cm.joint1_id] * cm.joint1_placement
+        Mb = data.oMi[cm.joint2_id] * cm.joint2_placement
+        d = Ma.translation - Mb.translation
+        if c.type == "6d":
+            out.append(np.linalg.norm(pin.log6(Ma.inverse() * Mb).vector))
+        elif c.type == "3d":
+            out.append(np.linalg.norm(d))
+        elif c.type == "2d":
+            out.append(np.linalg.norm(d[:2]))
+        else:
+            length = joints[c.length_joint] if c.length_joint else c.length
+            out.append(abs(np.linalg.norm(d) - length))
+    return np.array(out)
