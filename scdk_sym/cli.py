@@ -87,15 +87,26 @@ def _solve(args: argparse.Namespace) -> int:
     model = load(args)
     theta = floats(args.theta, "--theta")
     start = start_configuration(model, args)
-    branches = ["convergent", "divergent"] if args.branch == "both" and args.b is None else [args.branch]
-    results = [solve(model, theta, start=start, branch=br, b=args.b, backend=args.backend) for br in branches]
+    branches = (
+        ["convergent", "divergent"] if args.branch == "both" and args.b is None else [args.branch]
+    )
+    results = [
+        solve(model, theta, start=start, branch=br, b=args.b, backend=args.backend)
+        for br in branches
+    ]
     if args.json:
-        dump(results[0].to_dict() if len(results) == 1 else {"solutions": [r.to_dict() for r in results]})
+        dump(
+            results[0].to_dict()
+            if len(results) == 1
+            else {"solutions": [r.to_dict() for r in results]}
+        )
         return 0
     print(f"model {model.name}: x = ({', '.join(model.workspace)}) of {model.frame!r}")
     print(f"start x = {fmt(start.x)}  theta0 = {fmt(theta)}")
     for r in results:
-        print(f"{r.branch:>10}: x = {fmt(r.x)}  residual {r.residual:.1e}  crossings {len(r.crossings)}")
+        print(
+            f"{r.branch:>10}: x = {fmt(r.x)}  residual {r.residual:.1e}  crossings {len(r.crossings)}"
+        )
         for c in r.crossings:
             print(f"{'':>12}singular crossing at s = {c.s:.6f}: x = {fmt(c.x)}")
     return 0

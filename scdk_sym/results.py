@@ -152,3 +152,42 @@ class SolveResult:
             branch=self.branch,
         )
         return d
+
+
+@dataclass(frozen=True)
+class TrackResult:
+    """Direct kinematics along a sequence of joint readings.
+
+    Attributes:
+        x: (N, n) workspace coordinates at each sample.
+        y: (N, m) unknowns at each sample (canonical).
+        theta: (N, k) actuated values (the input).
+        residual: (N,) max |closure row| at each sample [model length unit].
+        crossings: singular-manifold crossings, each with ``index`` = the sample after which
+            it occurs (between samples ``index`` and ``index + 1``).
+        status: "converged".
+        backend: the backend that computed it ("cvodes" or "c").
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    theta: np.ndarray
+    residual: np.ndarray
+    crossings: tuple[Crossing, ...]
+    status: str = "converged"
+    backend: str = "cvodes"
+
+    def __post_init__(self) -> None:
+        for name in ("x", "y", "theta", "residual"):
+            object.__setattr__(self, name, _frozen(getattr(self, name)))
+
+    def to_dict(self) -> dict:
+        return {
+            "x": self.x.tolist(),
+            "y": self.y.tolist(),
+            "theta": self.theta.tolist(),
+            "residual": self.residual.tolist(),
+            "crossings": [c.to_dict() for c in self.crossings],
+            "status": self.status,
+            "backend": self.backend,
+        }

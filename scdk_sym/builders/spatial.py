@@ -48,7 +48,9 @@ def stewart_gough(
     b.add("platform_joint", "floating", "base", "platform")
     w = rot_log(R)
     home = {f"platform_joint.{c}": float(v) for c, v in zip(("x", "y", "z"), xh[:3], strict=True)}
-    home.update({f"platform_joint.{c}": float(v) for c, v in zip(("rx", "ry", "rz"), w, strict=True)})
+    home.update(
+        {f"platform_joint.{c}": float(v) for c, v in zip(("rx", "ry", "rz"), w, strict=True)}
+    )
     closures = []
     for i in range(6):
         n = i + 1
@@ -59,7 +61,9 @@ def stewart_gough(
         if length < 1e-9:
             raise InputError(f"leg {n} has zero length at home_x {xh.tolist()}")
         home[f"leg_{n}"] = length
-        closures.append(Closure(f"base_anchor_{n}", f"platform_anchor_{n}", "distance", length_joint=f"leg_{n}"))
+        closures.append(
+            Closure(f"base_anchor_{n}", f"platform_anchor_{n}", "distance", length_joint=f"leg_{n}")
+        )
     spec = Spec(
         closures=tuple(closures),
         actuated=tuple(f"leg_{n}" for n in range(1, 7)),

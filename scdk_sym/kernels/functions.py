@@ -45,7 +45,8 @@ class Kernels:
         pose: (y, theta, c) -> (T[4,4], x[n]).
         field: (q[m+1], p, c) -> dq/dtau, p = (theta1[k], dtheta[k], v[m+1], scale, K).
         probe: (q, p, c) -> (tangent[m+1], vec(J_p)[m*m], x[n]).
-        finish: (y_a[m], s_a, theta1, dtheta, c) -> (y at s = 1, max|g|): RK4 in s + Newton.
+        finish: (y_a[m], s_a, theta1, dtheta, c) -> (y at s = 1, max|g|, max|Newton correction|):
+            RK4 in s from s_a to 1, then Newton.
         cross: (q, p, c) -> q on the singular manifold (Newton on [g; t_s]).
         ik_step: (z[m+k], T_target[4,4], c) -> (z_new, max|F|): Newton step on [g; pose error].
     """
@@ -90,7 +91,7 @@ def _sc_parts(sym: Symbolic):
 def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
     """Build every kernel of a model (a few milliseconds for m <= 6)."""
     y, theta, c = sym.y, sym.theta, sym.c
-    m, k = sym.m, sym.k
+    m, _k = sym.m, sym.k
     yt = ["y", "theta", "c"]
     f_g = ca.Function(f"{name}_g", [y, theta, c], [sym.g], yt, ["g"])
     f_check = ca.Function(f"{name}_check", [y, theta, c], [sym.g_check], yt, ["rows"])
@@ -125,15 +126,16 @@ def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
         sk = sk + h
     newton = ca.Function("newton1", [y, theta, c], [y - ca.solve(sym.J_p, sym.g)])
     theta0 = theta1 + dtheta
+    y_pred = yk
     for _ in range(NEWTON_STEPS):
         yk = newton(yk, theta0, c)
     res = ca.norm_inf(ca.substitute(sym.g, ca.vertcat(y, theta), ca.vertcat(yk, theta0)))
     f_finish = ca.Function(
         f"{name}_finish",
         [ya, sa, theta1, dtheta, c],
-        [yk, res],
+        [yk, res, ca.norm_inf(yk - y_pred)],
         ["y_a", "s_a", "theta1", "dtheta", "c"],
-        ["y", "residual"],
+        ["y", "residual", "correction"],
     )
 
     # cross: Newton on F(q) = [g(y, theta(s)); t_s] = 0 (t_s vanishes exactly where det J_p does)

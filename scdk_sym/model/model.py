@@ -7,7 +7,6 @@ that is not square as written (redundant rows, idle freedoms) to an independent 
 from __future__ import annotations
 
 import hashlib
-import math
 from collections.abc import Mapping, Sequence
 from functools import cached_property
 from pathlib import Path

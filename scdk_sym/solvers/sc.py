@@ -4,8 +4,11 @@ Direct kinematics as path tracking (Bhattacharya, Nenchev & Uchiyama): from an a
 start ``(y1, theta1)``, follow the solution curve of ``g(y, theta1 + s (theta0 - theta1)) = 0``
 in ``q = (y, s)`` along the SC field until ``s = 1``. The field is integrated with CasADi's
 CVODES in chunks of arc length; every crossing of the singular manifold (``det J_p`` changes
-sign, ``s`` turns) is located by Newton on ``[g; t_s] = 0``; the ``s = 1`` crossing is finished
+sign, ``s`` turns) is located by Newton on ``[g; t_s] = 0``; each ``s = 1`` crossing is finished
 with ``dy/ds = J_p^{-1} j_s`` and a Newton polish, then verified.
+
+:func:`trace` follows the curve and reports every ``s = 1`` crossing it meets (used by the
+tracker and the assembly-mode search); :func:`solve` returns the first one.
 """
 
 from __future__ import annotations
@@ -32,11 +35,12 @@ CVODES_OPTIONS = {
     "reltol": 1e-10,
     "max_num_steps": 20000,
 }
+BACKENDS = ("casadi", "compiled")
 
 
 @dataclass
 class Engine:
-    """Per-model numeric machinery of the SC solver (integrator, mapped probes)."""
+    """Per-model numeric machinery of the SC solver (kernels, integrator, mapped probe)."""
 
     model: Model
     kernels: object
@@ -44,7 +48,6 @@ class Engine:
     probe: ca.Function
     m: int
     k: int
-    cache: dict = field(default_factory=dict)
 
 
 def engine(model: Model, backend: str = "casadi") -> Engine:
@@ -64,7 +67,7 @@ def engine(model: Model, backend: str = "casadi") -> Engine:
 
         kern = compiled_kernels(model)
     else:
-        raise InputError(f"unknown backend {backend!r}; backends: casadi, compiled")
+        raise InputError(f"unknown backend {backend!r}; backends: {', '.join(BACKENDS)}")
     m, k = model.m, model.k
     q = ca.MX.sym("q", m + 1)
     p = ca.MX.sym("p", 2 * k + m + 3)
@@ -77,7 +80,7 @@ def engine(model: Model, backend: str = "casadi") -> Engine:
     return eng
 
 
-def _null_direction(Jp: np.ndarray, js: np.ndarray) -> np.ndarray:
+def null_direction(Jp: np.ndarray, js: np.ndarray) -> np.ndarray:
     """Unit vector along nu = [adj(J_p) j_s; det J_p] (generalised cross product of H's rows)."""
     H = np.hstack([Jp, -js[:, None]])
     _, _, Vt = np.linalg.svd(H)
@@ -92,6 +95,7 @@ def _wnorm(v: np.ndarray, w: float) -> float:
 
 
 def validate_start(model: Model, start: Configuration | None) -> Configuration:
+    """The start configuration (default home), checked to be assembled."""
     if start is None:
         return model.home
     if not isinstance(start, Configuration):
@@ -109,90 +113,109 @@ def validate_start(model: Model, start: Configuration | None) -> Configuration:
     return start
 
 
-def solve(
+@dataclass(frozen=True)
+class Hit:
+    """A point where the traced curve meets ``s = 1``: a direct-kinematics solution.
+
+    Attributes:
+        y: (m,) canonical unknowns of the solution.
+        arc: arc length from the start at which it was met.
+        crossings: number of singular-manifold crossings before it.
+        arriving: +1 if ``s`` was increasing through 1 there, -1 if decreasing.
+    """
+
+    y: np.ndarray
+    arc: float
+    crossings: int
+    arriving: float
+
+
+@dataclass
+class Trace:
+    """What :func:`trace` met along the solution curve through the start.
+
+    Attributes:
+        hits: ``s = 1`` crossings, in order of arc length.
+        crossings: singular-manifold crossings, in order.
+        crossing_arcs: arc length of each crossing.
+        direction: +1 / -1, the sign of b relative to nu.
+        det0: ``det J_p`` at the start.
+        arc: arc length travelled.
+        closed: the curve came back to its start (it was followed entirely).
+        path: sampled curve (when recorded).
+    """
+
+    hits: list[Hit] = field(default_factory=list)
+    crossings: list[Crossing] = field(default_factory=list)
+    crossing_arcs: list[float] = field(default_factory=list)
+    direction: float = 1.0
+    det0: float = 0.0
+    arc: float = 0.0
+    closed: bool = False
+    path: PathSamples | None = None
+    s_range: tuple[float, float] = (0.0, 0.0)
+
+
+def start_direction(
+    model: Model, theta0: np.ndarray, start: Configuration, backend: str = "casadi"
+):
+    """(nu unit vector, det J_p) at the start of the path towards ``theta0``."""
+    eng = engine(model, backend)
+    y_loc, c = model.chart.to_local(start.y)
+    Jp, Js = (np.array(a) for a in eng.kernels.jac(y_loc, start.theta, c))
+    return null_direction(Jp, Js @ (theta0 - start.theta)), float(np.linalg.det(Jp))
+
+
+def trace(
     model: Model,
-    theta0: Sequence[float],
-    start: Configuration | None = None,
-    branch: str = "convergent",
-    b: float | None = None,
+    theta0: np.ndarray,
+    start: Configuration,
+    direction: float,
     *,
-    backend: str = "casadi",
+    max_hits: int = 1,
     max_arc: float | None = None,
-    record_path: bool = True,
-) -> SolveResult:
-    """Solve the direct kinematics at ``theta0`` by the singularity-consistent method.
+    backend: str = "casadi",
+    record_path: bool = False,
+) -> Trace:
+    """Follow the SC solution curve from ``start`` towards ``theta0`` and collect what it meets.
 
     Args:
         model: the model.
-        theta0: (k,) actuated joint values [rad or model length unit].
-        start: assembled start configuration (default: ``model.home``).
-        branch: "convergent" (``b det J_p > 0`` at the start: stays in the start's
-            compartment) or "divergent" (moves away, crosses the singular manifold).
-        b: the paper's signed scalar; when given, its sign selects the direction of
-            ``nu`` and overrides ``branch``.
-        backend: "casadi" or "compiled" kernels.
-        max_arc: arc-length budget of the path (default: 60 times the linear prediction).
-        record_path: keep the sampled curve in ``result.path``.
-
-    Returns:
-        A verified :class:`SolveResult`.
+        theta0: (k,) target actuated values (must differ from ``start.theta``).
+        start: assembled start configuration.
+        direction: +1 to follow ``nu``, -1 to follow ``-nu`` (the sign of the paper's b).
+        max_hits: stop after this many ``s = 1`` crossings.
+        max_arc: arc-length budget (default: 60 times the linear prediction of the distance
+            to ``s = 1`` plus 20 model sizes).
+        backend: kernel backend.
+        record_path: keep the sampled curve.
 
     Raises:
-        InputError: bad shapes, NaN, unknown branch.
-        PathError: the curve never reached ``s = 1`` within the budget (e.g. theta0 is not
-            reachable along this curve, or it closed on itself).
-        VerificationError: the final configuration failed its residual check.
+        PathError: the integration itself failed (the field turned too sharply).
     """
-    theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
-    start = validate_start(model, start)
-    if b is None and branch not in ("convergent", "divergent"):
-        raise InputError(f"unknown branch {branch!r}; branches: convergent, divergent")
-    if b is not None and (not math.isfinite(b) or b == 0):
-        raise InputError(f"b must be a non-zero finite number, got {b!r}")
     eng = engine(model, backend)
     kern = eng.kernels
-    m, k = eng.m, eng.k
+    m, _k = eng.m, eng.k
     theta1 = np.array(start.theta, dtype=float)
-    dtheta = theta0 - theta1
+    dtheta = np.asarray(theta0, float) - theta1
     w = float(np.linalg.norm(dtheta))
-    if w <= 1e-14 * max(1.0, float(np.linalg.norm(theta0))):
-        return _result(model, start.y, theta0, (), "convergent", 1.0, start, None)
     y_loc, c = model.chart.to_local(start.y)
     floating = bool(model.chart.rotations)
     Jp, Js = (np.array(a) for a in kern.jac(y_loc, theta1, c))
-    js = Js @ dtheta
-    nu = _null_direction(Jp, js)
-    det0 = float(np.linalg.det(Jp))
-    if b is None:
-        if abs(nu[-1]) < 1e-10:
-            raise SolveError(
-                "the start configuration is singular (det J_p ~ 0): the branch is undefined; "
-                "pass b=+1 or b=-1"
-            )
-        sign = 1.0 if nu[-1] > 0 else -1.0
-        direction = sign if branch == "convergent" else -sign
-    else:
-        direction = 1.0 if b > 0 else -1.0
-    name = "convergent" if direction * det0 > 0 else "divergent"
+    nu = null_direction(Jp, Js @ dtheta)
+    out = Trace(direction=direction, det0=float(np.linalg.det(Jp)))
     tangent = direction * nu / _wnorm(nu, w)
-    ell0 = 1.0 / max(abs(tangent[-1]) * w / max(w, 1e-300), 1e-6)  # arc length per unit s
+    ell0 = 1.0 / max(abs(tangent[-1]), 1e-6)  # arc length per unit s at the start
     ell0 = min(ell0, 1e3 * max(1.0, model.length_scale))
     budget = max_arc if max_arc is not None else 60.0 * ell0 + 20.0 * max(1.0, model.length_scale)
     scale = 0.5 * ell0
     q = np.concatenate([y_loc, [0.0]])
     q_start = q.copy()
-    arc = 0.0
-    crossings: list[Crossing] = []
-    rec_q, rec_t, rec_J, rec_x, rec_arc = [], [], [], [], []
+    s_lo = s_hi = 0.0
+    rec: dict[str, list] = {"q": [], "J": [], "x": [], "arc": []}
     chunks = 0
-    while True:
+    while out.arc < budget and chunks < 4000:
         chunks += 1
-        if arc > budget or chunks > 4000:
-            raise PathError(
-                f"the solution curve did not reach s = 1 for theta0={theta0.tolist()} within arc "
-                f"length {budget:.3g} (s ranged over [{min(r[-1] for r in rec_q):.3g}, "
-                f"{max(r[-1] for r in rec_q):.3g}]): theta0 may be unreachable from this start"
-            )
         p = np.concatenate([theta1, dtheta, tangent, [scale, GAIN]])
         try:
             xf = np.array(eng.integrator(x0=q, p=np.concatenate([p, c]))["xf"])
@@ -204,11 +227,9 @@ def solve(
             if scale < 1e-12 * ell0:
                 raise PathError(f"integration of the SC field failed near q={q.tolist()}")
             continue
+        reps = (1, GRID + 1)
         T, Jv, X = (
-            np.array(a)
-            for a in eng.probe(
-                Q, np.tile(p[:, None], (1, GRID + 1)), np.tile(c[:, None], (1, GRID + 1))
-            )
+            np.array(a) for a in eng.probe(Q, np.tile(p[:, None], reps), np.tile(c[:, None], reps))
         )
         t_end = T[:, -1]
         cosine = float(t_end[:-1] @ tangent[:-1] + w * w * t_end[-1] * tangent[-1])
@@ -217,54 +238,46 @@ def solve(
             if scale < 1e-12 * ell0:
                 raise PathError(f"the SC field turned too sharply near q={q.tolist()}")
             continue
-        s_vals = Q[-1]
-        ts = T[-1]
-        done = None
+        s_vals, ts = Q[-1], T[-1]
+        bad_finish = False
+        new_hits: list[Hit] = []
+        new_cross: list[tuple[Crossing, float]] = []
         for i in range(GRID):
+            seg_arc = out.arc + scale * i / GRID
             if ts[i] * ts[i + 1] < 0:  # s' changes sign: a crossing of the singular manifold
-                crossings.append(
-                    _locate_crossing(eng, Q[:, i], Q[:, i + 1], ts[i], ts[i + 1], p, c)
-                )
+                cr = _locate_crossing(eng, Q[:, i], Q[:, i + 1], ts[i], ts[i + 1], p, c)
+                new_cross.append((cr, seg_arc + scale * 0.5 / GRID))
             if (s_vals[i] - 1.0) * (s_vals[i + 1] - 1.0) <= 0 and s_vals[i] != s_vals[i + 1]:
-                done = i
-                break
+                if s_vals[i + 1] == 1.0 and i + 1 < GRID:
+                    continue  # counted at the next segment
+                hit = _finish(eng, Q[:, i], Q[:, i + 1], theta1, dtheta, c, seg_arc)
+                if hit is None:
+                    bad_finish = True
+                    break
+                y_can = model.chart.to_canonical(hit, c) if floating else hit
+                arriving = 1.0 if s_vals[i + 1] > s_vals[i] else -1.0
+                new_hits.append(Hit(y_can, seg_arc, len(out.crossings) + len(new_cross), arriving))
+        if bad_finish:  # the finishing step left the curve: redo this chunk with finer samples
+            scale /= 4
+            if scale < 1e-12 * ell0:
+                raise PathError("could not finish the path at s = 1")
+            continue
+        for cr, a in new_cross:
+            out.crossings.append(cr)
+            out.crossing_arcs.append(a)
+        s_lo, s_hi = min(s_lo, s_vals.min()), max(s_hi, s_vals.max())
         if record_path:
-            upto = GRID + 1 if done is None else done + 1
-            Qc = Q[:, :upto].T
+            Qc = Q.T
             if floating:
                 Qc = np.array([np.append(model.chart.to_canonical(r[:-1], c), r[-1]) for r in Qc])
-            rec_q.extend(Qc)
-            rec_t.extend(T[:, :upto].T)
-            rec_J.extend(Jv[:, :upto].T)
-            rec_x.extend(X[:, :upto].T)
-            rec_arc.extend(arc + scale * np.arange(upto) / GRID)
-        else:
-            rec_q.append(Q[:, -1])
-        if done is not None:
-            ya, sa = Q[:-1, done], Q[-1, done]
-            if abs(sa - 1.0) < 1e-15:
-                y_end = ya
-            else:
-                y_end, _ = kern.finish(ya, sa, theta1, dtheta, c)
-                y_end = np.array(y_end).ravel()
-            seg = np.linalg.norm(Q[:-1, done + 1] - ya) + 1e-12
-            if not np.all(np.isfinite(y_end)) or np.linalg.norm(y_end - ya) > 3 * seg + 1e-9:
-                # the finishing step left the curve: retry this chunk with finer samples
-                if record_path:
-                    del rec_q[-(done + 1) :], rec_t[-(done + 1) :], rec_J[-(done + 1) :]
-                    del rec_x[-(done + 1) :], rec_arc[-(done + 1) :]
-                crossings = [c for c in crossings if c.s is not None and c.index != chunks]
-                scale /= 4
-                if scale < 1e-12 * ell0:
-                    raise PathError("could not finish the path at s = 1")
-                continue
-            path = None
-            if record_path:
-                path = _samples(
-                    rec_q, rec_t, rec_J, rec_x, rec_arc, direction, y_end, model, theta0
-                )
-            return _result(model, y_end, theta0, tuple(crossings), name, direction, start, path, c)
-        arc += scale
+            rec["q"].extend(Qc)
+            rec["J"].extend(Jv.T)
+            rec["x"].extend(X.T)
+            rec["arc"].extend(out.arc + scale * np.arange(GRID + 1) / GRID)
+        out.hits.extend(new_hits)
+        out.arc += scale
+        if len(out.hits) >= max_hits:
+            break
         q = Q[:, -1]
         tangent = t_end / _wnorm(t_end, w)
         if floating:  # re-centre the orientation chart on the current rotation
@@ -272,13 +285,33 @@ def solve(
             q = np.append(y_new, q[-1])
             pn = np.concatenate([theta1, dtheta, tangent, [scale, GAIN]])
             tangent = np.array(kern.probe(q, pn, c)[0]).ravel()
-        if not floating and arc > 2 * scale and np.linalg.norm(q - q_start) < 0.05 * scale:
-            raise PathError(
-                f"the solution curve through the start closed on itself without reaching s = 1 "
-                f"for theta0={theta0.tolist()}: theta0 is not reachable along it"
-            )
+        elif out.arc > 2 * scale and _near(Q, q_start, 0.05 * scale):
+            out.closed = True
+            break
         if cosine > 0.995:
             scale = min(scale * 1.6, 2.0 * ell0)
+    out.s_range = (float(s_lo), float(s_hi))
+    if record_path and rec["q"]:
+        out.path = _samples(rec, direction, model)
+    return out
+
+
+def _near(Q: np.ndarray, q0: np.ndarray, tol: float) -> bool:
+    return bool(np.min(np.linalg.norm(Q[:, 1:] - q0[:, None], axis=0)) < tol)
+
+
+def _finish(eng: Engine, qa, qb, theta1, dtheta, c, arc) -> np.ndarray | None:
+    """The solution at s = 1 between samples qa and qb (or None if the finish left the curve)."""
+    m = eng.m
+    ya, sa = qa[:m], qa[-1]
+    if sa == 1.0:
+        return np.array(ya)
+    y_end, res, _ = eng.kernels.finish(ya, sa, theta1, dtheta, c)
+    y_end = np.array(y_end).ravel()
+    seg = np.linalg.norm(qb[:m] - ya) + 1e-12
+    if not np.all(np.isfinite(y_end)) or np.linalg.norm(y_end - ya) > 3 * seg + 1e-9:
+        return None
+    return y_end
 
 
 def _locate_crossing(eng: Engine, qa, qb, ta, tb, p, c) -> Crossing:
@@ -294,23 +327,115 @@ def _locate_crossing(eng: Engine, qa, qb, ta, tb, p, c) -> Crossing:
     return Crossing(float(q1[-1]), cfg.x, cfg.y, cfg.theta)
 
 
-def _samples(rec_q, rec_t, rec_J, rec_x, rec_arc, direction, y_end, model, theta0) -> PathSamples:
-    Q = np.array(rec_q)
+def _samples(rec: dict, direction: float, model: Model) -> PathSamples:
+    Q = np.array(rec["q"])
     m = model.m
-    J = np.array(rec_J).reshape(len(rec_J), m, m).transpose(0, 2, 1)  # CasADi vec is column-major
+    J = np.array(rec["J"]).reshape(len(rec["J"]), m, m).transpose(0, 2, 1)  # CasADi: column-major
     det = np.linalg.det(J)
     return PathSamples(
-        s=Q[:, -1],
-        y=Q[:, :-1],
-        x=np.array(rec_x),
-        det_jp=det,
-        sdot=direction * det,
-        arc=np.array(rec_arc),
+        s=Q[:, -1], y=Q[:, :-1], x=np.array(rec["x"]), det_jp=det, sdot=direction * det,
+        arc=np.array(rec["arc"]),
+    )  # fmt: skip
+
+
+def solve(
+    model: Model,
+    theta0: Sequence[float],
+    start: Configuration | None = None,
+    branch: str = "convergent",
+    b: float | None = None,
+    *,
+    backend: str = "casadi",
+    max_arc: float | None = None,
+    record_path: bool = True,
+    fast: bool = True,
+) -> SolveResult:
+    """Solve the direct kinematics at ``theta0`` by the singularity-consistent method.
+
+    Args:
+        model: the model.
+        theta0: (k,) actuated joint values [rad or model length unit].
+        start: assembled start configuration (default: ``model.home``).
+        branch: "convergent" (``b det J_p > 0`` at the start: stays in the start's
+            compartment) or "divergent" (moves away, crosses the singular manifold).
+        b: the paper's signed scalar; when given, its sign selects the direction of
+            ``nu`` and overrides ``branch``.
+        backend: "casadi" or "compiled" kernels.
+        max_arc: arc-length budget of the path (see :func:`trace`).
+        record_path: keep the sampled curve in ``result.path`` (for plots).
+        fast: for a convergent solve, first try one RK4-in-s step with a Newton polish; it
+            is accepted only if the polish moved the prediction by less than 1e-7 (relative)
+            and ``det J_p`` kept its sign, else the full CVODES path is integrated.
+
+    Returns:
+        A verified :class:`SolveResult`; ``result.crossings`` lists the singular-manifold
+        crossings met on the way.
+
+    Raises:
+        InputError: bad shapes, NaN, unknown branch.
+        PathError: the curve never reached ``s = 1`` within the budget (e.g. theta0 is not
+            reachable along this curve, or it closed on itself).
+        VerificationError: the final configuration failed its residual check.
+    """
+    theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
+    start = validate_start(model, start)
+    if b is None and branch not in ("convergent", "divergent"):
+        raise InputError(f"unknown branch {branch!r}; branches: convergent, divergent")
+    if b is not None and (not math.isfinite(b) or b == 0):
+        raise InputError(f"b must be a non-zero finite number, got {b!r}")
+    dtheta = theta0 - start.theta
+    if float(np.linalg.norm(dtheta)) <= 1e-14 * max(1.0, float(np.linalg.norm(theta0))):
+        return _result(model, start.y, theta0, (), "convergent", 1.0, start, None)
+    nu, det0 = start_direction(model, theta0, start, backend)
+    if b is None:
+        if abs(nu[-1]) < 1e-10:
+            raise SolveError(
+                "the start configuration is singular (det J_p ~ 0): the branch is undefined; "
+                "pass b=+1 or b=-1"
+            )
+        sign = 1.0 if nu[-1] > 0 else -1.0
+        direction = sign if branch == "convergent" else -sign
+    else:
+        direction = 1.0 if b > 0 else -1.0
+    name = "convergent" if direction * det0 > 0 else "divergent"
+    if fast and not record_path and name == "convergent":
+        y = _fast_convergent(model, theta0, start, det0, backend)
+        if y is not None:
+            return _result(model, y, theta0, (), name, direction, start, None)
+    tr = trace(
+        model, theta0, start, direction, max_arc=max_arc, backend=backend, record_path=record_path
     )
+    if not tr.hits:
+        why = "it closed on itself" if tr.closed else f"within arc length {tr.arc:.3g}"
+        raise PathError(
+            f"the solution curve from the start did not reach s = 1 for theta0={theta0.tolist()} "
+            f"({why}; s stayed in [{tr.s_range[0]:.3g}, {tr.s_range[1]:.3g}]): theta0 is not "
+            "reachable along this path"
+        )
+    hit = tr.hits[0]
+    crossings = tuple(tr.crossings[: hit.crossings])
+    return _result(model, hit.y, theta0, crossings, name, direction, start, tr.path)
 
 
-def _result(model, y, theta0, crossings, branch, direction, start, path, c=None) -> SolveResult:
-    cfg = model.configuration(y, theta0, c)
+def _fast_convergent(model, theta0, start, det0, backend) -> np.ndarray | None:
+    eng = engine(model, backend)
+    y_loc, c = model.chart.to_local(start.y)
+    dtheta = theta0 - start.theta
+    y, res, corr = eng.kernels.finish(y_loc, 0.0, start.theta, dtheta, c)
+    y = np.array(y).ravel()
+    step = float(np.linalg.norm(y - y_loc, np.inf))
+    if not (np.all(np.isfinite(y)) and float(res) <= model.tolerance):
+        return None
+    if float(corr) > 1e-7 * max(step, 1e-300) + 1e-13:
+        return None
+    det1 = float(np.linalg.det(np.array(eng.kernels.jac(y, theta0, c)[0])))
+    if det1 * det0 <= 0:
+        return None
+    return model.chart.to_canonical(y, c)
+
+
+def _result(model, y, theta0, crossings, branch, direction, start, path) -> SolveResult:
+    cfg = model.configuration(y, theta0)
     if not cfg.residual <= model.tolerance:
         raise VerificationError(
             f"solution at theta0={np.asarray(theta0).tolist()} failed verification: residual "

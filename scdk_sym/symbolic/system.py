@@ -89,8 +89,12 @@ def build_symbolic(
     values.update({n: y[i] for i, n in enumerate(unknowns)})
     values.update({n: theta[i] for i, n in enumerate(actuated)})
     T = link_placements(tree, values, charts)
-    g_all = ca.vertcat(*[closure_residual(cl, T[cl.frame_a], T[cl.frame_b], values) for cl in closures])
-    g_check = ca.vertcat(*[closure_check(cl, T[cl.frame_a], T[cl.frame_b], values) for cl in closures])
+    g_all = ca.vertcat(
+        *[closure_residual(cl, T[cl.frame_a], T[cl.frame_b], values) for cl in closures]
+    )
+    g_check = ca.vertcat(
+        *[closure_check(cl, T[cl.frame_a], T[cl.frame_b], values) for cl in closures]
+    )
     g = g_all if rows is None else g_all[list(rows)]
     return Symbolic(
         y=y,

@@ -91,7 +91,9 @@ def constraint_models(model: Model) -> list:
     for c in model.closures:
         kind = pin.ContactType.CONTACT_6D if c.type == "6d" else pin.ContactType.CONTACT_3D
         fa, fb = pm.frames[pm.getFrameId(c.frame_a)], pm.frames[pm.getFrameId(c.frame_b)]
-        cm = pin.RigidConstraintModel(kind, pm, fa.parentJoint, fa.placement, fb.parentJoint, fb.placement)
+        cm = pin.RigidConstraintModel(
+            kind, pm, fa.parentJoint, fa.placement, fb.parentJoint, fb.placement
+        )
         cm.name = f"{c.frame_a}|{c.frame_b}"
         out.append(cm)
     return out
