@@ -3,7 +3,8 @@
 from . import builders
 from .errors import ScdkError
 from .model.model import Model, load_model
-from .results import Configuration, Crossing, SolveResult
+from .results import Configuration, Crossing, SolveResult, TrackResult
+from .solvers.sc import solve
 
 __all__ = [
     "Configuration",
@@ -11,6 +12,8 @@ __all__ = [
     "Model",
     "ScdkError",
     "SolveResult",
+    "TrackResult",
     "builders",
     "load_model",
+    "solve",
 ]

@@ -33,7 +33,8 @@ CVODES_OPTIONS = {
     "nonlinear_solver_iteration": "functional",
     "abstol": 1e-11,
     "reltol": 1e-10,
-    "max_num_steps": 20000,
+    "max_num_steps": 5000,
+    "disable_internal_warnings": True,
 }
 BACKENDS = ("casadi", "compiled")
 
@@ -267,13 +268,14 @@ def trace(
             out.crossing_arcs.append(a)
         s_lo, s_hi = min(s_lo, s_vals.min()), max(s_hi, s_vals.max())
         if record_path:
-            Qc = Q.T
+            first = 1 if rec["q"] else 0  # a chunk starts where the previous one ended
+            Qc = Q[:, first:].T
             if floating:
                 Qc = np.array([np.append(model.chart.to_canonical(r[:-1], c), r[-1]) for r in Qc])
             rec["q"].extend(Qc)
-            rec["J"].extend(Jv.T)
-            rec["x"].extend(X.T)
-            rec["arc"].extend(out.arc + scale * np.arange(GRID + 1) / GRID)
+            rec["J"].extend(Jv[:, first:].T)
+            rec["x"].extend(X[:, first:].T)
+            rec["arc"].extend(out.arc + scale * np.arange(first, GRID + 1) / GRID)
         out.hits.extend(new_hits)
         out.arc += scale
         if len(out.hits) >= max_hits:

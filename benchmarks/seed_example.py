@@ -1,0 +1,91 @@
+"""Time per solve of the paper's example (planar HEXA-type robot, section 5).
+
+Prints the median time per solve of both branches with the CasADi SX Functions and with the
+compiled (generated C) kernels, for both modelings, and the ratio to a baseline measured in
+the same run: a plain numpy Newton iteration (x in R^3, the reduced model's closed-form
+residual) from the same start, which finds one solution and has no branch control.
+
+    python benchmarks/seed_example.py [--repeat 200]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+import scdk_sym as sc
+from scdk_sym.builders.planar import seed_geometry
+from scdk_sym.solvers.sc import solve
+
+ROOT = Path(__file__).resolve().parents[1]
+X1 = np.array([0.0, 0.0, 0.4])
+THETA0 = np.array([1.292, -0.802, -2.896])
+
+
+def newton_baseline(theta0: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Plain Newton on the reduced residual |elbow_i - vertex_i(x)|^2 - rod^2 (finite differences)."""
+    g = seed_geometry()
+    A, C, arm, rod = g["base_points"], g["platform_points"], g["arm"], g["rod"]
+    E = A + arm * np.c_[np.cos(theta0), np.sin(theta0)]
+
+    def f(x):
+        c, s = math.cos(x[2]), math.sin(x[2])
+        V = x[:2] + C @ np.array([[c, s], [-s, c]])
+        return np.sum((V - E) ** 2, axis=1) - rod**2
+
+    for _ in range(50):
+        r = f(x)
+        if np.max(np.abs(r)) < 1e-12:
+            break
+        J = np.column_stack([(f(x + 1e-7 * e) - r) / 1e-7 for e in np.eye(3)])
+        x = x - np.linalg.solve(J, r)
+    return x
+
+
+def median_time(fn, repeat: int) -> float:
+    fn()  # warm up
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return float(np.median(times))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=200)
+    args = parser.parse_args()
+    base = median_time(lambda: newton_baseline(THETA0, X1.copy()), args.repeat)
+    print(f"baseline numpy Newton (one solution, no branch control): {base * 1e3:.3f} ms/solve")
+    print(f"{'model':<22}{'backend':<10}{'branch':<12}{'phi':>9}{'ms/solve':>10}{'ratio':>8}")
+    for name in ("planar_hexa", "planar_hexa_reduced"):
+        model = sc.load_model(ROOT / "models" / name)
+        start = model.inverse_kinematics(X1)
+        for backend in ("casadi", "compiled"):
+            for branch in ("convergent", "divergent"):
+                res = solve(model, THETA0, start=start, branch=branch, backend=backend)
+
+                def run(branch=branch, backend=backend):
+                    solve(
+                        model,
+                        THETA0,
+                        start=start,
+                        branch=branch,
+                        backend=backend,
+                        record_path=False,
+                    )
+
+                t = median_time(run, args.repeat)
+                print(
+                    f"{name:<22}{backend:<10}{branch:<12}{res.x[2]:>9.4f}{t * 1e3:>10.3f}"
+                    f"{t / base:>8.1f}"
+                )
+
+
+if __name__ == "__main__":
+    main()

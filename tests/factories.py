@@ -1,0 +1,38 @@
+"""Shared test factories (plain functions, cached: models are immutable)."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+import scdk_sym as sc
+
+ROOT = Path(__file__).resolve().parents[1]
+MODELS = ROOT / "models"
+#: The paper's example (section 5): start pose, joint angles to solve.
+SEED_X1 = np.array([0.0, 0.0, 0.4])
+SEED_THETA0 = np.array([1.292, -0.802, -2.896])
+
+
+@lru_cache(maxsize=None)
+def shipped(name: str) -> sc.Model:
+    """A model of models/ (loaded once per test session)."""
+    return sc.load_model(MODELS / name)
+
+
+def seed_models() -> list[sc.Model]:
+    """The paper's robot in both modelings: full chains and the reduced (x, y, phi) form."""
+    return [shipped("planar_hexa"), shipped("planar_hexa_reduced")]
+
+
+@lru_cache(maxsize=None)
+def hexapod() -> sc.Model:
+    """A general 6-6 Stewart-Gough platform (SI units) built in memory."""
+    ang_b = np.radians([0, 120, 240]).repeat(2) + np.radians([-12, 12] * 3)
+    ang_p = np.radians([60, 180, 300]).repeat(2) + np.radians([-20, 20] * 3)
+    ang_p = np.roll(ang_p, 1)
+    A = np.c_[0.5 * np.cos(ang_b), 0.5 * np.sin(ang_b), np.zeros(6)]
+    B = np.c_[0.3 * np.cos(ang_p), 0.3 * np.sin(ang_p), np.zeros(6)]
+    return sc.builders.stewart_gough(A, B, home_x=[0, 0, 0.6, 0, 0, 0])

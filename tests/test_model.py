@@ -1,0 +1,171 @@
+"""Model loading, validation, square reduction, inverse kinematics (scdk_sym.model.model)."""
+
+import math
+import shutil
+
+import numpy as np
+import pytest
+import yaml
+from factories import MODELS, seed_models, shipped
+
+import scdk_sym as sc
+from scdk_sym.builders.planar import rrr_leg_angles, seed_geometry
+from scdk_sym.errors import (
+    InputError,
+    ModelError,
+    NonSquareSystemError,
+    NotAssembledError,
+    UnknownNameError,
+    UnreachableError,
+)
+
+
+def _copy(tmp_path, name="planar_hexa"):
+    d = tmp_path / name
+    shutil.copytree(MODELS / name, d)
+    return d
+
+
+def _edit_yaml(d, **changes):
+    data = yaml.safe_load((d / "robot.yaml").read_text())
+    for k, v in changes.items():
+        if v is None:
+            data.pop(k, None)
+        else:
+            data[k] = v
+    (d / "robot.yaml").write_text(yaml.safe_dump(data))
+
+
+def test_names_of_the_seed_models():
+    full, reduced = seed_models()
+    assert full.actuated == reduced.actuated == ("theta_1", "theta_2", "theta_3")
+    assert set(full.unknowns) == {"elbow_1", "wrist_1", "elbow_2", "elbow_3"}
+    assert reduced.unknowns == ("px", "py", "phi")
+    assert full.workspace == reduced.workspace == ("x", "y", "phi")
+    assert full.reduction is None and reduced.reduction is None
+
+
+def test_inverse_kinematics_matches_the_closed_form_and_the_paper():
+    g = seed_geometry()
+    rng = np.random.default_rng(7)
+    for model in seed_models():
+        for _ in range(20):
+            x = np.array([rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-0.3, 0.5)])
+            cfg = model.inverse_kinematics(x)
+            R = np.array([[math.cos(x[2]), -math.sin(x[2])], [math.sin(x[2]), math.cos(x[2])]])
+            ref = [
+                rrr_leg_angles(g["base_points"][i], x[:2] + R @ g["platform_points"][i], 7, 7, -1)[
+                    0
+                ]
+                for i in range(3)
+            ]
+            np.testing.assert_allclose(cfg.theta, ref, atol=1e-10)
+            np.testing.assert_allclose(cfg.x, x, atol=1e-10)
+            assert cfg.residual < 1e-12
+        # the paper: the singular configuration x = y = 0, phi = 0.575 has theta [1.166, -0.928, -3.023]
+        sing = model.inverse_kinematics([0, 0, 0.575])
+        np.testing.assert_allclose(sing.theta, [1.166, -0.928, -3.023], atol=5e-4)
+
+
+def test_configuration_is_immutable_and_complete():
+    model = shipped("planar_hexa")
+    cfg = model.home
+    with pytest.raises(ValueError):
+        cfg.theta[0] = 1.0
+    with pytest.raises(TypeError):
+        cfg.joints["theta_1"] = 1.0
+    assert set(cfg.joints) == set(model.tree.movable_joints)
+    assert cfg.platform_pose.shape == (4, 4)
+
+
+def test_save_and_load_round_trip(tmp_path):
+    g = seed_geometry()
+    model = sc.builders.planar_3rrr(**g)
+    again = sc.load_model(model.save(tmp_path / "m"))
+    assert (again.actuated, again.unknowns, again.workspace, again.frame) == (
+        model.actuated,
+        model.unknowns,
+        model.workspace,
+        model.frame,
+    )
+    np.testing.assert_allclose(again.home.y, model.home.y, atol=1e-14)
+    cfg_a, cfg_b = model.inverse_kinematics([1, -1, 0.3]), again.inverse_kinematics([1, -1, 0.3])
+    np.testing.assert_allclose(cfg_a.theta, cfg_b.theta, atol=1e-12)
+    # loading through the YAML path gives the same model
+    assert sc.load_model(tmp_path / "m" / "robot.yaml").unknowns == model.unknowns
+
+
+def test_unknown_frame_lists_the_valid_ones(tmp_path):
+    d = _copy(tmp_path)
+    _edit_yaml(d, closed_loop=[["vertex_2", "nowhere"], ["vertex_3", "rod_end_3"]])
+    with pytest.raises(UnknownNameError, match="unknown frame 'nowhere'; frames: base, ") as info:
+        sc.load_model(d)
+    assert info.value.name == "nowhere" and "rod_end_2" in info.value.valid
+
+
+def test_unknown_actuated_joint_lists_the_valid_ones(tmp_path):
+    d = _copy(tmp_path)
+    _edit_yaml(d, name_mot=["theta_1", "theta_2", "motor_9"])
+    with pytest.raises(
+        UnknownNameError,
+        match="unknown joint .motor_9.; joints: theta_1, theta_2, theta_3, elbow_1",
+    ):
+        sc.load_model(d)
+
+
+def test_unknown_reported_frame(tmp_path):
+    with pytest.raises(UnknownNameError, match="unknown frame 'tool'"):
+        sc.load_model(MODELS / "planar_hexa", frame="tool")
+
+
+def test_home_that_is_not_assembled_is_refused(tmp_path):
+    d = _copy(tmp_path)
+    data = yaml.safe_load((d / "robot.yaml").read_text())
+    data["home"]["elbow_2"] += 0.1
+    (d / "robot.yaml").write_text(yaml.safe_dump(data))
+    with pytest.raises(NotAssembledError, match="'home' is not assembled: closure 2d\\(vertex_2"):
+        sc.load_model(d)
+
+
+def test_missing_files(tmp_path):
+    with pytest.raises(ModelError, match="file not found"):
+        sc.load_model(tmp_path)
+    with pytest.raises(ModelError, match="expected a model directory or a .yaml"):
+        sc.load_model(tmp_path / "x.txt")
+
+
+def test_under_constrained_system_is_refused_with_counts(tmp_path):
+    # only one of the two closures: the platform keeps two freedoms the actuators do not fix
+    d = _copy(tmp_path)
+    _edit_yaml(d, closed_loop=[["vertex_2", "rod_end_2"]], type=["2d"])
+    with pytest.raises(
+        NonSquareSystemError, match="4 unknown joints, 2 closure rows, rank 2"
+    ) as info:
+        sc.load_model(d)
+    assert (info.value.rows, info.value.unknowns, info.value.rank) == (2, 4, 2)
+
+
+def test_redundant_rows_are_reduced_with_a_note(tmp_path):
+    # the reduced model with a 3d closure replacing a distance one is not square as written
+    model = shipped("planar_hexa")
+    d = _copy(tmp_path)
+    _edit_yaml(
+        d, closed_loop=[["vertex_2", "rod_end_2"], ["vertex_3", "rod_end_3"]], type=["3d", "2d"]
+    )
+    reduced = sc.load_model(d)
+    assert reduced.reduction is not None and "dropped 1 redundant row" in reduced.reduction
+    assert reduced.m == 4 and len(reduced.rows) == 4
+    cfg = reduced.inverse_kinematics([0.5, 0.2, 0.1])
+    np.testing.assert_allclose(
+        cfg.theta, model.inverse_kinematics([0.5, 0.2, 0.1]).theta, atol=1e-10
+    )
+
+
+def test_inverse_kinematics_bad_input():
+    model = shipped("planar_hexa_reduced")
+    with pytest.raises(InputError, match="must have 3 values, got 2"):
+        model.inverse_kinematics([0, 0])
+    with pytest.raises(InputError, match="finite"):
+        model.inverse_kinematics([0, float("nan"), 0])
+    with pytest.raises(UnreachableError, match="not reachable in the home working mode"):
+        model.inverse_kinematics([30.0, 0, 0])

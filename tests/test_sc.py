@@ -1,0 +1,152 @@
+"""The singularity-consistent solver on the paper's example (scdk_sym.solvers.sc)."""
+
+import shutil
+
+import numpy as np
+import pytest
+from factories import SEED_THETA0, SEED_X1, seed_models, shipped
+
+from scdk_sym.errors import InputError, NotAssembledError, PathError, ScdkError
+from scdk_sym.results import Configuration
+from scdk_sym.solvers.sc import solve
+
+
+@pytest.fixture(scope="module", params=["planar_hexa", "planar_hexa_reduced"])
+def seed(request):
+    model = shipped(request.param)
+    return model, model.inverse_kinematics(SEED_X1)
+
+
+def test_convergent_branch_reproduces_the_paper(seed):
+    model, start = seed
+    res = solve(model, SEED_THETA0, start=start, branch="convergent")
+    # the paper: x3 = [0, 0, 0.207] (0.207376); theta0 is rounded to 3 decimals
+    assert abs(res.x[2] - 0.2074) < 1.5e-3
+    assert abs(res.x[0]) < 5e-3 and abs(res.x[1]) < 5e-3
+    assert res.crossings == ()
+    assert res.residual <= 1e-8 and res.status == "converged" and res.branch == "convergent"
+    np.testing.assert_array_equal(res.theta, SEED_THETA0)
+
+
+def test_divergent_branch_crosses_the_singular_manifold_once(seed):
+    model, start = seed
+    res = solve(model, SEED_THETA0, start=start, branch="divergent")
+    # the paper: x0 = [0, 0, 1.000], crossing at x = y = 0, phi = 0.575360
+    assert abs(res.x[2] - 0.9999) < 1.5e-3
+    assert abs(res.x[0]) < 5e-3 and abs(res.x[1]) < 5e-3
+    assert len(res.crossings) == 1 and res.residual <= 1e-8
+    assert abs(res.crossings[0].x[2] - 0.5754) < 2e-3
+
+
+def test_crossing_is_on_the_singular_manifold(seed):
+    model, start = seed
+    res = solve(model, SEED_THETA0, start=start, branch="divergent")
+    cr = res.crossings[0]
+    y, c = model.chart.to_local(cr.y)
+    Jp, Js = (np.array(a) for a in model.kernels.jac(y, cr.theta, c))
+    # s reported consistently with theta(s) = theta1 + s (theta0 - theta1)
+    np.testing.assert_allclose(
+        cr.theta, start.theta + cr.s * (SEED_THETA0 - start.theta), atol=1e-12
+    )
+    assert model.residual(cr.y, cr.theta) < 1e-10
+    # det J_p vanishes there (relative to its size along the path): sigma_min / sigma_max
+    sv = np.linalg.svd(Jp, compute_uv=False)
+    assert sv[-1] / sv[0] < 1e-9
+    # det J_p changes sign exactly once along the sampled path
+    flips = np.count_nonzero(np.diff(np.sign(res.path.det_jp)) != 0)
+    assert flips == 1
+
+
+def test_both_modelings_give_the_same_solutions():
+    full, reduced = seed_models()
+    for branch in ("convergent", "divergent"):
+        a = solve(full, SEED_THETA0, start=full.inverse_kinematics(SEED_X1), branch=branch)
+        b = solve(reduced, SEED_THETA0, start=reduced.inverse_kinematics(SEED_X1), branch=branch)
+        np.testing.assert_allclose(a.x, b.x, atol=1e-10)
+        np.testing.assert_allclose(a.platform_pose, b.platform_pose, atol=1e-10)
+        assert len(a.crossings) == len(b.crossings)
+        for ca_, cb in zip(a.crossings, b.crossings, strict=True):
+            np.testing.assert_allclose(ca_.x, cb.x, atol=1e-8)
+
+
+def test_branch_names_follow_the_sign_of_b_det_jp():
+    # the paper's b = +0.5 is the convergent branch of the reduced model; in the full-chain
+    # model det J_p has the opposite sign at the start, so b = +0.5 is the divergent branch
+    full, reduced = seed_models()
+    r = solve(reduced, SEED_THETA0, start=reduced.inverse_kinematics(SEED_X1), b=0.5)
+    f = solve(full, SEED_THETA0, start=full.inverse_kinematics(SEED_X1), b=0.5)
+    assert {r.branch, f.branch} == {"convergent", "divergent"}
+    assert abs(r.x[2] - f.x[2]) > 0.5
+
+
+def test_path_samples_follow_the_paper_figures(seed):
+    model, start = seed
+    res = solve(model, SEED_THETA0, start=start, branch="divergent")
+    p = res.path
+    assert p.s.shape == p.det_jp.shape == p.sdot.shape and p.x.shape == (len(p.s), 3)
+    # phase plot: s' < 0 first (divergent), = 0 on the manifold, > 0 afterwards (Fig. 6)
+    assert p.sdot[0] < 0 < p.sdot[-1]
+    assert np.all(np.diff(p.arc) > 0)
+    # each sample lies on the solution curve
+    worst = max(
+        model.residual(y, start.theta + s * (SEED_THETA0 - start.theta)) for y, s in zip(p.y, p.s)
+    )
+    assert worst < 1e-7
+
+
+@pytest.mark.parametrize("backend", ["casadi", "compiled"])
+def test_fast_path_and_backends_agree_with_the_full_path(backend):
+    if backend == "compiled" and shutil.which("gcc") is None:
+        pytest.skip("no C compiler")
+    model = shipped("planar_hexa_reduced")
+    rng = np.random.default_rng(5)
+    for _ in range(10):
+        x = np.r_[rng.uniform(-1, 1, 2), rng.uniform(-0.2, 0.3)]
+        target = model.inverse_kinematics(x)
+        near = model.inverse_kinematics(x + rng.normal(scale=0.02, size=3))
+        fast = solve(model, target.theta, start=near, backend=backend, record_path=False)
+        full = solve(model, target.theta, start=near, backend=backend, record_path=True)
+        np.testing.assert_allclose(fast.x, x, atol=1e-10)
+        np.testing.assert_allclose(full.x, x, atol=1e-10)
+
+
+def test_start_already_at_theta0_returns_it():
+    model = shipped("planar_hexa")
+    res = solve(model, model.home.theta)
+    np.testing.assert_allclose(res.x, model.home.x, atol=1e-14)
+    assert res.crossings == ()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "message"),
+    [
+        ({"theta0": [1.0, 2.0]}, InputError, "must have 3 values, got 2"),
+        ({"theta0": [1.0, float("nan"), 2.0]}, InputError, "finite"),
+        ({"theta0": "abc"}, InputError, "must be 3 numbers"),
+        ({"branch": "sideways"}, InputError, "unknown branch 'sideways'; branches: convergent"),
+        ({"b": 0.0}, InputError, "non-zero"),
+        ({"backend": "gpu"}, InputError, "unknown backend 'gpu'; backends: casadi, compiled"),
+        ({"start": "home"}, InputError, "start must be a Configuration"),
+    ],
+)
+def test_bad_input_is_refused(kwargs, error, message):
+    model = shipped("planar_hexa")
+    args = {"theta0": SEED_THETA0, **kwargs}
+    with pytest.raises(error, match=message):
+        solve(model, **args)
+
+
+def test_start_that_is_not_assembled_is_refused():
+    model = shipped("planar_hexa")
+    home = model.home
+    bad = Configuration(home.theta, home.y + 0.1, home.x, home.platform_pose, home.joints)
+    with pytest.raises(NotAssembledError, match="start configuration is not assembled"):
+        solve(model, SEED_THETA0, start=bad)
+
+
+def test_unreachable_theta_raises_a_path_error():
+    # arms pointing radially outwards: the elbows are too far apart for the platform
+    model = shipped("planar_hexa")
+    with pytest.raises(PathError, match="did not reach s = 1") as info:
+        solve(model, [-0.5236, -2.618, 1.5708], start=model.inverse_kinematics(SEED_X1))
+    assert isinstance(info.value, ScdkError)
