@@ -27,7 +27,7 @@ THETA0 = np.array([1.292, -0.802, -2.896])
 
 
 def newton_baseline(theta0: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Plain Newton on the reduced residual |elbow_i - vertex_i(x)|^2 - rod^2 (finite differences)."""
+    """Plain Newton on the residual |elbow_i - vertex_i(x)|^2 - rod^2 (finite differences)."""
     g = seed_geometry()
     A, C, arm, rod = g["base_points"], g["platform_points"], g["arm"], g["rod"]
     E = A + arm * np.c_[np.cos(theta0), np.sin(theta0)]
@@ -70,7 +70,7 @@ def main() -> None:
             for branch in ("convergent", "divergent"):
                 res = solve(model, THETA0, start=start, branch=branch, backend=backend)
 
-                def run(branch=branch, backend=backend):
+                def run(model=model, start=start, branch=branch, backend=backend):
                     solve(
                         model,
                         THETA0,

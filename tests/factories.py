@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +16,7 @@ SEED_X1 = np.array([0.0, 0.0, 0.4])
 SEED_THETA0 = np.array([1.292, -0.802, -2.896])
 
 
-@lru_cache(maxsize=None)
+@cache
 def shipped(name: str) -> sc.Model:
     """A model of models/ (loaded once per test session)."""
     return sc.load_model(MODELS / name)
@@ -27,7 +27,7 @@ def seed_models() -> list[sc.Model]:
     return [shipped("planar_hexa"), shipped("planar_hexa_reduced")]
 
 
-@lru_cache(maxsize=None)
+@cache
 def hexapod() -> sc.Model:
     """A general 6-6 Stewart-Gough platform (SI units) built in memory."""
     ang_b = np.radians([0, 120, 240]).repeat(2) + np.radians([-12, 12] * 3)

@@ -62,7 +62,8 @@ def test_inverse_kinematics_matches_the_closed_form_and_the_paper():
             np.testing.assert_allclose(cfg.theta, ref, atol=1e-10)
             np.testing.assert_allclose(cfg.x, x, atol=1e-10)
             assert cfg.residual < 1e-12
-        # the paper: the singular configuration x = y = 0, phi = 0.575 has theta [1.166, -0.928, -3.023]
+        # the paper: the singular configuration x = y = 0, phi = 0.575 has
+        # theta = [1.166, -0.928, -3.023]
         sing = model.inverse_kinematics([0, 0, 0.575])
         np.testing.assert_allclose(sing.theta, [1.166, -0.928, -3.023], atol=5e-4)
 

@@ -89,7 +89,8 @@ def test_path_samples_follow_the_paper_figures(seed):
     assert np.all(np.diff(p.arc) > 0)
     # each sample lies on the solution curve
     worst = max(
-        model.residual(y, start.theta + s * (SEED_THETA0 - start.theta)) for y, s in zip(p.y, p.s)
+        model.residual(y, start.theta + s * (SEED_THETA0 - start.theta))
+        for y, s in zip(p.y, p.s, strict=True)
     )
     assert worst < 1e-7
 
