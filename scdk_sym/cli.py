@@ -104,11 +104,30 @@ def _solve(args: argparse.Namespace) -> int:
     print(f"model {model.name}: x = ({', '.join(model.workspace)}) of {model.frame!r}")
     print(f"start x = {fmt(start.x)}  theta0 = {fmt(theta)}")
     for r in results:
-        print(
-            f"{r.branch:>10}: x = {fmt(r.x)}  residual {r.residual:.1e}  crossings {len(r.crossings)}"
-        )
+        n = len(r.crossings)
+        print(f"{r.branch:>10}: x = {fmt(r.x)}  residual {r.residual:.1e}  crossings {n}")
         for c in r.crossings:
             print(f"{'':>12}singular crossing at s = {c.s:.6f}: x = {fmt(c.x)}")
+    return 0
+
+
+# ---------------------------------------------------------------------------- cache
+
+
+def _cache_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--clear", action="store_true", help="delete every cached product")
+
+
+@command("cache", "show or clear the on-disk cache of compiled kernels", _cache_args)
+def _cache(args: argparse.Namespace) -> int:
+    from .kernels.cache import cache_dir, clear_cache
+
+    if args.clear:
+        print(f"removed {clear_cache()} cached item(s) from {cache_dir()}")
+    else:
+        entries = sorted(cache_dir().iterdir())
+        size = sum(e.stat().st_size for e in entries if e.is_file())
+        print(f"{cache_dir()}: {len(entries)} item(s), {size / 1e6:.1f} MB")
     return 0
 
 
