@@ -35,7 +35,9 @@ def floats(text: str, what: str = "value") -> np.ndarray:
 
 
 def fmt(values, digits: int = 6) -> str:
-    return "[" + ", ".join(f"{v:.{digits}g}" for v in np.asarray(values).ravel()) + "]"
+    """Format numbers for people (round-off below 1e-12 printed as 0)."""
+    vals = [0.0 if abs(v) < 1e-12 else v for v in np.asarray(values, float).ravel()]
+    return "[" + ", ".join(f"{v:.{digits}g}" for v in vals) + "]"
 
 
 def add_model_args(p: argparse.ArgumentParser) -> None:
