@@ -58,15 +58,29 @@ def compile_shared(source: Path, target: Path) -> Path:
     return target
 
 
+def cache_key(model) -> str:
+    """Content hash of a model's compiled kernels: the model files, the code that turns them
+    into kernels, the CasADi version and the compiler flags."""
+    h = hashlib.sha256(model.content_hash.encode())
+    here = Path(__file__).resolve().parents[1]
+    for part in ("kernels/functions.py", "symbolic/kinematics.py", "symbolic/system.py"):
+        h.update((here / part).read_bytes())
+    h.update(ca.__version__.encode())
+    h.update(" ".join(CFLAGS).encode())
+    return h.hexdigest()[:24]
+
+
 def compiled_kernels(model) -> Kernels:
-    """The model's kernels compiled to C and loaded with ``casadi.external`` (cached on disk)."""
+    """The model's kernels compiled to C and loaded with ``casadi.external``.
+
+    The shared library is cached on disk (:func:`~scdk_sym.kernels.cache.cache_dir`) under
+    :func:`cache_key`; only the first call for a model generates and compiles (seconds).
+    """
     kern = model.kernels
-    with tempfile.TemporaryDirectory() as tmp:
-        src = generate_c(kern, "scdk_kernels", Path(tmp), with_header=False)
-        code = src.read_text()
-        key = hashlib.sha256(code.encode() + " ".join(CFLAGS).encode()).hexdigest()[:20]
-        target = cache_dir() / f"kernels_{key}.so"
-        if not target.exists():
+    target = cache_dir() / f"kernels_{cache_key(model)}.so"
+    if not target.exists():
+        with tempfile.TemporaryDirectory() as tmp:
+            src = generate_c(kern, "scdk_kernels", Path(tmp), with_header=False)
             partial = target.with_suffix(f".{os.getpid()}.tmp")
             compile_shared(src, partial)
             os.replace(partial, target)

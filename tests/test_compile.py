@@ -1,0 +1,41 @@
+"""Compiled kernels (scdk_sym.kernels.compile) against the CasADi SX Functions."""
+
+import shutil
+from dataclasses import fields
+
+import numpy as np
+import pytest
+from factories import hexapod, shipped
+
+from scdk_sym.errors import BuildError
+from scdk_sym.kernels import compile as comp
+from scdk_sym.kernels.cache import cache_dir
+
+pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="no C compiler")
+
+
+@pytest.mark.parametrize(
+    "make", [lambda: shipped("planar_hexa"), hexapod], ids=["planar", "hexapod"]
+)
+def test_compiled_kernels_equal_the_sx_functions(make):
+    model = make()
+    sx = model.kernels
+    c_k = comp.compiled_kernels(model)
+    rng = np.random.default_rng(3)
+    for f in fields(sx):
+        f_sx, f_c = getattr(sx, f.name), getattr(c_k, f.name)
+        assert f_c.n_in() == f_sx.n_in() and f_c.n_out() == f_sx.n_out()
+        for _ in range(3):
+            args = [rng.normal(scale=0.3, size=f_sx.size_in(i)) for i in range(f_sx.n_in())]
+            for a, b in zip(f_sx.call(args), f_c.call(args), strict=True):
+                a, b = np.array(a), np.array(b)
+                np.testing.assert_allclose(b, a, rtol=1e-10, atol=1e-10 * (1 + np.abs(a).max()))
+    # cached: the library exists under the model's key and is reused
+    assert (cache_dir() / f"kernels_{comp.cache_key(model)}.so").exists()
+
+
+def test_missing_compiler_is_a_build_error(monkeypatch):
+    monkeypatch.setenv("CC", "")
+    monkeypatch.setattr(comp.shutil, "which", lambda name: None)
+    with pytest.raises(BuildError, match="no C compiler found"):
+        comp.compiler()
