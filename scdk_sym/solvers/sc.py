@@ -251,6 +251,9 @@ def trace(
             if (s_vals[i] - 1.0) * (s_vals[i + 1] - 1.0) <= 0 and s_vals[i] != s_vals[i + 1]:
                 if s_vals[i + 1] == 1.0 and i + 1 < GRID:
                     continue  # counted at the next segment
+                if ts[i] * ts[i + 1] < 0:  # a fold in the same segment: resolve it first
+                    bad_finish = True
+                    break
                 hit = _finish(eng, Q[:, i], Q[:, i + 1], theta1, dtheta, c, seg_arc)
                 if hit is None:
                     bad_finish = True
