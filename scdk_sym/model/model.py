@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import hashlib
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from functools import cached_property
 from pathlib import Path
 
@@ -93,10 +94,13 @@ class Model:
         links = tree.links
         movable = tree.coordinates
         single = tuple(j.name for j in tree.joints if j.movable and j.type != "floating")
+        # a frame is a link, or a joint (as in Pinocchio: the joint frame is its child link's)
+        joint_frames = {j.name: j.child for j in tree.joints if j.name not in links}
+        frames = (*links, *joint_frames)
         for c in spec.closures:
             for f in (c.frame_a, c.frame_b):
-                if f not in links:
-                    raise UnknownNameError("frame", f, links, path)
+                if f not in links and f not in joint_frames:
+                    raise UnknownNameError("frame", f, frames, path)
         for a in spec.actuated:
             if a not in single:
                 raise UnknownNameError("joint", a, single, path)
@@ -109,9 +113,9 @@ class Model:
         chosen = frame or spec.platform
         if chosen is None:
             chosen = "effector" if "effector" in links else links[-1]
-        if chosen not in links:
-            raise UnknownNameError("frame", chosen, links, path)
-        self.frame = chosen
+        if chosen not in links and chosen not in joint_frames:
+            raise UnknownNameError("frame", chosen, frames, path)
+        self.frame = joint_frames.get(chosen, chosen)
         if spec.workspace is not None:
             workspace = spec.workspace
         elif spec.platform is not None:
@@ -125,7 +129,14 @@ class Model:
             )
         self.workspace = tuple(workspace)
         self.actuated = tuple(spec.actuated)
-        self.closures = spec.closures
+        self.closures = tuple(
+            replace(
+                c,
+                frame_a=joint_frames.get(c.frame_a, c.frame_a),
+                frame_b=joint_frames.get(c.frame_b, c.frame_b),
+            )
+            for c in spec.closures
+        )
         candidates = tuple(j for j in movable if j not in self.actuated)
         if not candidates:
             raise ModelError("no unknown joints: every movable joint is actuated", path)
@@ -167,7 +178,12 @@ class Model:
             [full.y, full.theta],
             [
                 ca.substitute(e, full.c, ca.DM(c0))
-                for e in (full.g_all, ca.jacobian(full.g_all, full.y), full.g_check)
+                for e in (
+                    full.g_all,
+                    ca.jacobian(full.g_all, full.y),
+                    full.g_check,
+                    ca.jacobian(full.g_check, full.y),
+                )
             ],
         )
         check = np.abs(np.array(f_all(y0, th0)[2])).ravel()
@@ -203,10 +219,12 @@ class Model:
                 rank,
                 self.path,
             )
+        labels = self._row_labels()
         if not (rank == nrows == ncols):
             rows = _pivoted_selection(G.T, rank)
             keep = _pivoted_selection(G[rows], rank)
             idle = [c for c in range(ncols) if c not in keep]
+            dropped = [labels[r] for r in range(nrows) if r not in rows]
             if idle:
                 # idle freedoms must not move the reported frame: otherwise the actuators
                 # do not determine the mechanism and nothing can be reduced
@@ -216,19 +234,18 @@ class Model:
                 Jx = np.array(ca.Function("jx", [full.y, full.theta, full.c], [jx])(y0, th0, c0))
                 moved = np.abs(Jx @ null).max() if null.size else 0.0
                 if moved > 1e-7 * max(1.0, self.length_scale):
-                    names = [candidates[c] for c in idle]
+                    # name every joint that takes part in the undetermined motion
+                    names = [candidates[c] for c in range(ncols) if np.abs(null[c]).max() > 1e-6]
                     raise NonSquareSystemError(
                         f"{ncols} unknown joints, {nrows} closure rows, rank {rank}: "
                         f"{ncols - rank} freedom(s) left undetermined by the actuators "
-                        f"{list(self.actuated)} move frame {self.frame!r} (free joints among "
-                        f"{names}); cannot reduce to a square system",
+                        f"{list(self.actuated)} move frame {self.frame!r} (joints {names}; "
+                        f"dependent rows {dropped}); cannot reduce to a square system",
                         nrows,
                         ncols,
                         rank,
                         self.path,
                     )
-            labels = self._row_labels()
-            dropped = [labels[r] for r in range(nrows) if r not in rows]
             parts = [f"{nrows} rows x {ncols} unknowns, rank {rank}"]
             if dropped:
                 parts.append(f"dropped {len(dropped)} redundant row(s) {dropped}")
@@ -242,7 +259,8 @@ class Model:
         ]
         if floating_locked:
             raise NonSquareSystemError(
-                f"the reduction would lock floating coordinates {floating_locked}",
+                f"{ncols} unknown joints, {nrows} closure rows, rank {rank}: the reduction would "
+                f"lock floating coordinates {floating_locked}; cannot reduce to a square system",
                 nrows,
                 ncols,
                 rank,
@@ -256,7 +274,7 @@ class Model:
 
     def _row_labels(self) -> list[str]:
         labels = []
-        for c in self.closures:
+        for c in self.spec.closures:
             comps = {
                 "3d": "xyz",
                 "2d": "xy",
@@ -267,10 +285,10 @@ class Model:
         return labels
 
     def _worst(self, check: np.ndarray) -> str:
-        sizes = [c.rows + (9 if c.type == "6d" else 0) for c in self.closures]
+        sizes = [c.rows + (9 if c.type == "6d" else 0) for c in self.spec.closures]
         i = int(np.argmax(check))
         start = 0
-        for c, n in zip(self.closures, sizes, strict=True):
+        for c, n in zip(self.spec.closures, sizes, strict=True):
             if i < start + n:
                 return f"closure {c.label} violated by {check[i]:.3g}"
             start += n
@@ -278,9 +296,13 @@ class Model:
 
     @staticmethod
     def _project(f_all: ca.Function, y: np.ndarray, theta: np.ndarray) -> np.ndarray:
-        """Levenberg-Marquardt least squares on the closures over y (theta fixed)."""
+        """Levenberg-Marquardt least squares on the closures over y (theta fixed).
+
+        The verification rows are minimised (for 6d closures the whole ``R_a^T R_b - I``):
+        the skew part alone also vanishes at a half turn, a false minimum.
+        """
         mu = 1e-3
-        g, J, _ = (np.array(v) for v in f_all(y, theta))
+        _, _, g, J = (np.array(v) for v in f_all(y, theta))
         g = g.ravel()
         cost = g @ g
         for _ in range(200):
@@ -289,7 +311,7 @@ class Model:
             A = J.T @ J
             dy = np.linalg.solve(A + mu * (np.diag(np.diag(A)) + 1e-12 * np.eye(len(y))), -J.T @ g)
             yn = y + dy
-            gn, Jn, _ = (np.array(v) for v in f_all(yn, theta))
+            _, _, gn, Jn = (np.array(v) for v in f_all(yn, theta))
             gn = gn.ravel()
             if gn @ gn < cost:
                 y, g, J, cost = yn, gn, Jn, gn @ gn
