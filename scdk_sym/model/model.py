@@ -190,7 +190,8 @@ class Model:
         if self.spec.home:
             if check.max() > self.tolerance:
                 raise NotAssembledError(
-                    f"'home' is not assembled: {self._worst(check)} (tolerance {self.tolerance:.1e})",
+                    f"'home' is not assembled: {self._worst(check)} "
+                    f"(tolerance {self.tolerance:.1e})",
                     float(check.max()),
                     self.path,
                 )
