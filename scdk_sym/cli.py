@@ -133,6 +133,47 @@ def _cache(args: argparse.Namespace) -> int:
     return 0
 
 
+# ---------------------------------------------------------------------------- codegen
+
+
+def _codegen_args(p: argparse.ArgumentParser) -> None:
+    add_model_args(p)
+    p.add_argument("--out", required=True, help="output directory (created if needed)")
+    p.add_argument("--prefix", default="scdk", help="C prefix of every name (default: scdk)")
+    p.add_argument(
+        "--no-shared", action="store_true", help="write the sources only (no shared library)"
+    )
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+@command("codegen", "standalone C sources of the tracker (+ a shared library)", _codegen_args)
+def _codegen(args: argparse.Namespace) -> int:
+    from .codegen.generate import compile_library, generate
+
+    model = load(args)
+    src = generate(model, args.out, args.prefix)
+    library = None
+    if not args.no_shared:
+        library = compile_library(src, src.directory / f"lib{src.prefix}_tracker.so")
+    files = [src.kernels_c, src.kernels_h, src.tracker_c, src.tracker_h]
+    if args.json:
+        dump({"files": [str(f) for f in files], "library": str(library) if library else None})
+        return 0
+    print(
+        f"model {model.name}: y = ({', '.join(model.unknowns)}), theta = "
+        f"({', '.join(model.actuated)})"
+    )
+    for f in files:
+        print(f"wrote {f}")
+    if library:
+        print(f"wrote {library}")
+    print(
+        f"compile: gcc -std=c99 -O2 -Wall {src.kernels_c.name} {src.tracker_c.name} "
+        f"your_program.c -lm   (include {src.tracker_h.name})"
+    )
+    return 0
+
+
 # ---------------------------------------------------------------------------- main
 
 

@@ -1,0 +1,188 @@
+"""Generate the standalone C tracker of a model: CasADi kernels + the tracker template.
+
+:func:`generate` writes, for a C prefix ``P`` (default ``scdk``):
+
+- ``P_kernels.c`` / ``P_kernels.h``: CasADi's ``CodeGenerator`` output for ``g``, ``J_p`` and
+  ``J_s``, the pose, the SC field, one RK4 step of it, the RK4 step in ``s``, the
+  fixed-iteration Newton corrector, the chart re-centring and an inverse-kinematics step
+  (self-contained C, see :mod:`scdk_sym.codegen.kernels`);
+- ``P_tracker.c`` / ``P_tracker.h``: the tracker (:mod:`scdk_sym.codegen.templates`) with the
+  model's sizes, tolerances and home configuration.
+
+The four files compile with ``gcc -std=c99 -O2 -Wall`` and ``-lm`` alone.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+
+from ..errors import BuildError, InputError
+from ..kernels.compile import compiler
+from . import templates
+from .kernels import build_tracker_kernels
+
+#: Flags of the shared library built for Python (``-Bsymbolic``: the tracker calls its own
+#: kernels even if another library of the process exports the same names).
+SHARED_FLAGS = ("-std=c99", "-O2", "-Wall", "-shared", "-fPIC", "-Wl,-Bsymbolic")
+
+
+@dataclass(frozen=True)
+class GeneratedSources:
+    """Paths of the generated C files.
+
+    Attributes:
+        directory: where they were written.
+        prefix: C prefix of every exported name.
+        kernels_c: CasADi-generated kernels (``<prefix>_kernels.c``).
+        kernels_h: their header.
+        tracker_c: the tracker (``<prefix>_tracker.c``).
+        tracker_h: its header (include this one).
+    """
+
+    directory: Path
+    prefix: str
+    kernels_c: Path
+    kernels_h: Path
+    tracker_c: Path
+    tracker_h: Path
+
+    @property
+    def sources(self) -> tuple[Path, Path]:
+        """The two C sources to compile."""
+        return (self.kernels_c, self.tracker_c)
+
+
+def check_prefix(prefix: str) -> str:
+    """Validate a C prefix (a lower-case C identifier without double underscores)."""
+    if not re.fullmatch(r"[a-z][a-z0-9]*(_[a-z0-9]+)*", prefix or ""):
+        raise InputError(
+            f"C prefix must be a lower-case identifier (letters, digits, single underscores, "
+            f"starting with a letter), got {prefix!r}"
+        )
+    return prefix
+
+
+def _version() -> str:
+    try:
+        from importlib.metadata import version
+
+        return version("scdk_sym")
+    except Exception:  # pragma: no cover - not installed
+        return "dev"
+
+
+def _floats(values) -> str:
+    arr = np.asarray(values, dtype=float).ravel()
+    if arr.size == 0:
+        return "0.0"
+    return ", ".join(repr(float(v)) for v in arr)
+
+
+def source_key(sources: GeneratedSources) -> str:
+    """Content hash of generated sources and the library flags (the cache key)."""
+    h = hashlib.sha256()
+    for path in (sources.kernels_c, sources.kernels_h, sources.tracker_c, sources.tracker_h):
+        h.update(path.read_bytes())
+        h.update(b"\0")
+    h.update(" ".join(SHARED_FLAGS).encode())
+    return h.hexdigest()[:24]
+
+
+def generate(model, directory: str | Path, prefix: str = "scdk") -> GeneratedSources:
+    """Write the C sources and headers of the model's tracker into ``directory``.
+
+    Args:
+        model: the model (:class:`~scdk_sym.model.model.Model`).
+        directory: output directory (created if needed).
+        prefix: C prefix of every exported name and file name.
+
+    Returns:
+        The paths of the generated files.
+    """
+    prefix = check_prefix(prefix)
+    out = Path(directory)
+    out.mkdir(parents=True, exist_ok=True)
+    kern = build_tracker_kernels(model.symbolic, model.chart.rotations, prefix)
+    gen = ca.CodeGenerator(f"{prefix}_kernels.c", {"with_header": True})
+    for f in kern.all():
+        gen.add(f)
+    cwd = os.getcwd()
+    try:
+        os.chdir(out)
+        gen.generate()
+    finally:
+        os.chdir(cwd)
+    funcs = kern.all()
+    home = model.home
+    y_loc, c = model.chart.to_local(home.y)
+    has_ik = len(model.workspace) == model.k
+    values = {
+        "P": prefix,
+        "PU": prefix.upper(),
+        "VERSION": _version(),
+        "MODEL": model.name,
+        "HASH": model.content_hash[:16],
+        "UNIT": "the model's length unit",
+        "UNKNOWNS": ", ".join(model.unknowns),
+        "ACTUATED": ", ".join(model.actuated),
+        "WORKSPACE": ", ".join(model.workspace),
+        "NY": str(model.m),
+        "NTHETA": str(model.k),
+        "NC": str(model.chart.size),
+        "NX": str(len(model.workspace)),
+        "NC_ALLOC": str(max(1, model.chart.size)),
+        "SZ_ARG": str(max(f.sz_arg() for f in funcs)),
+        "SZ_RES": str(max(f.sz_res() for f in funcs)),
+        "SZ_IW": str(max(1, max(f.sz_iw() for f in funcs))),
+        "SZ_W": str(max(1, max(f.sz_w() for f in funcs))),
+        "HAS_IK": "1" if has_ik else "0",
+        "HOME_Y": _floats(y_loc),
+        "HOME_C": _floats(c),
+        "HOME_THETA": _floats(home.theta),
+        "HOME_X": _floats(home.x),
+        "TOL": repr(float(model.tolerance)),
+        "LENGTH_SCALE": repr(float(max(model.length_scale, 1e-300))),
+    }
+    header = _fill(templates.HEADER, values)
+    source = _fill(templates.SOURCE, values)
+    (out / f"{prefix}_tracker.h").write_text(header)
+    (out / f"{prefix}_tracker.c").write_text(source)
+    return GeneratedSources(
+        directory=out,
+        prefix=prefix,
+        kernels_c=out / f"{prefix}_kernels.c",
+        kernels_h=out / f"{prefix}_kernels.h",
+        tracker_c=out / f"{prefix}_tracker.c",
+        tracker_h=out / f"{prefix}_tracker.h",
+    )
+
+
+def _fill(text: str, values: dict[str, str]) -> str:
+    def sub(match: re.Match) -> str:
+        return values[match.group(1)]
+
+    filled = re.sub(r"@([A-Z_]+)@", sub, text)
+    return filled
+
+
+def compile_library(sources: GeneratedSources, target: str | Path) -> Path:
+    """Compile generated sources into a shared library (gcc, flags :data:`SHARED_FLAGS`).
+
+    Raises:
+        BuildError: no compiler, or the compilation failed (first error line quoted).
+    """
+    target = Path(target)
+    cmd = [compiler(), *SHARED_FLAGS, *map(str, sources.sources), "-o", str(target), "-lm"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=sources.directory)
+    if proc.returncode != 0:
+        first = (proc.stderr.strip().splitlines() or ["?"])[0]
+        raise BuildError(f"C compilation failed ({' '.join(cmd)}): {first}")
+    return target

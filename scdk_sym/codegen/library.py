@@ -1,0 +1,191 @@
+"""The generated C tracker as a shared library, compiled once per model and loaded with ctypes.
+
+The library is built from the same sources that :func:`~scdk_sym.codegen.generate.generate`
+writes, into the on-disk cache (:mod:`scdk_sym.kernels.cache`) under a hash of those sources
+and the compiler flags; later processes regenerate the sources (a fraction of a second) and
+load the cached library without compiling.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import BuildError
+from ..kernels.cache import cache_dir
+from .generate import compile_library, generate, source_key
+
+PREFIX = "scdk"
+
+#: Status codes of the generated tracker (``<PREFIX>_OK`` ... in its header).
+STATUS = {
+    0: "ok",
+    1: "ok (followed the singularity-consistent curve)",
+    2: "ok (corrected from the predicted motion)",
+    -1: "a required pointer is NULL",
+    -2: "an array size does not match the model",
+    -3: "an input is NaN or infinite",
+    -4: "the start configuration violates the closures",
+    -5: "the solution curve did not reach theta within budget",
+    -6: "the solution failed its residual check",
+    -7: "the tracker state is not initialised",
+    -8: "an option is out of range",
+}
+OK, OK_PATH, OK_PREDICTED = 0, 1, 2
+ERR_NULL, ERR_SIZE, ERR_NONFINITE, ERR_NOT_ASSEMBLED = -1, -2, -3, -4
+ERR_NO_SOLUTION, ERR_VERIFY, ERR_STATE, ERR_OPTIONS = -5, -6, -7, -8
+
+
+class Options(ctypes.Structure):
+    """Mirror of ``<prefix>_options`` (see the generated header for the meaning)."""
+
+    _fields_ = [
+        ("tol", ctypes.c_double),
+        ("length_scale", ctypes.c_double),
+        ("accept", ctypes.c_double),
+        ("arc_budget", ctypes.c_double),
+        ("max_steps", ctypes.c_int),
+        ("order", ctypes.c_int),
+    ]
+
+
+_dp = ctypes.POINTER(ctypes.c_double)
+_ip = ctypes.POINTER(ctypes.c_int)
+_lp = ctypes.POINTER(ctypes.c_long)
+
+
+@dataclass(frozen=True)
+class TrackOutput:
+    """Raw output of one call of ``<prefix>_tracker_track``.
+
+    Attributes:
+        status: the call's status (0, or the first error code).
+        failed: index of the failing sample, -1 if none.
+        y: (N, m) unknowns in the local charts ``c`` (NaN from the failing sample on).
+        c: (N, nc) charts (reference rotations, column-major 3x3 per floating joint).
+        x: (N, n) workspace coordinates.
+        det: (N,) ``det J_p`` at each sample.
+        codes: (N,) status of each sample (0: cheap step, 1: followed the SC curve,
+            2: corrected from the predicted motion).
+    """
+
+    status: int
+    failed: int
+    y: np.ndarray
+    c: np.ndarray
+    x: np.ndarray
+    det: np.ndarray
+    codes: np.ndarray
+
+
+class CTracker:
+    """A loaded tracker library of one model.
+
+    Attributes:
+        path: the shared library.
+        m, k, nc, n: sizes of y, theta, the chart and x.
+    """
+
+    def __init__(self, path: Path, m: int, k: int, nc: int, n: int, prefix: str = PREFIX):
+        self.path = Path(path)
+        self.m, self.k, self.nc, self.n = m, k, nc, n
+        lib = ctypes.CDLL(str(path))
+        self._lib = lib
+        p = prefix
+        self._track = getattr(lib, f"{p}_tracker_track")
+        self._track.restype = ctypes.c_int
+        self._track.argtypes = [
+            _dp, ctypes.c_int, _dp, ctypes.c_int, _dp, ctypes.c_int, ctypes.POINTER(Options),
+            ctypes.c_long, _dp, _dp, _dp, _dp, _dp, _ip, _lp,
+        ]  # fmt: skip
+        defaults = getattr(lib, f"{p}_default_options")
+        defaults.restype = None
+        defaults.argtypes = [ctypes.POINTER(Options)]
+        size = getattr(lib, f"{p}_options_size")
+        size.restype = ctypes.c_int
+        if size() != ctypes.sizeof(Options):
+            raise BuildError(
+                f"{path}: options struct has {size()} bytes, the binding expects "
+                f"{ctypes.sizeof(Options)}"
+            )
+        self._defaults = defaults
+
+    def default_options(self) -> Options:
+        """The library's default options (tolerance, budgets)."""
+        opt = Options()
+        self._defaults(ctypes.byref(opt))
+        return opt
+
+    def track(
+        self,
+        y0: np.ndarray,
+        c0: np.ndarray,
+        theta0: np.ndarray,
+        thetas: np.ndarray,
+        options: Options | None = None,
+    ) -> TrackOutput:
+        """Run the whole sequence in one call into C.
+
+        Args:
+            y0: (m,) start unknowns in the chart ``c0``.
+            c0: (nc,) start chart.
+            theta0: (k,) start actuated values.
+            thetas: (N, k) readings to track.
+            options: tracker options (default: the library's).
+
+        Returns:
+            The raw output arrays (no verification: see :func:`scdk_sym.solvers.track_c`).
+        """
+        y0 = np.ascontiguousarray(y0, dtype=float)
+        c0 = np.ascontiguousarray(c0, dtype=float)
+        theta0 = np.ascontiguousarray(theta0, dtype=float)
+        th = np.ascontiguousarray(thetas, dtype=float)
+        N = th.shape[0] if th.ndim == 2 else 0
+        Y = np.empty((N, self.m))
+        C = np.empty((N, self.nc))
+        X = np.empty((N, self.n))
+        D = np.empty(N)
+        codes = np.empty(N, dtype=np.intc)
+        failed = ctypes.c_long(-1)
+        c_arg = _ptr(c0) if c0.size else _ptr(np.zeros(1))
+        status = self._track(
+            _ptr(y0), y0.size, c_arg, c0.size, _ptr(theta0), theta0.size,
+            ctypes.byref(options) if options is not None else None,
+            N, _ptr(th), _ptr(Y), _ptr(C) if self.nc else None, _ptr(X), _ptr(D),
+            codes.ctypes.data_as(_ip), ctypes.byref(failed),
+        )  # fmt: skip
+        return TrackOutput(int(status), int(failed.value), Y, C, X, D, codes)
+
+
+def _ptr(a: np.ndarray):
+    return a.ctypes.data_as(_dp)
+
+
+def tracker_library(model) -> CTracker:
+    """The model's C tracker, compiled on first use and cached on disk (and per model object).
+
+    Raises:
+        BuildError: no C compiler or the compilation failed.
+    """
+    store = model.__dict__
+    if "_c_tracker" in store:
+        return store["_c_tracker"]
+    with tempfile.TemporaryDirectory() as tmp:
+        src = generate(model, Path(tmp), PREFIX)
+        key = source_key(src)
+        target = cache_dir() / f"tracker_{key}.so"
+        if not target.exists():
+            partial = Path(tmp) / "libtracker.so"
+            compile_library(src, partial)
+            staged = target.with_suffix(f".{os.getpid()}.tmp")
+            shutil.copyfile(partial, staged)
+            os.replace(staged, target)
+    lib = CTracker(target, model.m, model.k, model.chart.size, len(model.workspace))
+    store["_c_tracker"] = lib
+    return lib
