@@ -31,16 +31,15 @@ def rot_exp(w: np.ndarray) -> np.ndarray:
 
 def rot_log(R: np.ndarray) -> np.ndarray:
     """Rotation vector [rad] of a rotation matrix (angle in [0, pi])."""
-    c = float(np.clip((np.trace(R) - 1) / 2, -1.0, 1.0))
-    angle = math.acos(c)
     w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    # atan2 of (sin, cos): accurate to rounding at every angle (acos loses digits near pi)
+    angle = math.atan2(0.5 * float(np.linalg.norm(w)), (float(np.trace(R)) - 1) / 2)
     if angle < 1e-9:
         return 0.5 * w
-    if math.pi - angle < 1e-6:  # half turn: axis from the symmetric part
-        B = (R + np.eye(3)) / 2
+    if math.pi - angle < 1e-3:  # near a half turn: axis from the symmetric part
+        B = (R + R.T) / 2 - math.cos(angle) * np.eye(3)  # = (1 - cos a) axis axis^T
         i = int(np.argmax(np.diag(B)))
-        axis = B[:, i] / math.sqrt(max(B[i, i], 1e-300))
-        axis /= np.linalg.norm(axis)
+        axis = B[:, i] / np.linalg.norm(B[:, i])
         if w @ axis < 0:
             axis = -axis
         return angle * axis
