@@ -62,7 +62,8 @@ def track_c(
         A verified :class:`~scdk_sym.results.TrackResult` (``backend="c"``): ``y`` canonical,
         ``x`` the workspace coordinates, ``residual`` max |closure row| per sample,
         ``crossings`` the singular-manifold crossings located between samples (each with
-        ``index``: the sample after which it occurs; -1 before the first sample).
+        ``index``: the sample after which it occurs, -1 before the first sample; ``s``: the
+        fraction of the way to the next sample).
 
     Raises:
         InputError: ``thetas`` has the wrong shape or non-finite values.
@@ -230,8 +231,15 @@ def _crossings(model, start, y_can, th, det) -> tuple[Crossing, ...]:
 
 
 def _locate(model, ya, yb, tha, thb, da, db, index) -> Crossing:
-    """The crossing between two samples: Newton on [g; t_s] from the interpolated point."""
+    """The crossing between two samples: where ``det J_p`` vanishes between them.
+
+    The chord between the samples in ``(y, theta)`` is projected onto the closure manifold
+    ``g = 0`` (minimum-norm Gauss-Newton over ``(y, theta)``, regular at direct-kinematic
+    singularities where ``[J_p, -J_s]`` keeps full rank), and the sign change of ``det J_p``
+    along it is bisected. ``s`` is the fraction of the way from the first sample.
+    """
     m = model.m
+    kern = model.kernels
     ya_loc, c = model.chart.to_local(ya)
     yb_loc = np.array(yb, dtype=float)
     for i, idx in enumerate(model.chart.rotations):
@@ -241,15 +249,37 @@ def _locate(model, ya, yb, tha, thb, da, db, index) -> Crossing:
         yb_loc[idx] = np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]]) / (
             1 + np.trace(M)
         )
-    alpha = da / (da - db)
-    q0 = np.append(ya_loc + alpha * (yb_loc - ya_loc), alpha)
-    v = np.append(yb_loc - ya_loc, 0.0)
-    v = v / max(float(np.linalg.norm(v)), 1e-300)
-    p = np.concatenate([tha, thb - tha, v, [1.0, 0.0]])
-    q1 = np.array(model.kernels.cross(q0, p, c)).ravel()
-    seg = float(np.linalg.norm(np.append(yb_loc - ya_loc, 1.0)))
-    if not np.all(np.isfinite(q1)) or np.linalg.norm(q1 - q0) > 2 * seg:
-        q1 = q0
-    s = float(q1[-1])
-    cfg = model.configuration(q1[:m], tha + s * (thb - tha), c)
-    return Crossing(s, cfg.x, cfg.y, cfg.theta, index)
+    za = np.concatenate([ya_loc, tha])
+    zb = np.concatenate([yb_loc, thb])
+
+    def project(alpha):
+        z = za + alpha * (zb - za)
+        for _ in range(30):
+            g = np.array(kern.g(z[:m], z[m:], c)).ravel()
+            if np.max(np.abs(g)) <= 1e-3 * model.tolerance:
+                break
+            Jp, Js = (np.array(a) for a in kern.jac(z[:m], z[m:], c))
+            G = np.hstack([Jp, -Js])
+            z = z - G.T @ np.linalg.solve(G @ G.T, g)
+        return z, float(np.linalg.det(np.array(kern.jac(z[:m], z[m:], c)[0])))
+
+    lo, hi = 0.0, 1.0
+    sign_lo = np.sign(da)
+    z = za
+    try:
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            z, det = project(mid)
+            if np.sign(det) == sign_lo:
+                lo = mid
+            else:
+                hi = mid
+            if hi - lo < 1e-13:
+                break
+    except np.linalg.LinAlgError:
+        pass
+    if not np.all(np.isfinite(z)):  # fall back on the chord (accurate to the sample spacing)
+        alpha = da / (da - db)
+        z = za + alpha * (zb - za)
+    cfg = model.configuration(z[:m], z[m:], c)
+    return Crossing(0.5 * (lo + hi), cfg.x, cfg.y, cfg.theta, index)
