@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import json
 import math
 from functools import cache
 from pathlib import Path
@@ -12,6 +13,7 @@ import pytest
 
 import scdk_sym as sc
 from scdk_sym import builders
+from scdk_sym.cli import main
 from scdk_sym.errors import InputError
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
@@ -208,3 +210,21 @@ def test_bad_input_names_the_argument(case: str) -> None:
     assert argument in message, message
     assert "\n" not in message
     assert isinstance(info.value, sc.ScdkError)
+
+
+def test_cli_solves_the_shipped_stewart_from_an_rpy_start(capsys) -> None:
+    m = sc.load_model(MODELS / "stewart_gough")
+    x = np.array([0.02, -0.01, 0.57, 0.1, -0.05, 0.2])  # x, y, z [m], roll, pitch, yaw [rad]
+    target = m.inverse_kinematics(x)
+    start = x + np.array([0.003, 0.003, -0.003, 0.01, 0.01, -0.01])
+    argv = ["solve", str(MODELS / "stewart_gough"), "--theta", ",".join(map(str, target.theta))]
+    assert main([*argv, "--from-x", ",".join(map(str, start)), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    np.testing.assert_allclose(out["x"], x, rtol=0, atol=1e-9)
+    assert out["crossings"] == [] and out["residual"] <= 1e-12
+    # the rpy convention: R = Rz(yaw) Ry(pitch) Rx(roll)
+    c, s = np.cos(x[3:]), np.sin(x[3:])
+    Rx = np.array([[1, 0, 0], [0, c[0], -s[0]], [0, s[0], c[0]]])
+    Ry = np.array([[c[1], 0, s[1]], [0, 1, 0], [-s[1], 0, c[1]]])
+    Rz = np.array([[c[2], -s[2], 0], [s[2], c[2], 0], [0, 0, 1]])
+    np.testing.assert_allclose(np.array(out["platform_pose"])[:3, :3], Rz @ Ry @ Rx, atol=1e-9)
