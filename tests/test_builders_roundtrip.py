@@ -379,3 +379,23 @@ def test_rpr_dk_is_a_root_of_the_polynomial() -> None:
         worst = max(worst, min(d))
     assert worst <= POSE_TOL, worst
     assert max(counts) >= 2  # other assembly modes exist: membership is a real check
+
+
+def test_rpr_every_real_root_is_reached_from_a_start_near_it() -> None:
+    m = model("planar_3rpr")
+    a = anchors(m, "base_anchor")[:, :2]
+    c = anchors(m, "platform_anchor")[:, :2]
+    rng = np.random.default_rng(8)
+    for _ in range(200):  # leg lengths with four real assembly modes
+        z = np.array([*rng.uniform(-0.5, 1.5, 2), rng.uniform(-math.pi, math.pi)])
+        R = np.array([[math.cos(z[2]), -math.sin(z[2])], [math.sin(z[2]), math.cos(z[2])]])
+        rho = np.linalg.norm(z[:2] + c @ R.T - a, axis=1)
+        sols = rpr_solutions(a, c, rho)
+        if len(sols) >= 4:
+            break
+    assert len(sols) >= 4
+    for s in sols:
+        start = m.inverse_kinematics(s + np.array([1e-3, -1e-3, 2e-3]))
+        res = solve(m, rho, start=start, record_path=False)
+        d = np.r_[res.x[:2] - s[:2], math.remainder(res.x[2] - s[2], 2 * math.pi)]
+        assert np.abs(d).max() <= POSE_TOL, (s, res.x)
