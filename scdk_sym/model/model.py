@@ -511,8 +511,8 @@ def load_model(path: str | Path, frame: str | None = None) -> Model:
     Args:
         path: model directory, or the path of its YAML file (the URDF is ``robot.urdf`` beside
             it, or the YAML's name with ``.urdf``).
-        frame: link whose pose is reported as x (default: the YAML's ``platform``, else
-            ``effector`` if present).
+        frame: link whose pose is reported as x, or a joint (its child link's frame, as in
+            Pinocchio) (default: the YAML's ``platform``, else ``effector`` if present).
 
     Raises:
         ModelError: missing files, malformed URDF/YAML, unknown names, non-square systems.
