@@ -380,6 +380,7 @@ typedef struct {
     int nhits;
     double ycheap[NY];    /* result of the cheap step */
     int cheap_valid;      /* it converged and the polish stayed local */
+    double det;           /* det J_p at the accepted solution (0: not computed) */
 } step_ctx;
 
 static double wdot(const double *a, const double *b, double w) {
@@ -407,6 +408,7 @@ static int cheap_step(@P@_state *st, step_ctx *cx, double *y) {
     cx->cheap_valid = 1;
     d1 = det_jp(st, y, cx->theta, st->c);
     if (sign_of(d1) == 0 || sign_of(d1) != sign_of(st->det)) return 0;
+    cx->det = d1;
     if (cx->has_pred) {
         double dp;
         if (!agrees(st, norm_inf_diff(y, cx->ypred, NY), dist)) return 0;
@@ -579,7 +581,9 @@ static int path_step(@P@_state *st, step_ctx *cx, double *y) {
     return best == pred_idx ? @PU@_OK_PREDICTED : @PU@_OK_PATH;
 }
 
-static void commit(@P@_state *st, const double *y, const double *theta) {
+/* move the state to (y, theta); det: det J_p there if known (its sign does not depend on the
+ * chart), else 0 */
+static void commit(@P@_state *st, const double *y, const double *theta, double det) {
     double y0[NY], c0[@PU@_NC_ALLOC];
     int i;
     memcpy(st->dy_prev, st->dy, sizeof st->dy);
@@ -593,7 +597,7 @@ static void commit(@P@_state *st, const double *y, const double *theta) {
     @P@_recentre(st->arg, st->res, st->iw, st->w, 0);
     memcpy(st->y, y0, sizeof y0);
     if (NC > 0) memcpy(st->c, c0, sizeof(double) * NC);
-    st->det = det_jp(st, st->y, st->theta, st->c);
+    st->det = det != 0.0 ? det : det_jp(st, st->y, st->theta, st->c);
 }
 
 int @P@_tracker_step(@P@_state *st, const double *theta, int ntheta) {
@@ -620,6 +624,7 @@ int @P@_tracker_step(@P@_state *st, const double *theta, int ntheta) {
     }
     cx.has_pred = st->has_motion > 0;
     cx.nhits = 0;
+    cx.det = 0.0;
     cx.ell = cx.w;
     if (cx.has_pred) { /* extrapolated motion (rotations: increments in the moving chart) */
         double n2 = cx.w * cx.w;
@@ -632,11 +637,12 @@ int @P@_tracker_step(@P@_state *st, const double *theta, int ntheta) {
         cx.ell = sqrt(n2);
     }
     if (!cheap_step(st, &cx, y)) {
+        cx.det = 0.0;
         status = path_step(st, &cx, y);
         if (status < 0) return status;
     }
     if (!(k_g(st, y, theta, st->c) <= st->opt.tol)) return @PU@_ERR_VERIFY;
-    commit(st, y, theta);
+    commit(st, y, theta, cx.det);
     return status;
 }
 
@@ -667,7 +673,7 @@ int @P@_tracker_init(@P@_state *st, const double *y, int ny, const double *c, in
     {
         double yc[NY];
         memcpy(yc, st->y, sizeof yc);
-        commit(st, yc, theta); /* re-centre the chart */
+        commit(st, yc, theta, 0.0); /* re-centre the chart */
     }
     memset(st->dy, 0, sizeof st->dy);
     memset(st->dy_prev, 0, sizeof st->dy_prev);
@@ -684,14 +690,17 @@ int @P@_tracker_get(const @P@_state *st, double *y, int ny, double *c, int nc, d
     if (y) memcpy(y, st->y, sizeof(double) * NY);
     if (c && NC > 0) memcpy(c, st->c, sizeof(double) * NC);
     if (x) {
-        @P@_state tmp = *st; /* the kernels need work space */
+        const casadi_real *arg[@PU@_SZ_ARG];
+        casadi_real *res[@PU@_SZ_RES];
+        casadi_int iw[@PU@_SZ_IW];
+        casadi_real w[@PU@_SZ_W];
         double T[16];
-        tmp.arg[0] = st->y;
-        tmp.arg[1] = st->theta;
-        tmp.arg[2] = st->c;
-        tmp.res[0] = T;
-        tmp.res[1] = x;
-        @P@_pose(tmp.arg, tmp.res, tmp.iw, tmp.w, 0);
+        arg[0] = st->y;
+        arg[1] = st->theta;
+        arg[2] = st->c;
+        res[0] = T;
+        res[1] = x;
+        @P@_pose(arg, res, iw, w, 0);
     }
     return @PU@_OK;
 }
