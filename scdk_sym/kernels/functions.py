@@ -26,6 +26,8 @@ import casadi as ca
 from ..symbolic.system import Symbolic
 
 FINISH_RK_STEPS = 4
+#: RK4 steps of the warm (fast-path) kernel: warm solves move little.
+WARM_RK_STEPS = 1
 NEWTON_STEPS = 4
 CROSS_NEWTON_STEPS = 8
 
@@ -49,6 +51,9 @@ class Kernels:
             RK4 in s from s_a to 1, then Newton.
         cross: (q, p, c) -> q on the singular manifold (Newton on [g; t_s]).
         ik_step: (z[m+k], T_target[4,4], c) -> (z_new, max|F|): Newton step on [g; pose error].
+        warm: (y1, theta1, theta0, c) -> (y0, max|Newton correction|, max|check| at the start,
+            max|check| at the end, vec(J_p) at the start, vec(J_p) at the end, T[4,4], x[n]):
+            the whole convergent fast path of a warm solve in one call.
     """
 
     g: ca.Function
@@ -60,6 +65,7 @@ class Kernels:
     finish: ca.Function
     cross: ca.Function
     ik_step: ca.Function
+    warm: ca.Function
 
     def all(self) -> list[ca.Function]:
         return [getattr(self, f.name) for f in fields(self)]
@@ -114,26 +120,31 @@ def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
     ya = ca.SX.sym("y_a", m)
     sa = ca.SX.sym("s_a")
     dyds = ca.Function("dyds", [y, s, theta1, dtheta, c], [ca.solve(Jp, js)])
-    h = (1 - sa) / FINISH_RK_STEPS
-    yk = ya
-    sk = sa
-    for _ in range(FINISH_RK_STEPS):
-        k1 = dyds(yk, sk, theta1, dtheta, c)
-        k2 = dyds(yk + h / 2 * k1, sk + h / 2, theta1, dtheta, c)
-        k3 = dyds(yk + h / 2 * k2, sk + h / 2, theta1, dtheta, c)
-        k4 = dyds(yk + h * k3, sk + h, theta1, dtheta, c)
-        yk = yk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        sk = sk + h
     newton = ca.Function("newton1", [y, theta, c], [y - ca.solve(sym.J_p, sym.g)])
-    theta0 = theta1 + dtheta
-    y_pred = yk
-    for _ in range(NEWTON_STEPS):
-        yk = newton(yk, theta0, c)
-    res = ca.norm_inf(ca.substitute(sym.g, ca.vertcat(y, theta), ca.vertcat(yk, theta0)))
+
+    def rk_newton(y_a, s_a, th1, dth, rk_steps: int, newton_steps: int):
+        h = (1 - s_a) / rk_steps
+        yk, sk = y_a, s_a
+        for _ in range(rk_steps):
+            k1 = dyds(yk, sk, th1, dth, c)
+            k2 = dyds(yk + h / 2 * k1, sk + h / 2, th1, dth, c)
+            k3 = dyds(yk + h / 2 * k2, sk + h / 2, th1, dth, c)
+            k4 = dyds(yk + h * k3, sk + h, th1, dth, c)
+            yk = yk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            sk = sk + h
+        y_pred = yk
+        for _ in range(newton_steps):
+            yk = newton(yk, th1 + dth, c)
+        return yk, ca.norm_inf(yk - y_pred)
+
+    y_fin, corr_fin = rk_newton(ya, sa, theta1, dtheta, FINISH_RK_STEPS, NEWTON_STEPS)
+    res = ca.norm_inf(
+        ca.substitute(sym.g, ca.vertcat(y, theta), ca.vertcat(y_fin, theta1 + dtheta))
+    )
     f_finish = ca.Function(
         f"{name}_finish",
         [ya, sa, theta1, dtheta, c],
-        [yk, res, ca.norm_inf(yk - y_pred)],
+        [y_fin, res, corr_fin],
         ["y_a", "s_a", "theta1", "dtheta", "c"],
         ["y", "residual", "correction"],
     )
@@ -164,4 +175,20 @@ def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
         ["z", "T_target", "c"],
         ["z_new", "residual"],
     )
-    return Kernels(f_g, f_check, f_jac, f_pose, f_field, f_probe, f_finish, f_cross, f_ik)
+    # warm: one RK4-in-s sweep from s = 0 with its Newton polish, and what verifies it
+    y1 = ca.SX.sym("y1", m)
+    th1 = ca.SX.sym("theta1", sym.k)
+    th0 = ca.SX.sym("theta0", sym.k)
+    y0, corr = rk_newton(y1, 0, th1, th0 - th1, WARM_RK_STEPS, NEWTON_STEPS)
+    at = ca.Function("at", [y, theta, c], [ca.norm_inf(sym.g_check), ca.vec(sym.J_p)])
+    res1, J1 = at(y1, th1, c)
+    res0, J0 = at(y0, th0, c)
+    T0, x0 = f_pose(y0, th0, c)
+    f_warm = ca.Function(
+        f"{name}_warm",
+        [y1, th1, th0, c],
+        [ca.densify(e) for e in (y0, corr, res1, res0, J1, J0, T0, x0)],
+        ["y1", "theta1", "theta0", "c"],
+        ["y0", "correction", "residual1", "residual0", "J_p1", "J_p0", "T", "x"],
+    )
+    return Kernels(f_g, f_check, f_jac, f_pose, f_field, f_probe, f_finish, f_cross, f_ik, f_warm)

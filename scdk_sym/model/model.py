@@ -405,12 +405,17 @@ class Model:
         else:
             y_loc, y = y, self.chart.to_canonical(y, c)
         T, x = self.kernels.pose(y_loc, theta, c)
+        residual = float(np.max(np.abs(np.array(self.kernels.check(y_loc, theta, c)))))
+        return Configuration(
+            theta, y, np.array(x).ravel(), np.array(T), self.joint_values(y, theta), residual
+        )
+
+    def joint_values(self, y: np.ndarray, theta: np.ndarray) -> dict[str, float]:
+        """Every joint coordinate (URDF order, locked ones included) from canonical y, theta."""
         joints = dict(self.locked)
         joints.update(zip(self.unknowns, y.tolist(), strict=True))
         joints.update(zip(self.actuated, theta.tolist(), strict=True))
-        ordered = {j: joints[j] for j in self.tree.coordinates}
-        residual = float(np.max(np.abs(np.array(self.kernels.check(y_loc, theta, c)))))
-        return Configuration(theta, y, np.array(x).ravel(), np.array(T), ordered, residual)
+        return {j: joints[j] for j in self.tree.coordinates}
 
     def target_pose(self, x: Sequence[float]) -> np.ndarray:
         """The 4x4 placement with workspace coordinates ``x`` (other components from home)."""

@@ -21,6 +21,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import InputError, NotAssembledError, PathError, SolveError, VerificationError
+from ..kernels.fastcall import Buffered
 from ..model.model import Model, as_vector
 from ..results import Configuration, Crossing, PathSamples, SolveResult
 
@@ -49,6 +50,7 @@ class Engine:
     probe: ca.Function
     m: int
     k: int
+    warm: Buffered
 
 
 def engine(model: Model, backend: str = "casadi") -> Engine:
@@ -76,7 +78,7 @@ def engine(model: Model, backend: str = "casadi") -> Engine:
     dae = {"x": q, "p": ca.vertcat(p, c), "ode": kern.field(q, p, c)}
     grid = np.linspace(0.0, 1.0, GRID + 1)[1:]
     integ = ca.integrator("sc_chunk", "cvodes", dae, 0.0, grid, CVODES_OPTIONS)
-    eng = Engine(model, kern, integ, kern.probe.map(GRID + 1), m, k)
+    eng = Engine(model, kern, integ, kern.probe.map(GRID + 1), m, k, Buffered(kern.warm))
     store[backend] = eng
     return eng
 
@@ -95,7 +97,9 @@ def _wnorm(v: np.ndarray, w: float) -> float:
     return float(math.sqrt(float(v[:-1] @ v[:-1]) + (w * v[-1]) ** 2))
 
 
-def validate_start(model: Model, start: Configuration | None) -> Configuration:
+def validate_start(
+    model: Model, start: Configuration | None, check_residual: bool = True
+) -> Configuration:
     """The start configuration (default home), checked to be assembled."""
     if start is None:
         return model.home
@@ -105,6 +109,8 @@ def validate_start(model: Model, start: Configuration | None) -> Configuration:
         )
     as_vector(start.y, model.m, "start.y")
     as_vector(start.theta, model.k, "start.theta")
+    if not check_residual:
+        return start
     res = model.residual(start.y, start.theta)
     if res > model.tolerance:
         raise NotAssembledError(
@@ -368,9 +374,10 @@ def solve(
         backend: "casadi" or "compiled" kernels.
         max_arc: arc-length budget of the path (see :func:`trace`).
         record_path: keep the sampled curve in ``result.path`` (for plots).
-        fast: for a convergent solve, first try one RK4-in-s step with a Newton polish; it
-            is accepted only if the polish moved the prediction by less than 1e-7 (relative)
-            and ``det J_p`` kept its sign, else the full CVODES path is integrated.
+        fast: for a convergent solve without ``record_path``, first try one call of the warm
+            kernel (an RK4 step in s with a Newton polish); it is accepted only if the polish
+            moved the prediction by less than 1e-7 (relative) and ``det J_p`` kept its sign,
+            else the full CVODES path is integrated.
 
     Returns:
         A verified :class:`SolveResult`; ``result.crossings`` lists the singular-manifold
@@ -383,11 +390,16 @@ def solve(
         VerificationError: the final configuration failed its residual check.
     """
     theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
-    start = validate_start(model, start)
     if b is None and branch not in ("convergent", "divergent"):
         raise InputError(f"unknown branch {branch!r}; branches: convergent, divergent")
     if b is not None and (not math.isfinite(b) or b == 0):
         raise InputError(f"b must be a non-zero finite number, got {b!r}")
+    if fast and not record_path and b is None and branch == "convergent":
+        start = validate_start(model, start, check_residual=False)
+        res = _fast_convergent(model, theta0, start, backend)
+        if res is not None:
+            return res
+    start = validate_start(model, start)
     dtheta = theta0 - start.theta
     if float(np.linalg.norm(dtheta)) <= 1e-14 * max(1.0, float(np.linalg.norm(theta0))):
         return _result(model, start.y, theta0, (), "convergent", 1.0, start, None)
@@ -403,10 +415,6 @@ def solve(
     else:
         direction = 1.0 if b > 0 else -1.0
     name = "convergent" if direction * det0 > 0 else "divergent"
-    if fast and not record_path and name == "convergent":
-        y = _fast_convergent(model, theta0, start, det0, backend)
-        if y is not None:
-            return _result(model, y, theta0, (), name, direction, start, None)
     tr = trace(
         model, theta0, start, direction, max_arc=max_arc, backend=backend, record_path=record_path
     )
@@ -422,21 +430,43 @@ def solve(
     return _result(model, hit.y, theta0, crossings, name, direction, start, tr.path)
 
 
-def _fast_convergent(model, theta0, start, det0, backend) -> np.ndarray | None:
+def _fast_convergent(model, theta0, start, backend) -> SolveResult | None:
+    """One call of the warm kernel (RK4 in s + Newton + checks); None when not conclusive."""
     eng = engine(model, backend)
-    y_loc, c = model.chart.to_local(start.y)
-    dtheta = theta0 - start.theta
-    y, res, corr = eng.kernels.finish(y_loc, 0.0, start.theta, dtheta, c)
-    y = np.array(y).ravel()
-    step = float(np.linalg.norm(y - y_loc, np.inf))
-    if not (np.all(np.isfinite(y)) and float(res) <= model.tolerance):
+    y1, c = model.chart.to_local(start.y)
+    y0, corr, res1, res0, J1, J0, T, x = eng.warm(y1, start.theta, theta0, c)
+    if not res1[0] <= model.tolerance:
+        raise NotAssembledError(
+            f"start configuration is not assembled (residual {res1[0]:.3g} > "
+            f"{model.tolerance:.1e})",
+            float(res1[0]),
+        )
+    m = model.m
+    if not (np.all(np.isfinite(y0)) and res0[0] <= model.tolerance):
         return None
-    if float(corr) > 1e-7 * max(step, 1e-300) + 1e-13:
+    step = float(np.max(np.abs(y0 - y1)))
+    if corr[0] > 1e-7 * step + 1e-13:
         return None
-    det1 = float(np.linalg.det(np.array(eng.kernels.jac(y, theta0, c)[0])))
-    if det1 * det0 <= 0:
+    det1 = np.linalg.det(J1.reshape(m, m, order="F"))
+    det0 = np.linalg.det(J0.reshape(m, m, order="F"))
+    if not det1 * det0 > 0:
         return None
-    return model.chart.to_canonical(y, c)
+    y = model.chart.to_canonical(y0, c)
+    theta = theta0.copy()
+    return SolveResult(
+        x=x.copy(),
+        y=y,
+        theta=theta,
+        platform_pose=T.reshape(4, 4, order="F").copy(),
+        joints=model.joint_values(y, theta),
+        residual=float(res0[0]),
+        crossings=(),
+        status="converged",
+        branch="convergent",
+        b=1.0 if det1 > 0 else -1.0,
+        start=start,
+        path=None,
+    )
 
 
 def _result(model, y, theta0, crossings, branch, direction, start, path) -> SolveResult:
