@@ -1,0 +1,416 @@
+"""Figures like the paper's Figs. 4-6 (PNG, headless matplotlib) and of tracked motions.
+
+* :func:`plot_configurations` (Fig. 4): the robot drawn in the base x-y plane at several
+  configurations (start, solutions, singular configuration).
+* :func:`plot_det_jp` (Fig. 5): ``det J_p`` along ``s`` for the two branches of a solve.
+* :func:`plot_phase` (Fig. 6): the phase plot ``s' = b det J_p`` against ``s``.
+* :func:`plot_solve` writes all three for a solve on both branches.
+* :func:`plot_track`: the pose components of a track against the sample index, with the
+  singular-manifold crossings marked.
+
+matplotlib is imported lazily (``pip install 'scdk_sym[plot]'``) and used without pyplot, on
+its Agg canvas, so it never changes the caller's backend.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError, ScdkError
+from .model.chart import rot_exp
+from .model.model import Model, as_vector
+from .results import Configuration, SolveResult, TrackResult
+
+#: Colours of the two branches (convergent, divergent) and of the singular configuration.
+COLORS = {"convergent": "tab:blue", "divergent": "tab:orange", "singular": "tab:red"}
+
+
+class PlotError(ScdkError):
+    """A figure could not be made (matplotlib missing, nothing to draw, unwritable path)."""
+
+
+def _figure(width: float = 6.0, height: float = 4.5):
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise PlotError(
+            "figures need matplotlib: pip install 'scdk_sym[plot]' (or pip install matplotlib)"
+        ) from exc
+    fig = Figure(figsize=(width, height), dpi=120)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _save(fig, path: str | Path) -> Path:
+    p = Path(path)
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(p, format="png")
+    except OSError as exc:
+        raise PlotError(f"cannot write figure {str(p)!r}: {exc.strerror or exc}") from exc
+    return p
+
+
+# ---------------------------------------------------------------------------- geometry
+
+
+def _placements(model: Model, cfg: Configuration) -> tuple[dict, dict]:
+    """World placements (4x4) of every link and of every joint frame (before its motion)."""
+    values = dict(cfg.joints)
+    links: dict[str, np.ndarray] = {model.tree.root: np.eye(4)}
+    frames: dict[str, np.ndarray] = {}
+    for j in model.tree.joints:
+        F = links[j.parent] @ np.asarray(j.origin, dtype=float)
+        frames[j.name] = F
+        M = np.eye(4)
+        if j.type == "floating":
+            c = [values[n] for n in j.coordinates]
+            M[:3, :3] = rot_exp(np.array(c[3:]))
+            M[:3, 3] = c[:3]
+        elif j.type == "prismatic":
+            M[:3, 3] = np.asarray(j.axis) * values[j.name]
+        elif j.type in ("revolute", "continuous"):
+            M[:3, :3] = rot_exp(np.asarray(j.axis) * values[j.name])
+        links[j.child] = F @ M
+    return links, frames
+
+
+def _rigid_groups(model: Model) -> dict[str, int]:
+    """Link -> index of its rigid body (links joined by fixed joints)."""
+    parent = {link: link for link in model.tree.links}
+
+    def find(a: str) -> str:
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    for j in model.tree.joints:
+        if j.type == "fixed":
+            parent[find(j.child)] = find(j.parent)
+    roots = sorted({find(link) for link in model.tree.links})
+    return {link: roots.index(find(link)) for link in model.tree.links}
+
+
+def robot_drawing(model: Model, cfg: Configuration) -> tuple[list, list]:
+    """Polygons (rigid bodies with three or more points) and segments of a configuration.
+
+    Returns:
+        (polygons, segments): lists of (N, 2) and (2, 2) arrays of x-y points in the base
+        frame [model length unit]; the first polygon is the base (empty if it is not one).
+    """
+    links, frames = _placements(model, cfg)
+    group = _rigid_groups(model)
+    points: dict[int, list[np.ndarray]] = {}
+    for link, T in links.items():
+        points.setdefault(group[link], []).append(T[:3, 3])
+    for j in model.tree.joints:  # joint frames belong to the body of their parent link
+        points[group[j.parent]].append(frames[j.name][:3, 3])
+    polygons, big = [], set()
+    base = group[model.tree.root]
+    for g in sorted(points, key=lambda g: (g != base, g)):  # the base first
+        P = np.unique(np.round(np.array(points[g])[:, :2], 12), axis=0)
+        if len(P) >= 3 and _area(P) > 1e-9 * max(1.0, model.length_scale) ** 2:
+            polygons.append(_hull(P))
+            big.add(g)
+    if base not in big:
+        polygons.insert(0, np.zeros((0, 2)))
+    segments = []
+    entry = {j.child: j.name for j in model.tree.joints}
+    for j in model.tree.joints:
+        if j.type == "fixed" or group[j.parent] in big or j.parent not in entry:
+            continue
+        a = frames[entry[j.parent]][:3, 3]  # where the parent link is driven
+        b = frames[j.name][:3, 3]
+        if np.linalg.norm(a - b) > 1e-12 * max(1.0, model.length_scale):
+            segments.append(np.array([a[:2], b[:2]]))
+    for j in model.tree.joints:  # links ending in free rod ends (e.g. 2d/3d closures)
+        if j.type == "fixed" and group[j.parent] not in big and j.parent in entry:
+            a = frames[entry[j.parent]][:3, 3]
+            b = links[j.child][:3, 3]
+            if np.linalg.norm(a - b) > 1e-12 * max(1.0, model.length_scale):
+                segments.append(np.array([a[:2], b[:2]]))
+    for c in model.closures:
+        if c.type == "distance":
+            segments.append(np.array([links[c.frame_a][:2, 3], links[c.frame_b][:2, 3]]))
+    return polygons, segments
+
+
+def _area(P: np.ndarray) -> float:
+    H = _hull(P)
+    x, y = H[:, 0], H[:, 1]
+    return 0.5 * abs(float(x @ np.roll(y, -1) - y @ np.roll(x, -1)))
+
+
+def _hull(P: np.ndarray) -> np.ndarray:
+    """Convex hull (monotone chain) of 2-D points, counter-clockwise."""
+    pts = sorted(map(tuple, P))
+    if len(pts) < 3:
+        return np.array(pts)
+
+    def half(seq):
+        out: list = []
+        for p in seq:
+            while len(out) >= 2 and _cross(out[-2], out[-1], p) <= 0:
+                out.pop()
+            out.append(p)
+        return out[:-1]
+
+    return np.array(half(pts) + half(reversed(pts)))
+
+
+def _cross(o, a, b) -> float:
+    return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+
+# ---------------------------------------------------------------------------- figures
+
+
+def plot_configurations(
+    model: Model,
+    configurations: Sequence[tuple[str, Configuration, str]],
+    path: str | Path,
+    title: str | None = None,
+) -> Path:
+    """Draw configurations of the robot in the base x-y plane (the paper's Fig. 4).
+
+    Args:
+        model: the model.
+        configurations: (label, configuration, colour) triples, drawn in order.
+        path: PNG file to write.
+        title: figure title (default: the model name).
+
+    Returns:
+        The path written.
+    """
+    if not configurations:
+        raise PlotError("no configuration to draw")
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Polygon
+
+    fig = _figure(6.0, 6.0)
+    ax = fig.add_subplot(1, 1, 1)
+    handles = []
+    for n, (label, cfg, color) in enumerate(configurations):
+        polygons, segments = robot_drawing(model, cfg)
+        style = "--" if label.startswith("start") else "-"
+        base, polygons = polygons[0], polygons[1:]
+        if n == 0 and len(base):  # the base does not move: drawn once
+            ax.add_patch(Polygon(base, closed=True, facecolor="0.85", edgecolor="black",
+                                 linewidth=1.2, zorder=0))  # fmt: skip
+        for P in polygons:
+            ax.add_patch(Polygon(P, closed=True, fill=True, alpha=0.12, facecolor=color,
+                                 edgecolor=color, linestyle=style, linewidth=1.4))  # fmt: skip
+        for S in segments:
+            ax.plot(S[:, 0], S[:, 1], style, color=color, linewidth=1.6, marker="o",
+                    markersize=3)  # fmt: skip
+        handles.append(Line2D([], [], color=color, linestyle=style, label=label))
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.autoscale_view()
+    ax.grid(True, alpha=0.3)
+    ax.set_xlabel("x")
+    ax.set_ylabel("y")
+    ax.set_title(title or f"{model.name}: configurations")
+    ax.legend(handles=handles, loc="best", fontsize="small")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def _branch_curves(results: Sequence[SolveResult]):
+    """(result, s, det J_p, s', style) of each recorded path, cut where it reaches s = 1."""
+    curves = [r for r in results if r.path is not None]
+    if not curves:
+        raise PlotError("the solve results have no recorded path: solve with record_path=True")
+    out = []
+    for r in curves:
+        p = r.path
+        s, det, sdot = (np.asarray(a, dtype=float) for a in (p.s, p.det_jp, p.sdot))
+        d = s - 1.0
+        idx = np.nonzero((d[:-1] * d[1:] <= 0) & (d[:-1] != d[1:]))[0]
+        if idx.size:  # the solution: the first crossing of s = 1 along the path
+            i = int(idx[0])
+            a = d[i] / (d[i] - d[i + 1])
+            s = np.append(s[: i + 1], 1.0)
+            det = np.append(det[: i + 1], det[i] + a * (det[i + 1] - det[i]))
+            sdot = np.append(sdot[: i + 1], sdot[i] + a * (sdot[i + 1] - sdot[i]))
+        wide = r.branch == "convergent"
+        style = {"color": COLORS.get(r.branch), "linewidth": 4.0 if wide else 1.6,
+                 "alpha": 0.45 if wide else 1.0}  # fmt: skip
+        out.append((r, s, det, sdot, style))
+    return out
+
+
+def plot_det_jp(results: Sequence[SolveResult], path: str | Path, title: str | None = None):
+    """``det J_p`` along ``s`` for each solve (the paper's Fig. 5).
+
+    Args:
+        results: solves with a recorded path (``record_path=True``), e.g. both branches.
+        path: PNG file to write.
+        title: figure title.
+
+    Returns:
+        The path written.
+    """
+    fig = _figure()
+    ax = fig.add_subplot(1, 1, 1)
+    for r, s, det, _, style in _branch_curves(results):
+        ax.plot(s, det, label=f"{r.branch} (b = {r.b:+.0f})", **style)
+        ax.plot(s[:1], det[:1], "o", color=style["color"])
+        ax.plot(s[-1:], det[-1:], "s", color=style["color"])
+        for c in r.crossings:
+            ax.plot([c.s], [0.0], "x", color=COLORS["singular"], markersize=9, mew=2)
+    ax.axhline(0.0, color="black", linewidth=0.8)
+    ax.axvline(1.0, color="gray", linewidth=0.8, linestyle=":")
+    ax.set_xlabel("s")
+    ax.set_ylabel("det J_p")
+    ax.set_title(title or "det J_p along the path (o start, square solution, x singular)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize="small")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_phase(results: Sequence[SolveResult], path: str | Path, title: str | None = None):
+    """Phase plot ``s' = b det J_p`` against ``s`` for each solve (the paper's Fig. 6).
+
+    Args:
+        results: solves with a recorded path (``record_path=True``).
+        path: PNG file to write.
+        title: figure title.
+
+    Returns:
+        The path written.
+    """
+    fig = _figure()
+    ax = fig.add_subplot(1, 1, 1)
+    for r, s, _, sdot, style in _branch_curves(results):
+        ax.plot(s, sdot, label=f"{r.branch} (b = {r.b:+.0f})", **style)
+        ax.plot(s[:1], sdot[:1], "o", color=style["color"])
+        ax.plot(s[-1:], sdot[-1:], "s", color=style["color"])
+        for c in r.crossings:
+            ax.plot([c.s], [0.0], "x", color=COLORS["singular"], markersize=9, mew=2)
+    ax.axhline(0.0, color="black", linewidth=0.8)
+    ax.axvline(1.0, color="gray", linewidth=0.8, linestyle=":")
+    ax.set_xlabel("s")
+    ax.set_ylabel("s' = b det J_p")
+    ax.set_title(title or "phase plot (o start, square solution, x singular)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize="small")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_solve(
+    model: Model,
+    theta0: Sequence[float],
+    start: Configuration | None = None,
+    out_dir: str | Path = ".",
+    prefix: str | None = None,
+    backend: str = "casadi",
+) -> list[Path]:
+    """Solve on both branches and write the paper's three figures.
+
+    Files: ``<prefix>_configurations.png`` (start, the two solutions and the singular
+    configurations met), ``<prefix>_det_jp.png`` and ``<prefix>_phase.png``.
+
+    Args:
+        model: the model.
+        theta0: (k,) actuated values to solve for.
+        start: start configuration (default ``model.home``).
+        out_dir: directory of the figures (created if needed).
+        prefix: file name prefix (default: the model name).
+        backend: kernel backend of the solver.
+
+    Returns:
+        The three paths written.
+
+    Raises:
+        PathError: a branch does not reach ``theta0`` (the error names it).
+    """
+    from .solvers.sc import solve
+
+    theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
+    start = model.home if start is None else start
+    results = [
+        solve(model, theta0, start=start, branch=b, record_path=True, backend=backend)
+        for b in ("convergent", "divergent")
+    ]
+    out = Path(out_dir)
+    prefix = prefix or model.name
+    shown = [("start " + _fmt(start.x), start, "gray")]
+    for r in results:
+        shown.append((f"{r.branch} " + _fmt(r.x), r.configuration, COLORS[r.branch]))
+    for r in results:
+        for c in r.crossings:
+            cfg = model.configuration(c.y, c.theta)
+            shown.append(("singular " + _fmt(cfg.x), cfg, COLORS["singular"]))
+    return [
+        plot_configurations(model, shown, out / f"{prefix}_configurations.png"),
+        plot_det_jp(results, out / f"{prefix}_det_jp.png"),
+        plot_phase(results, out / f"{prefix}_phase.png"),
+    ]
+
+
+def _fmt(x: np.ndarray) -> str:
+    return "x = [" + ", ".join(f"{0.0 if abs(v) < 1e-9 else v:.4g}" for v in np.asarray(x)) + "]"
+
+
+def plot_track(
+    model: Model, result: TrackResult, path: str | Path, title: str | None = None
+) -> Path:
+    """Pose components of a track against the sample index, crossings marked.
+
+    Each singular-manifold crossing (between samples ``index`` and ``index + 1``) is a
+    vertical line at ``index + 0.5``.
+
+    Args:
+        model: the model (for the coordinate names).
+        result: the track.
+        path: PNG file to write.
+        title: figure title.
+
+    Returns:
+        The path written.
+    """
+    x = np.asarray(result.x)
+    if x.ndim != 2 or x.shape[1] != len(model.workspace) or not len(x):
+        raise InputError(
+            f"track result x must have shape (N, {len(model.workspace)}), got {x.shape}"
+        )
+    n = x.shape[1]
+    fig = _figure(7.0, 1.6 + 1.4 * n)
+    t = np.arange(len(x))
+    axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
+    for i, (ax, name) in enumerate(zip(axes, model.workspace, strict=True)):
+        ax.plot(t, x[:, i], ".-", color="tab:blue", markersize=3, linewidth=1.0)
+        for k, c in enumerate(result.crossings):
+            ax.axvline(c.index + 0.5, color=COLORS["singular"], linestyle="--", linewidth=1.0,
+                       label="singular crossing" if (i == 0 and k == 0) else None)  # fmt: skip
+        unit = 1.0 if name in ("phi", "roll", "pitch", "yaw") else max(model.length_scale, 1e-12)
+        lo, hi = float(np.min(x[:, i])), float(np.max(x[:, i]))
+        if hi - lo < 1e-3 * unit:  # (nearly) constant: do not blow rounding noise up
+            mid = 0.5 * (lo + hi)
+            ax.set_ylim(mid - 0.05 * unit, mid + 0.05 * unit)
+        ax.set_ylabel(name)
+        ax.grid(True, alpha=0.3)
+    axes[-1].set_xlabel("sample")
+    if result.crossings:
+        axes[0].legend(fontsize="small", loc="best")
+    fig.suptitle(title or f"{model.name}: tracked pose ({len(result.crossings)} crossing(s))")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+__all__ = [
+    "PlotError",
+    "plot_configurations",
+    "plot_det_jp",
+    "plot_phase",
+    "plot_solve",
+    "plot_track",
+    "robot_drawing",
+]
