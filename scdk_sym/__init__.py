@@ -4,7 +4,9 @@ from . import builders
 from .errors import ScdkError
 from .model.model import Model, load_model
 from .results import Configuration, Crossing, SolveResult, TrackResult
+from .solvers.modes import assembly_modes
 from .solvers.sc import solve
+from .solvers.track import track
 
 __all__ = [
     "Configuration",
@@ -13,7 +15,9 @@ __all__ = [
     "ScdkError",
     "SolveResult",
     "TrackResult",
+    "assembly_modes",
     "builders",
     "load_model",
     "solve",
+    "track",
 ]

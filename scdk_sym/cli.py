@@ -174,6 +174,161 @@ def _codegen(args: argparse.Namespace) -> int:
     return 0
 
 
+# ---------------------------------------------------------------------------- modes
+
+
+def _modes_args(p: argparse.ArgumentParser) -> None:
+    add_model_args(p)
+    p.add_argument("--theta", required=True, help="actuated joint values a,b,c [rad or m]")
+    p.add_argument("--from-x", help="start pose in workspace coordinates (default: home)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random directions")
+    p.add_argument("--time-budget", type=float, help="wall-time limit [s] (default: none)")
+    p.add_argument("--backend", default="casadi", choices=["casadi", "compiled"])
+    p.add_argument("--progress", action="store_true", help="progress bar on stderr")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+@command("modes", "all assembly modes (real direct-kinematics solutions)", _modes_args)
+def _modes(args: argparse.Namespace) -> int:
+    from .solvers.modes import explore
+
+    model = load(args)
+    theta = floats(args.theta, "--theta")
+    start = start_configuration(model, args)
+    search = explore(
+        model,
+        theta,
+        start=start,
+        seed=args.seed,
+        time_budget=args.time_budget,
+        progress=args.progress,
+        backend=args.backend,
+    )
+    if args.json:
+        sols = [dict(s.to_dict(), crossings=[], status="converged") for s in search.solutions]
+        dump({"solutions": sols, "count": len(sols), "complete": search.complete})
+        return 0
+    print(f"model {model.name}: x = ({', '.join(model.workspace)}) of {model.frame!r}")
+    print(
+        f"theta0 = {fmt(theta)}: {len(search.solutions)} solution(s), {search.curves} curves, "
+        f"{search.steps} steps, {search.elapsed:.3f} s"
+        + ("" if search.complete else " (stopped by the budget)")
+    )
+    for i, s in enumerate(search.solutions, 1):
+        print(f"{i:>4}: x = {fmt(s.x)}  residual {s.residual:.1e}")
+    return 0
+
+
+# ---------------------------------------------------------------------------- track
+
+
+def read_thetas(path: str, model) -> np.ndarray:
+    """Joint readings from a CSV file: one row per sample, one column per actuated joint.
+
+    A first line of names (the model's actuated joints, any order) is optional; ``#`` starts
+    a comment.
+    """
+    try:
+        from pathlib import Path
+
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise InputError(f"--thetas: cannot read {path!r}: {exc.strerror or exc}") from exc
+    lines = [ln.split("#")[0].strip() for ln in text.splitlines()]
+    lines = [ln for ln in lines if ln]
+    if not lines:
+        raise InputError(f"--thetas: {path!r} has no rows")
+    order = list(range(model.k))
+    first = [c.strip() for c in lines[0].split(",")]
+    try:
+        [float(c) for c in first]
+    except ValueError:
+        from .errors import UnknownNameError
+
+        for name in first:
+            if name not in model.actuated:
+                raise UnknownNameError("actuated joint", name, model.actuated) from None
+        if sorted(first) != sorted(model.actuated):
+            raise InputError(
+                f"--thetas: {path!r} header {first} must name each of {list(model.actuated)}"
+            ) from None
+        order = [first.index(a) for a in model.actuated]
+        lines = lines[1:]
+    rows = []
+    for n, ln in enumerate(lines, 1):
+        vals = floats(ln, f"--thetas {path!r} row {n}")
+        if vals.size != model.k:
+            raise InputError(
+                f"--thetas: {path!r} row {n} has {vals.size} values, expected {model.k} "
+                f"({', '.join(model.actuated)})"
+            )
+        rows.append(vals[order])
+    return np.array(rows)
+
+
+def _track_args(p: argparse.ArgumentParser) -> None:
+    add_model_args(p)
+    p.add_argument("--thetas", required=True, help="CSV file of joint readings (N rows, k columns)")
+    p.add_argument("--from-x", help="start pose in workspace coordinates (default: home)")
+    p.add_argument("--backend", default="cvodes", choices=["cvodes", "c"])
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+@command("track", "direct kinematics along joint readings, through singularities", _track_args)
+def _track(args: argparse.Namespace) -> int:
+    from .solvers.track import track
+
+    model = load(args)
+    thetas = read_thetas(args.thetas, model)
+    start = start_configuration(model, args)
+    result = track(model, thetas, start=start, backend=args.backend)
+    if args.json:
+        dump(result.to_dict())
+        return 0
+    print(f"model {model.name}: x = ({', '.join(model.workspace)}) of {model.frame!r}")
+    crossed = {c.index: c for c in result.crossings}
+    for i, x in enumerate(result.x):
+        print(f"{i:>5}: x = {fmt(x)}")
+        if i in crossed:
+            print(f"{'':>7}singular crossing: x = {fmt(crossed[i].x)}")
+    print(f"{len(result.x)} samples, {len(result.crossings)} singular crossing(s)")
+    return 0
+
+
+# ---------------------------------------------------------------------------- plot
+
+
+def _plot_args(p: argparse.ArgumentParser) -> None:
+    add_model_args(p)
+    what = p.add_mutually_exclusive_group(required=True)
+    what.add_argument("--theta", help="solve at a,b,c on both branches: the paper's Figs. 4-6")
+    what.add_argument("--thetas", help="track the CSV joint readings: pose against time")
+    p.add_argument("--from-x", help="start pose in workspace coordinates (default: home)")
+    p.add_argument("--out", default=".", help="output directory (default: .)")
+    p.add_argument("--prefix", help="file name prefix (default: the model name)")
+
+
+@command("plot", "PNG figures of a solve (configurations, det J_p, phase) or a track", _plot_args)
+def _plot(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from . import plot
+
+    model = load(args)
+    start = start_configuration(model, args)
+    prefix = args.prefix or model.name
+    if args.theta:
+        paths = plot.plot_solve(model, floats(args.theta, "--theta"), start, args.out, prefix)
+    else:
+        from .solvers.track import track
+
+        result = track(model, read_thetas(args.thetas, model), start=start)
+        paths = [plot.plot_track(model, result, Path(args.out) / f"{prefix}_track.png")]
+    for path in paths:
+        print(f"wrote {path}")
+    return 0
+
+
 # ---------------------------------------------------------------------------- main
 
 
