@@ -55,6 +55,8 @@ NEWTON_TOL = 1e-7
 GROW_PREDICTOR = 0.02
 GROW_COS = 0.95
 BACKENDS = ("casadi", "compiled")
+#: The orientation chart is re-centred when a Rodrigues parameter exceeds this (~53 deg).
+RECENTRE = 0.5
 #: Random starts: coordinates other than angles within this many model sizes of home.
 RANDOM_SPREAD = 1.5
 
@@ -196,13 +198,24 @@ def _compile(kern: CurveKernels) -> CurveKernels:
 # ---------------------------------------------------------------------------- geometry
 
 
+def _kinds(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Indices of the unknowns: (revolute angles, floating rotations, the others); cached."""
+    cached = model.__dict__.get("_unknown_kinds")
+    if cached is None:
+        types = {j.name: j.type for j in model.tree.joints}
+        per = [
+            i for i, n in enumerate(model.unknowns) if types.get(n) in ("revolute", "continuous")
+        ]
+        rot = [i for idx in model.chart.rotations for i in idx]
+        plain = [i for i in range(model.m) if i not in set(per) | set(rot)]
+        cached = tuple(np.array(v, dtype=int) for v in (per, rot, plain))
+        model.__dict__["_unknown_kinds"] = cached
+    return cached
+
+
 def _periodic(model: Model) -> np.ndarray:
     """Indices of the unknowns that are angles of revolute joints (equal modulo 2 pi)."""
-    types = {j.name: j.type for j in model.tree.joints}
-    return np.array(
-        [i for i, n in enumerate(model.unknowns) if types.get(n) in ("revolute", "continuous")],
-        dtype=int,
-    )
+    return _kinds(model)[0]
 
 
 def features(model: Model, Y: np.ndarray) -> np.ndarray:
@@ -219,9 +232,7 @@ def features(model: Model, Y: np.ndarray) -> np.ndarray:
         (N, F) features [model length unit or 1].
     """
     Y = np.atleast_2d(np.asarray(Y, float))
-    per = _periodic(model)
-    rot_idx = [i for idx in model.chart.rotations for i in idx]
-    plain = [i for i in range(model.m) if i not in set(per.tolist()) | set(rot_idx)]
+    per, _, plain = _kinds(model)
     parts = [Y[:, plain], np.cos(Y[:, per]), np.sin(Y[:, per])]
     for idx in model.chart.rotations:
         W = Y[:, list(idx)]
@@ -235,6 +246,16 @@ def features(model: Model, Y: np.ndarray) -> np.ndarray:
         R = np.eye(3) + a * K + b * K @ K
         parts.append(R.reshape(len(W), 9))
     return np.hstack(parts)
+
+
+def _local_features(model: Model, y_loc: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """:func:`features` of one vector of unknowns given in the local chart ``c``."""
+    per, _, plain = _kinds(model)
+    parts = [y_loc[plain], np.cos(y_loc[per]), np.sin(y_loc[per])]
+    for i, idx in enumerate(model.chart.rotations):
+        R = c[9 * i : 9 * i + 9].reshape(3, 3, order="F") @ cayley(y_loc[list(idx)])
+        parts.append(R.ravel())
+    return np.concatenate(parts)
 
 
 def difference(model: Model, y_a: np.ndarray, y_b: np.ndarray) -> np.ndarray:
@@ -277,7 +298,8 @@ class Curve:
         rejected: rejected steps.
         closed: the curve came back to its start.
         reversed: ... but backwards (the follower jumped between nearly touching branches).
-        repeated: a solution was met twice (the follower went round a loop again).
+        repeated: a solution or a turning point of s was met twice (the follower went round
+            a loop again: it jumped onto a loop that does not pass through its start).
         crossings: singular-manifold crossings (``det J_p`` changed sign).
         timed_out: stopped by the deadline.
         path: (when recorded) accepted samples ``(y canonical, s)`` (m + 1,).
@@ -307,6 +329,8 @@ def follow_curve(
     deadline: float = math.inf,
     backend: str = "casadi",
     record: bool = False,
+    max_hits: int | float = math.inf,
+    max_steps: int = 20000,
 ) -> Curve:
     """Follow the curve ``g(y, theta1 + s dtheta) = 0`` from ``(y_start, s_start)``.
 
@@ -326,6 +350,8 @@ def follow_curve(
         deadline: ``time.perf_counter()`` value at which to stop.
         backend: "casadi" or "compiled".
         record: keep the accepted samples in ``curve.path``.
+        max_hits: stop after this many solutions (at the end of the chunk that met them).
+        max_steps: stop after this many accepted steps.
 
     Returns:
         A :class:`Curve`.
@@ -338,6 +364,7 @@ def follow_curve(
     weight = np.append(np.ones(m), w2)
     per = _periodic(model)
     rots = model.chart.rotations
+    rot_idx = _kinds(model)[1]
     out = Curve()
     y_loc, c = model.chart.to_local(y_start)
     q = np.append(y_loc, s_start)
@@ -350,6 +377,8 @@ def follow_curve(
     h_max = 0.5 * scale
     tol = 1e-6 * scale
     f_seen = np.zeros((0, 0))
+    turning: list[tuple[np.ndarray, float]] = []  # (features, arc) of the turning points of s
+    w = math.sqrt(w2)
     left = False  # moved away from the start (closure is tested only afterwards)
     while out.arc < max_arc:
         if time.perf_counter() > deadline:
@@ -362,6 +391,8 @@ def follow_curve(
             & (info[1] <= NEWTON_TOL * scale)
             & (info[2] >= MIN_COS)
         )
+        if rot_idx.size:  # stay well inside the orientation chart (Rodrigues: 2 = 127 deg)
+            good &= np.max(np.abs(X[rot_idx]), axis=0) <= 2.0
         n_ok = int(np.argmin(good)) if not good.all() else good.size
         if n_ok == 0:
             out.rejected += 1
@@ -377,18 +408,30 @@ def follow_curve(
             out.rejected += 1
             h /= 4
             continue
-        out.crossings += int(np.count_nonzero(T[-1, :-1] * T[-1, 1:] < 0))
+        turns = np.nonzero(T[-1, :-1] * T[-1, 1:] < 0)[0]
+        out.crossings += int(turns.size)
+        for i in turns:  # turning points of s: every loop has some; met again = going round
+            a = T[-1, i] / (T[-1, i] - T[-1, i + 1])
+            qt = Q[:, i] + a * (Q[:, i + 1] - Q[:, i])
+            f = np.append(_local_features(model, qt[:m], c), qt[m] * w)
+            arc_t = out.arc + h * (i + a)
+            if turning:
+                F = np.array([t[0] for t in turning])
+                A = np.array([t[1] for t in turning])
+                near = np.max(np.abs(F - f), axis=1) < 2 * h + tol
+                out.repeated |= bool(np.any(near & (arc_t - A > 4 * h)))
+            turning.append((f, arc_t))
         for i in np.nonzero((s_vals[:-1] - 1.0) * (s_vals[1:] - 1.0) <= 0)[0]:
             if s_vals[i] == s_vals[i + 1] or (out.steps == 0 and i == 0 and s_start == 1.0):
                 continue
-            y_hit = _polish_between(model, kern, Q[:, i], Q[:, i + 1], T[:, i], T[:, i + 1],
+            y_loc = _polish_between(model, kern, Q[:, i], Q[:, i + 1], T[:, i], T[:, i + 1],
                                     h, theta0, c)  # fmt: skip
-            if y_hit is not None:
-                f_hit = features(model, y_hit)
+            if y_loc is not None:
+                f_hit = _local_features(model, y_loc, c)[None]
                 if f_seen.size and np.min(np.max(np.abs(f_seen - f_hit), axis=1)) <= tol:
                     out.repeated = True  # met twice: the follower jumped onto a loop it went round
                     break
-                out.hits.append(y_hit)
+                out.hits.append(model.chart.to_canonical(y_loc, c))
                 f_seen = np.vstack([f_seen, f_hit]) if f_seen.size else f_hit
         # closure: distance of the path to the start point expressed in the current chart
         q_ref = _in_chart(q_first, c_first, c, rots)
@@ -413,10 +456,10 @@ def follow_curve(
                 out.path.append(np.append(model.chart.to_canonical(Q[:m, j], c), Q[m, j]))
         out.steps += n_ok
         out.arc += h * n_ok
-        if out.closed or out.repeated:
+        if out.closed or out.repeated or len(out.hits) >= max_hits or out.steps >= max_steps:
             break
         q, v = Q[:, -1], T[:, -1]
-        if rots:  # re-centre the orientation chart on the current rotation
+        if rots and np.max(np.abs(q[rot_idx])) > RECENTRE:  # re-centre the orientation chart
             y_new, c = model.chart.recentre(q[:-1], c)
             q = np.append(y_new, q[-1])
             v = np.array(kern.tangent(q, v, p, c)).ravel()
@@ -471,7 +514,7 @@ def _in_chart(q_first, c_first, c, rots) -> np.ndarray | None:
 
 
 def _polish_between(model, kern, qa, qb, ta, tb, h, theta0, c) -> np.ndarray | None:
-    """The verified solution at s = 1 between two samples (cubic Hermite guess + Newton)."""
+    """The solution at s = 1 between two samples (cubic Hermite guess + Newton), in chart c."""
     m = model.m
     # the arc fraction where the Hermite interpolant of s meets 1
     s = np.array([qa[-1] - 1.0, h * ta[-1], qb[-1] - 1.0, h * tb[-1]]) @ _BASIS
@@ -486,7 +529,7 @@ def _polish_between(model, kern, qa, qb, ta, tb, h, theta0, c) -> np.ndarray | N
     y = np.array(y).ravel()
     if not (np.all(np.isfinite(y)) and float(res) <= 0.1 * model.tolerance):
         return None
-    return model.chart.to_canonical(y, c)
+    return y
 
 
 # ---------------------------------------------------------------------------- search
@@ -535,7 +578,7 @@ def explore(
     seed: int = 0,
     time_budget: float | None = None,
     progress: bool = False,
-    patience: int = 3,
+    patience: int = 8,
     cover: int = 2,
     max_curves: int = 400,
     max_arc: float | None = None,
@@ -606,11 +649,11 @@ def explore(
             bar.set_postfix(solutions=len(sols), refresh=False)
         return new
 
-    def both_ways(theta1, dtheta, y, s, origin) -> int:
+    def both_ways(theta1, dtheta, y, s, origin, max_hits=math.inf) -> int:
         new = 0
         for direction in (1.0, -1.0):
             curve = follow_curve(model, theta1, dtheta, y, s, direction, max_arc=arc_budget,
-                                 deadline=deadline, backend=backend)  # fmt: skip
+                                 deadline=deadline, backend=backend, max_hits=max_hits)  # fmt: skip
             new += record(curve, origin)
             if (curve.closed and not curve.reversed) or curve.timed_out:
                 break
@@ -651,7 +694,8 @@ def explore(
                     out.curves += 1  # counted, so that a failing sampler cannot loop forever
                     new = 0
                 else:
-                    new = both_ways(st.theta, theta0 - st.theta, st.y, 0.0, -1)
+                    # the paper's two answers from this start (first crossing each way)
+                    new = both_ways(st.theta, theta0 - st.theta, st.y, 0.0, -1, max_hits=1)
             if new:
                 idle = dict.fromkeys(idle, 0)
                 out.last_new = (out.lines, out.random_starts)
@@ -692,9 +736,7 @@ class RandomStarts:
     def _refill(self) -> None:
         model, n = self.model, self.batch
         Y = np.tile(np.array(model.home.y, dtype=float), (n, 1))
-        per = _periodic(model)
-        rot = [i for idx in model.chart.rotations for i in idx]
-        plain = [i for i in range(model.m) if i not in set(per.tolist()) | set(rot)]
+        per, _, plain = _kinds(model)
         Y[:, per] = self.rng.uniform(-math.pi, math.pi, (n, per.size))
         spread = RANDOM_SPREAD * model.length_scale
         Y[:, plain] += self.rng.uniform(-spread, spread, (n, len(plain)))
@@ -796,7 +838,7 @@ def assembly_modes(
     time_budget: float | None = None,
     progress: bool = False,
     start: Configuration | Sequence[Configuration] | None = None,
-    patience: int = 3,
+    patience: int = 8,
     cover: int = 2,
     max_curves: int = 400,
     backend: str = "casadi",
