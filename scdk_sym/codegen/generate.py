@@ -130,7 +130,6 @@ def generate(model, directory: str | Path, prefix: str = "scdk") -> GeneratedSou
         "VERSION": _version(),
         "MODEL": model.name,
         "HASH": model.content_hash[:16],
-        "UNIT": "the model's length unit",
         "UNKNOWNS": ", ".join(model.unknowns),
         "ACTUATED": ", ".join(model.actuated),
         "WORKSPACE": ", ".join(model.workspace),

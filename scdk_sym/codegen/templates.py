@@ -12,7 +12,7 @@ HEADER = r"""/* @P@_tracker.h: standalone singularity-consistent direct-kinemati
  *     gcc -std=c99 -O2 -Wall -c @P@_kernels.c @P@_tracker.c
  * and link with -lm. No other library is needed.
  *
- * Units: lengths in the model's unit (@UNIT@), angles in rad.
+ * Units: lengths in the model's length unit, angles in rad.
  *   y     (@PU@_NY)     unknowns:  @UNKNOWNS@
  *   theta (@PU@_NTHETA) actuated:  @ACTUATED@
  *   x     (@PU@_NX)     workspace: @WORKSPACE@
