@@ -82,16 +82,19 @@ def _sc_parts(sym: Symbolic):
     theta_s = theta1 + s * dtheta
     g, Jp, Js = ca.substitute([sym.g, sym.J_p, sym.J_s], [sym.theta], [theta_s])
     js = Js @ dtheta
-    A = ca.vertcat(ca.horzcat(Jp, -js), v.T)
+    # Work in the scaled coordinate s_hat = |dtheta| s, in which the metric is Euclidean and
+    # the bordered matrix stays well conditioned however small the theta step is.
+    w = ca.norm_2(dtheta)
+    A = ca.vertcat(ca.horzcat(Jp, -js / w), ca.horzcat(v[:m].T, w * v[m]))
     rhs = ca.horzcat(ca.vertcat(ca.DM.zeros(m), 1), ca.vertcat(-g, 0))
     sol = ca.solve(A, rhs)
-    t, corr = sol[:, 0], sol[:, 1]
-    w = ca.norm_2(dtheta)
-    speed = ca.sqrt(ca.sumsqr(t[:m]) + (w * t[m]) ** 2)
-    tangent = t / speed
+    t_hat, c_hat = sol[:, 0], sol[:, 1]
+    t = ca.vertcat(t_hat[:m], t_hat[m] / w)  # back to (y, s); t_s vanishes where det J_p does
+    corr = ca.vertcat(c_hat[:m], c_hat[m] / w)
+    tangent = t / ca.norm_2(t_hat)
     q = ca.vertcat(sym.y, s)
     p = ca.vertcat(theta1, dtheta, v, scale, gain)
-    return q, p, g, Jp, js, t, tangent, corr, scale, gain, theta1, dtheta, s
+    return q, p, g, Jp, js, t, tangent, corr, scale, gain, theta1, dtheta, s, t_hat[m]
 
 
 def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
@@ -104,7 +107,7 @@ def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
     f_jac = ca.Function(f"{name}_jac", [y, theta, c], [sym.J_p, sym.J_s], yt, ["J_p", "J_s"])
     f_pose = ca.Function(f"{name}_pose", [y, theta, c], [sym.pose, sym.x], yt, ["T", "x"])
 
-    q, p, g, Jp, js, t, tangent, corr, scale, gain, theta1, dtheta, s = _sc_parts(sym)
+    q, p, g, Jp, js, t, tangent, corr, scale, gain, theta1, dtheta, s, t_hat_s = _sc_parts(sym)
     dq = scale * tangent + gain * corr
     f_field = ca.Function(f"{name}_field", [q, p, c], [dq], ["q", "p", "c"], ["dq"])
     x_s = ca.substitute(sym.x, sym.theta, theta1 + s * dtheta)
@@ -150,7 +153,7 @@ def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
     )
 
     # cross: Newton on F(q) = [g(y, theta(s)); t_s] = 0 (t_s vanishes exactly where det J_p does)
-    F = ca.vertcat(g, t[m])
+    F = ca.vertcat(g, t_hat_s)
     step = ca.Function("cross1", [q, p, c], [q - ca.solve(ca.jacobian(F, q), F)])
     qk = ca.SX.sym("q0", m + 1)
     qi = qk

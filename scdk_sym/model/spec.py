@@ -137,9 +137,10 @@ def parse_spec(text: str, path: str | None = None) -> Spec:
         if t not in CLOSURE_TYPES:
             raise ModelError(f"unknown closure type {t!r}; types: {', '.join(CLOSURE_TYPES)}", path)
     lengths = data.get("length")
-    if any(t == "distance" for t in types):
-        if not isinstance(lengths, list) or len(lengths) != len(loops):
-            raise ModelError("'distance' closures need 'length', one entry per closure", path)
+    if any(t == "distance" for t in types) and (
+        not isinstance(lengths, list) or len(lengths) != len(loops)
+    ):
+        raise ModelError("'distance' closures need 'length', one entry per closure", path)
     closures = []
     for i, ((a, b), t) in enumerate(zip(loops, types, strict=True)):
         length, joint = math.nan, None
@@ -168,10 +169,8 @@ def parse_spec(text: str, path: str | None = None) -> Spec:
         workspace = _str_list(data, "workspace", path)
         for w in workspace:
             if w not in WORKSPACE_NAMES:
-                raise ModelError(
-                    f"unknown workspace coordinate {w!r}; coordinates: {', '.join(WORKSPACE_NAMES)}",
-                    path,
-                )
+                valid = ", ".join(WORKSPACE_NAMES)
+                raise ModelError(f"unknown workspace coordinate {w!r}; coordinates: {valid}", path)
         if "phi" in workspace and set(workspace) & {"roll", "pitch", "yaw"}:
             raise ModelError("workspace mixes 'phi' with roll/pitch/yaw", path)
         workspace = tuple(workspace)
