@@ -29,6 +29,8 @@ from .sc import solve, trace, validate_start
 BACKENDS = ("c", "cvodes")
 #: Arc-length budget of each direction, in multiples of the predicted arc of the step.
 BUDGET_FACTOR = 8.0
+#: Budgets tried (each twice the previous) before settling for the best candidate met.
+ATTEMPTS = 4
 #: Crossings of s = 1 collected per direction.
 HITS_PER_DIRECTION = 2
 #: The convergent continuation is taken without tracing when it misses the predicted motion
@@ -140,7 +142,9 @@ def _next(
             return model.configuration(y_fast, theta)
     expected = math.hypot(float(np.linalg.norm(predicted)), size)
     best = None
-    for attempt in range(4):
+    agree = AGREEMENT * float(np.linalg.norm(predicted))
+    for attempt in range(ATTEMPTS):
+        # budget doubled until a candidate agrees with the predicted motion (or the last try)
         budget = BUDGET_FACTOR * expected * 2**attempt + 1e-9 * max(1.0, model.length_scale)
         candidates = []
         for direction in (1.0, -1.0):
@@ -150,7 +154,8 @@ def _next(
                 candidates.append((miss, hit.arc, hit, tr.crossings[: hit.crossings]))
         if candidates:
             best = min(candidates, key=lambda c: (c[0], c[1]))
-            break
+            if best[0] <= agree or len(configs) < 2:
+                break
     if best is None:
         raise PathError(
             f"sample {i}: no solution at theta={theta.tolist()} was met from sample {i - 1} "
@@ -177,6 +182,8 @@ def _continuation(model: Model, prev: Configuration, theta: np.ndarray) -> np.nd
         dy = np.linalg.solve(Jp, Js @ (theta - prev.theta))
     except np.linalg.LinAlgError:
         return None
+    if not np.all(np.isfinite(dy)) or np.max(np.abs(dy)) > max(1.0, model.length_scale):
+        return None  # (nearly) singular: no continuation to trust
     y, res = curve_kernels(model).polish(y_loc + dy, theta, c)
     y = np.array(y).ravel()
     if not (np.all(np.isfinite(y)) and float(res) <= 0.1 * model.tolerance):

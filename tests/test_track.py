@@ -1,0 +1,200 @@
+"""Tracking through direct-kinematic singularities: continuity against inverse-kinematics truth.
+
+The ground truth is a platform motion chosen first; the joint readings are its inverse
+kinematics. Along a motion that crosses the singular manifold, the readings fold back (the
+joint path turns round), and the solution nearest to the previous one is the mirror
+configuration: warm-started Newton jumps to it, the SC tracker must not.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from factories import hexapod, shipped
+
+import scdk_sym as sc
+from scdk_sym.errors import InputError, NotAssembledError
+from scdk_sym.model.chart import rot_exp
+
+SINGULAR_PHI = 0.575360  # the paper's singular configuration of the seed robot (x = y = 0)
+
+
+def newton_tracker(model: sc.Model, thetas: np.ndarray, start: sc.Configuration) -> np.ndarray:
+    """Plain warm-started Newton on g(y, theta) = 0 from the previous solution: poses (N, 4, 4)."""
+    y = np.array(start.y, dtype=float)
+    poses = [start.platform_pose]
+    for theta in thetas[1:]:
+        for _ in range(50):
+            y_loc, c = model.chart.to_local(y)
+            g = np.array(model.kernels.g(y_loc, theta, c)).ravel()
+            Jp = np.array(model.kernels.jac(y_loc, theta, c)[0])
+            y = model.chart.to_canonical(y_loc - np.linalg.solve(Jp, g), c)
+            if np.max(np.abs(g)) < 1e-13:
+                break
+        poses.append(model.configuration(y, theta).platform_pose)
+    return np.array(poses)
+
+
+def jumps(poses: np.ndarray, truth: np.ndarray, tol: float = 1e-6) -> int:
+    """Samples whose pose differs from the truth (a branch jump and what follows it)."""
+    return int(np.sum(np.max(np.abs(poses - truth), axis=(1, 2)) > tol))
+
+
+def seed_path(model: sc.Model, count: int):
+    """The seed robot turning its platform phi = 0.40 -> 1.00 at x = y = 0 (through 0.5754)."""
+    phis = np.linspace(0.40, 1.00, count)
+    truth = [model.inverse_kinematics([0.0, 0.0, phi]) for phi in phis]
+    return phis, np.array([c.theta for c in truth]), truth
+
+
+@pytest.mark.parametrize("count", [13, 27, 61])
+def test_seed_robot_through_its_singularity_without_branch_jumps(count):
+    model = shipped("planar_hexa")
+    phis, thetas, truth = seed_path(model, count)
+    poses_true = np.array([c.platform_pose for c in truth])
+    # the readings fold back at the singular manifold: the joint path turns round there
+    steps = np.diff(thetas, axis=0)
+    assert np.any(np.sum(steps[:-1] * steps[1:], axis=1) < 0)
+
+    result = sc.track(model, thetas, start=truth[0])
+    assert jumps(np.array([model.configuration(y, t).platform_pose for y, t in
+                           zip(result.y, thetas, strict=True)]), poses_true) == 0  # fmt: skip
+    assert np.max(np.abs(result.x - np.array([c.x for c in truth]))) < 1e-9
+    assert np.all(result.residual <= model.tolerance)
+    # one crossing, between the samples on either side of the singular configuration
+    assert len(result.crossings) == 1
+    crossing = result.crossings[0]
+    before = int(np.nonzero(phis < SINGULAR_PHI)[0][-1])
+    assert crossing.index == before
+    assert abs(crossing.x[2] - SINGULAR_PHI) < 1e-3
+    assert np.max(np.abs(crossing.x[:2])) < 1e-6
+
+    # warm-started Newton on the same readings jumps back to the mirror branch
+    assert jumps(newton_tracker(model, thetas, truth[0]), poses_true) >= 1
+
+
+def test_reduced_seed_model_tracks_the_same_motion():
+    model = shipped("planar_hexa_reduced")
+    phis, thetas, truth = seed_path(model, 21)
+    result = sc.track(model, thetas, start=truth[0])
+    assert np.max(np.abs(result.x[:, 2] - phis)) < 1e-9
+    assert [c.index for c in result.crossings] == [int(np.nonzero(phis < SINGULAR_PHI)[0][-1])]
+    assert jumps(newton_tracker(model, thetas, truth[0]),
+                 np.array([c.platform_pose for c in truth])) >= 1  # fmt: skip
+
+
+def _legs(A: np.ndarray, B: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Leg lengths of a 6-6 platform at pose y = (position, rotation vector)."""
+    return np.linalg.norm(y[:3] + B @ rot_exp(y[3:]).T - A, axis=1)
+
+
+def _leg_jacobian_det(A, B, y) -> float:
+    """det of the 6x6 platform Jacobian [u_i, (R b_i) x u_i] (u_i unit leg vectors)."""
+    Rb = B @ rot_exp(y[3:]).T
+    d = y[:3] + Rb - A
+    u = d / np.linalg.norm(d, axis=1)[:, None]
+    return float(np.linalg.det(np.hstack([u, np.cross(Rb, u)])))
+
+
+@pytest.mark.parametrize("count", [17, 33])
+def test_hexapod_through_its_twist_singularity(count):
+    """A 6-6 platform moved straight through the singular manifold (turned about z)."""
+    model = hexapod()
+    ang_b = np.radians([0, 120, 240]).repeat(2) + np.radians([-12, 12] * 3)
+    ang_p = np.roll(np.radians([60, 180, 300]).repeat(2) + np.radians([-20, 20] * 3), 1)
+    A = np.c_[0.5 * np.cos(ang_b), 0.5 * np.sin(ang_b), np.zeros(6)]
+    B = np.c_[0.3 * np.cos(ang_p), 0.3 * np.sin(ang_p), np.zeros(6)]
+    assert np.allclose(_legs(A, B, model.home.y), model.home.theta, atol=1e-12)
+    # bisection on the twist angle for the singular configuration
+    lo, hi = 1.0, 2.0
+    level = np.array([0.0, 0.0, 0.6, 0.0, 0.0, 0.0])
+    twist = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
+    assert (
+        _leg_jacobian_det(A, B, level + lo * twist) * _leg_jacobian_det(A, B, level + hi * twist)
+        < 0
+    )
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        same = _leg_jacobian_det(A, B, level + mid * twist) * _leg_jacobian_det(
+            A, B, level + lo * twist
+        )
+        lo, hi = (mid, hi) if same > 0 else (lo, mid)
+    singular = level + lo * twist
+    direction = np.array([0.02, -0.03, 0.05, 0.3, -0.2, 1.0])
+    direction /= np.linalg.norm(direction)
+    t = np.linspace(-0.3, 0.3, count) + 0.0123
+    Y = singular + t[:, None] * direction
+    thetas = np.array([_legs(A, B, y) for y in Y])
+    truth = np.array(
+        [model.configuration(y, th).platform_pose for y, th in zip(Y, thetas, strict=True)]
+    )
+    start = model.configuration(Y[0], thetas[0])
+
+    result = sc.track(model, thetas, start=start)
+    poses = np.array(
+        [model.configuration(y, th).platform_pose for y, th in zip(result.y, thetas, strict=True)]
+    )
+    assert jumps(poses, truth) == 0
+    assert len(result.crossings) == 1
+    assert result.crossings[0].index == int(np.nonzero(t < 0)[0][-1])
+    assert abs(_leg_jacobian_det(A, B, result.crossings[0].y)) < 1e-3 * abs(
+        _leg_jacobian_det(A, B, Y[0])
+    )
+    assert jumps(newton_tracker(model, thetas, start), truth) >= 1
+
+
+def test_regular_motion_matches_newton_and_truth():
+    model = shipped("planar_hexa")
+    phis = np.linspace(0.15, 0.45, 16)
+    truth = [model.inverse_kinematics([0.01 * p, -0.02 * p, p]) for p in phis]
+    thetas = np.array([c.theta for c in truth])
+    result = sc.track(model, thetas, start=truth[0])
+    assert result.crossings == ()
+    assert result.backend == "cvodes"
+    assert np.max(np.abs(result.x - np.array([c.x for c in truth]))) < 1e-9
+    newton = newton_tracker(model, thetas, truth[0])
+    assert jumps(newton, np.array([c.platform_pose for c in truth])) == 0
+
+
+def test_first_sample_solved_from_start_and_standing_still():
+    model = shipped("planar_hexa")
+    a = model.inverse_kinematics([0.0, 0.0, 0.30])
+    b = model.inverse_kinematics([0.0, 0.0, 0.35])
+    thetas = np.array([b.theta, b.theta, b.theta, a.theta])
+    result = sc.track(model, thetas, start=a)  # the first reading differs from the start
+    assert np.max(np.abs(result.x[:3] - b.x)) < 1e-9
+    assert np.max(np.abs(result.x[3] - a.x)) < 1e-9
+    assert result.y.shape == (4, model.m)
+    assert result.theta.shape == (4, model.k)
+
+
+def test_bad_readings_and_backends():
+    model = shipped("planar_hexa")
+    ok = np.tile(model.home.theta, (3, 1))
+    with pytest.raises(InputError, match=r"shape \(N, 3\)"):
+        sc.track(model, ok[:, :2])
+    with pytest.raises(InputError, match="row 1"):
+        sc.track(model, np.vstack([ok[0], [np.nan, 0.0, 0.0], ok[2]]))
+    with pytest.raises(InputError, match="backends: c, cvodes"):
+        sc.track(model, ok, backend="euler")
+    home = model.home
+    broken = sc.Configuration(home.theta, home.y + 0.2, home.x, home.platform_pose, home.joints)
+    with pytest.raises(NotAssembledError):
+        sc.track(model, ok, start=broken)
+
+
+def test_c_backend_is_dispatched_to_track_c(monkeypatch):
+    import scdk_sym.solvers.track_c as track_c_module
+
+    calls = []
+
+    def fake(model, thetas, start):
+        calls.append((model, np.asarray(thetas), start))
+        return "from track_c"
+
+    monkeypatch.setattr(track_c_module, "track_c", fake)
+    model = shipped("planar_hexa")
+    thetas = np.tile(model.home.theta, (2, 1))
+    assert sc.track(model, thetas, start=model.home, backend="c") == "from track_c"
+    assert calls[0][0] is model and calls[0][2] is model.home
+    assert np.array_equal(calls[0][1], thetas)
