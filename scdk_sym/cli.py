@@ -240,18 +240,16 @@ def read_thetas(path: str, model) -> np.ndarray:
         raise InputError(f"--thetas: {path!r} has no rows")
     order = list(range(model.k))
     first = [c.strip() for c in lines[0].split(",")]
-    try:
-        [float(c) for c in first]
-    except ValueError:
+    if not any(_is_number(c) for c in first):  # a header of joint names
         from .errors import UnknownNameError
 
         for name in first:
             if name not in model.actuated:
-                raise UnknownNameError("actuated joint", name, model.actuated) from None
+                raise UnknownNameError("actuated joint", name, model.actuated)
         if sorted(first) != sorted(model.actuated):
             raise InputError(
                 f"--thetas: {path!r} header {first} must name each of {list(model.actuated)}"
-            ) from None
+            )
         order = [first.index(a) for a in model.actuated]
         lines = lines[1:]
     rows = []
@@ -264,6 +262,14 @@ def read_thetas(path: str, model) -> np.ndarray:
             )
         rows.append(vals[order])
     return np.array(rows)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _track_args(p: argparse.ArgumentParser) -> None:

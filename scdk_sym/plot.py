@@ -120,20 +120,18 @@ def robot_drawing(model: Model, cfg: Configuration) -> tuple[list, list]:
     if base not in big:
         polygons.insert(0, np.zeros((0, 2)))
     segments = []
-    entry = {j.child: j.name for j in model.tree.joints}
+    entry = {j.child: j for j in model.tree.joints}
+    scale = 1e-12 * max(1.0, model.length_scale)
     for j in model.tree.joints:
-        if j.type == "fixed" or group[j.parent] in big or j.parent not in entry:
+        into = entry.get(j.parent)
+        # a link is a segment from where it is driven to where it drives; links moved by a
+        # prismatic or floating joint are displacements (slider chains, legs), not bodies
+        if into is None or into.type in ("prismatic", "floating") or group[j.parent] in big:
             continue
-        a = frames[entry[j.parent]][:3, 3]  # where the parent link is driven
-        b = frames[j.name][:3, 3]
-        if np.linalg.norm(a - b) > 1e-12 * max(1.0, model.length_scale):
+        a = frames[into.name][:3, 3]
+        b = links[j.child][:3, 3] if j.type == "fixed" else frames[j.name][:3, 3]
+        if np.linalg.norm(a - b) > scale:
             segments.append(np.array([a[:2], b[:2]]))
-    for j in model.tree.joints:  # links ending in free rod ends (e.g. 2d/3d closures)
-        if j.type == "fixed" and group[j.parent] not in big and j.parent in entry:
-            a = frames[entry[j.parent]][:3, 3]
-            b = links[j.child][:3, 3]
-            if np.linalg.norm(a - b) > 1e-12 * max(1.0, model.length_scale):
-                segments.append(np.array([a[:2], b[:2]]))
     for c in model.closures:
         if c.type == "distance":
             segments.append(np.array([links[c.frame_a][:2, 3], links[c.frame_b][:2, 3]]))
@@ -388,7 +386,7 @@ def plot_track(
     for i, (ax, name) in enumerate(zip(axes, model.workspace, strict=True)):
         ax.plot(t, x[:, i], ".-", color="tab:blue", markersize=3, linewidth=1.0)
         for k, c in enumerate(result.crossings):
-            ax.axvline(c.index + 0.5, color=COLORS["singular"], linestyle="--", linewidth=1.0,
+            ax.axvline(c.index + 0.5, color=COLORS["singular"], linestyle="--", linewidth=1.5,
                        label="singular crossing" if (i == 0 and k == 0) else None)  # fmt: skip
         unit = 1.0 if name in ("phi", "roll", "pitch", "yaw") else max(model.length_scale, 1e-12)
         lo, hi = float(np.min(x[:, i])), float(np.max(x[:, i]))

@@ -57,8 +57,10 @@ def test_seed_robot_through_its_singularity_without_branch_jumps(count):
     assert np.any(np.sum(steps[:-1] * steps[1:], axis=1) < 0)
 
     result = sc.track(model, thetas, start=truth[0])
-    assert jumps(np.array([model.configuration(y, t).platform_pose for y, t in
-                           zip(result.y, thetas, strict=True)]), poses_true) == 0  # fmt: skip
+    tracked = [
+        model.configuration(y, t).platform_pose for y, t in zip(result.y, thetas, strict=True)
+    ]
+    assert jumps(np.array(tracked), poses_true) == 0
     assert np.max(np.abs(result.x - np.array([c.x for c in truth]))) < 1e-9
     assert np.all(result.residual <= model.tolerance)
     # one crossing, between the samples on either side of the singular configuration
@@ -79,8 +81,8 @@ def test_reduced_seed_model_tracks_the_same_motion():
     result = sc.track(model, thetas, start=truth[0])
     assert np.max(np.abs(result.x[:, 2] - phis)) < 1e-9
     assert [c.index for c in result.crossings] == [int(np.nonzero(phis < SINGULAR_PHI)[0][-1])]
-    assert jumps(newton_tracker(model, thetas, truth[0]),
-                 np.array([c.platform_pose for c in truth])) >= 1  # fmt: skip
+    poses_true = np.array([c.platform_pose for c in truth])
+    assert jumps(newton_tracker(model, thetas, truth[0]), poses_true) >= 1
 
 
 def _legs(A: np.ndarray, B: np.ndarray, y: np.ndarray) -> np.ndarray:

@@ -293,6 +293,9 @@ class Curve:
 
     Attributes:
         hits: canonical unknowns (m,) of the verified solutions met at ``s = 1``, in order.
+        hit_arcs: arc length at which each hit was met (to half a step).
+        turns: the singular-manifold crossings (turning points of ``s``) as (arc, canonical
+            unknowns, s), interpolated between two samples (accurate to the step squared).
         arc: arc length followed (metric ``|dy|^2 + (|dtheta| ds)^2``).
         steps: accepted predictor-corrector steps.
         rejected: rejected steps.
@@ -306,6 +309,8 @@ class Curve:
     """
 
     hits: list[np.ndarray] = field(default_factory=list)
+    hit_arcs: list[float] = field(default_factory=list)
+    turns: list[tuple[float, np.ndarray, float]] = field(default_factory=list)
     arc: float = 0.0
     steps: int = 0
     rejected: int = 0
@@ -331,6 +336,7 @@ def follow_curve(
     record: bool = False,
     max_hits: int | float = math.inf,
     max_steps: int = 20000,
+    step: float | None = None,
 ) -> Curve:
     """Follow the curve ``g(y, theta1 + s dtheta) = 0`` from ``(y_start, s_start)``.
 
@@ -352,6 +358,7 @@ def follow_curve(
         record: keep the accepted samples in ``curve.path``.
         max_hits: stop after this many solutions (at the end of the chunk that met them).
         max_steps: stop after this many accepted steps.
+        step: initial arc-length step (default 0.02 model sizes); adapted as the curve bends.
 
     Returns:
         A :class:`Curve`.
@@ -373,7 +380,7 @@ def follow_curve(
     v = np.array(kern.tangent(q, direction * nu, p, c)).ravel()
     q_first, c_first, t_first = q.copy(), c.copy(), v.copy()
     scale = _scale(model)
-    h = 0.02 * scale
+    h = 0.02 * scale if step is None else float(step)
     h_max = 0.5 * scale
     tol = 1e-6 * scale
     f_seen = np.zeros((0, 0))
@@ -421,6 +428,7 @@ def follow_curve(
                 near = np.max(np.abs(F - f), axis=1) < 2 * h + tol
                 out.repeated |= bool(np.any(near & (arc_t - A > 4 * h)))
             turning.append((f, arc_t))
+            out.turns.append((arc_t, model.chart.to_canonical(qt[:m], c), float(qt[m])))
         for i in np.nonzero((s_vals[:-1] - 1.0) * (s_vals[1:] - 1.0) <= 0)[0]:
             if s_vals[i] == s_vals[i + 1] or (out.steps == 0 and i == 0 and s_start == 1.0):
                 continue
@@ -432,6 +440,7 @@ def follow_curve(
                     out.repeated = True  # met twice: the follower jumped onto a loop it went round
                     break
                 out.hits.append(model.chart.to_canonical(y_loc, c))
+                out.hit_arcs.append(out.arc + h * (i + 0.5))
                 f_seen = np.vstack([f_seen, f_hit]) if f_seen.size else f_hit
         # closure: distance of the path to the start point expressed in the current chart
         q_ref = _in_chart(q_first, c_first, c, rots)

@@ -23,7 +23,7 @@ import numpy as np
 from ..errors import InputError, PathError
 from ..model.model import Model
 from ..results import Configuration, Crossing, TrackResult
-from .modes import curve_kernels, difference
+from .modes import curve_kernels, difference, follow_curve
 from .sc import solve, trace, validate_start
 
 BACKENDS = ("c", "cvodes")
@@ -79,7 +79,8 @@ def track(
     Returns:
         A :class:`~scdk_sym.results.TrackResult`: ``x`` (N, n), ``y`` (N, m), ``residual``
         (N,), and every singular-manifold crossing, with ``index = i`` when it occurs between
-        samples ``i`` and ``i + 1``.
+        samples ``i`` and ``i + 1`` (``det J_p`` changes sign between them; a solution curve
+        that crosses the manifold and comes back between two readings does not count).
 
     Raises:
         InputError: bad shapes, non-finite readings or an unknown backend.
@@ -130,19 +131,23 @@ def _next(
         return prev
     # samples are taken at a steady rate: the motion goes on as in the last step (not scaled
     # by the joint steps, which shrink to nothing at a fold while the platform moves on)
-    predicted = np.zeros(model.m)
-    if len(configs) >= 2:
-        predicted = difference(model, prev.y, configs[-2].y)
+    recent = configs[-3:][::-1]
+    steps = [difference(model, a.y, b.y) for a, b in zip(recent[:-1], recent[1:], strict=True)]
+    predicted = steps[0] if steps else np.zeros(model.m)
+    # accuracy of that extrapolation: the last second difference of the motion
+    accuracy = float(np.linalg.norm(steps[0] - steps[1])) if len(steps) == 2 else 0.0
     # regular case: the continuation from the previous solution (an Euler step in s and
     # Newton) stays in its compartment and agrees with the predicted motion
     y_fast = _continuation(model, prev, theta)
     if y_fast is not None:
         miss = float(np.linalg.norm(difference(model, y_fast, prev.y) - predicted))
         if len(configs) < 2 or miss <= AGREEMENT * float(np.linalg.norm(predicted)):
-            return model.configuration(y_fast, theta)
+            cfg = model.configuration(y_fast, theta)
+            if cfg.residual <= model.tolerance:
+                return cfg
     expected = math.hypot(float(np.linalg.norm(predicted)), size)
+    judge = _Judge(model, prev, theta, predicted if len(configs) >= 2 else None, accuracy)
     best = None
-    agree = AGREEMENT * float(np.linalg.norm(predicted))
     for attempt in range(ATTEMPTS):
         # budget doubled until a candidate agrees with the predicted motion (or the last try)
         budget = BUDGET_FACTOR * expected * 2**attempt + 1e-9 * max(1.0, model.length_scale)
@@ -150,22 +155,125 @@ def _next(
         for direction in (1.0, -1.0):
             tr = trace(model, theta, prev, direction, max_hits=HITS_PER_DIRECTION, max_arc=budget)
             for hit in tr.hits:
-                miss = float(np.linalg.norm(difference(model, hit.y, prev.y) - predicted))
-                candidates.append((miss, hit.arc, hit, tr.crossings[: hit.crossings]))
-        if candidates:
-            best = min(candidates, key=lambda c: (c[0], c[1]))
-            if best[0] <= agree or len(configs) < 2:
-                break
+                judge.add(candidates, hit.y, hit.arc, tr.crossings[: hit.crossings])
+        best = judge.best(candidates)
+        if best is not None and (best[0] <= judge.agree or judge.predicted is None):
+            break
+    if best is None or (judge.predicted is not None and best[0] > judge.agree):
+        # nothing agrees with the motion: search again with small steps (a start or a
+        # reading next to the singular manifold)
+        best = judge.best([*candidates, *_refined(model, prev, theta, expected, judge)])
     if best is None:
         raise PathError(
             f"sample {i}: no solution at theta={theta.tolist()} was met from sample {i - 1} "
             "along the solution curve (the readings leave the reachable set or jump too far)"
         )
-    _, _, hit, met = best
+    *_, cfg, met = best
+    change = _det(model, cfg) * _det(model, prev)
+    if change > 0 and len(met) % 2 == 0:
+        met = []  # the curve crossed the singular manifold and came back: not the motion
+    elif change < 0 and not met:
+        # det J_p changed sign, but the path started or ended on the singular manifold
+        # (within rounding), where no sign change was seen: the crossing is at that end
+        on = min((prev, cfg), key=lambda c: abs(_det(model, c)))
+        met = [Crossing(0.0 if on is prev else 1.0, on.x, on.y, on.theta)]
     for cr in met:
         crossings.append(Crossing(cr.s, cr.x, cr.y, cr.theta, index=i - 1))
-    cfg = model.configuration(hit.y, theta)
     return cfg
+
+
+def _det(model: Model, cfg: Configuration) -> float:
+    y_loc, c = model.chart.to_local(cfg.y)
+    return float(np.linalg.det(np.array(model.kernels.jac(y_loc, cfg.theta, c)[0])))
+
+
+class _Judge:
+    """Verifies candidate solutions at ``theta`` and ranks them against the predicted motion.
+
+    A candidate is (miss, -advance, arc, configuration, crossings): ``miss`` is the distance
+    of its displacement from the predicted one, ``advance`` the projection of its
+    displacement on the predicted one. Misses closer than the accuracy of the extrapolation
+    (the last second difference of the motion) tie; a tie goes to the candidate farther along
+    the motion: a reading so close to the singular manifold that its two solutions are nearer
+    to each other than the extrapolation is accurate is taken on the side the robot heads to.
+    """
+
+    def __init__(self, model: Model, prev: Configuration, theta, predicted, accuracy=0.0):
+        self.model, self.prev, self.theta, self.predicted = model, prev, theta, predicted
+        self.agree = AGREEMENT * float(np.linalg.norm(predicted)) if predicted is not None else 0
+        self.tie = float(accuracy)
+
+    def add(self, candidates: list, y: np.ndarray, arc: float, met) -> None:
+        model = self.model
+        cfg = model.configuration(y, self.theta)
+        if not cfg.residual <= model.tolerance:
+            return  # not verified: never returned
+        d = difference(model, cfg.y, self.prev.y)
+        p = self.predicted if self.predicted is not None else np.zeros(model.m)
+        advance = float(d @ p) / max(float(np.linalg.norm(p)), 1e-300)
+        candidates.append((float(np.linalg.norm(d - p)), -advance, arc, cfg, list(met)))
+
+    def best(self, candidates: list):
+        if not candidates:
+            return None
+        least = min(c[0] for c in candidates)
+        tied = [c for c in candidates if c[0] <= least + self.tie]
+        return min(tied, key=lambda c: (c[1], c[0], c[2]))
+
+
+def _predicted_local(model: Model, prev: Configuration, predicted: np.ndarray):
+    """The predicted configuration ``prev + predicted`` in the chart centred on ``prev``."""
+    y_loc, c = model.chart.to_local(prev.y)
+    y = y_loc + predicted
+    for idx in model.chart.rotations:  # rotation vector -> Rodrigues parameters
+        w = predicted[list(idx)]
+        angle = float(np.linalg.norm(w))
+        y[list(idx)] = w * (math.tan(angle / 2) / angle if 1e-12 < angle < 3.0 else 0.5)
+    return y, c
+
+
+def _refined(model: Model, prev: Configuration, theta: np.ndarray, expected: float, judge):
+    """Candidates by a search with small steps and turning-point refinement.
+
+    For a reading on (or within rounding of) the singular manifold, the two solutions nearly
+    coincide and the curve only grazes ``s = 1``: the predictor-corrector follower of
+    :mod:`~scdk_sym.solvers.modes`, started with steps a sixteenth of the predicted arc,
+    refines the step where a turning point of ``s`` could hide two crossings. Failing that
+    (a double root), Newton from the predicted configuration and from the turning points of
+    ``s`` next to ``s = 1``.
+    """
+    dtheta = theta - prev.theta
+    budget = BUDGET_FACTOR * expected * 2**ATTEMPTS
+    candidates: list = []
+    turns = []
+    for direction in (1.0, -1.0):
+        curve = follow_curve(model, prev.theta, dtheta, prev.y, 0.0, direction,
+                             max_arc=budget, max_hits=2, step=expected / 16)  # fmt: skip
+        turns += [(y_t, s_t) for _, y_t, s_t in curve.turns]
+        for y, arc in zip(curve.hits, curve.hit_arcs, strict=True):
+            met = []
+            for arc_t, y_t, s_t in curve.turns:
+                if arc_t < arc:
+                    cfg = model.configuration(y_t, prev.theta + s_t * dtheta)
+                    met.append(Crossing(s_t, cfg.x, cfg.y, cfg.theta))
+            judge.add(candidates, y, arc, met)
+    if candidates:
+        return candidates
+    kern = curve_kernels(model)
+    y_pred, c = _predicted_local(model, prev, judge.predicted if judge.predicted is not None
+                                 else np.zeros(model.m))  # fmt: skip
+    guesses = [(y_pred, c)] + [
+        model.chart.to_local(y_t) for y_t, s_t in turns if abs(s_t - 1) < 0.1
+    ]
+    for y, cg in guesses:
+        for _ in range(6):  # Newton converges only linearly to a double root
+            y, res = kern.polish(y, theta, cg)
+            y = np.array(y).ravel()
+            if not np.all(np.isfinite(y)) or float(res) <= 1e-3 * model.tolerance:
+                break
+        if np.all(np.isfinite(y)):
+            judge.add(candidates, model.chart.to_canonical(y, cg), 0.0, [])
+    return candidates
 
 
 def _continuation(model: Model, prev: Configuration, theta: np.ndarray) -> np.ndarray | None:
