@@ -426,6 +426,7 @@ def test_time_budget_stops_early_and_says_so():
 
 
 def test_progress_bar_on_stderr(capsys):
+    pytest.importorskip("tqdm")
     A, C, rho = rpr_geometries_with_six()[1]
     sc.assembly_modes(sc.builders.planar_3rpr(A, C), rho, progress=True)
     assert "assembly modes" in capsys.readouterr().err

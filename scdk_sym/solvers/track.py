@@ -7,10 +7,22 @@ solution, and the tracked pose turns back while the robot goes on. The paper's r
 sign of ``b`` picks the solution reached by the motion. Near a fold both candidate solutions
 lie ahead of the previous one along the singularity-consistent solution curve, the
 physically continuous one often as the SECOND crossing of ``s = 1`` (``s`` overshoots, turns on
-the singular manifold and comes back). So at each sample :func:`track` follows the curve from
-the previous solution in both directions within a short arc-length budget, collects the
-``s = 1`` crossings and keeps the one that agrees best with the motion predicted by
-extrapolating the last two solutions.
+the singular manifold and comes back).
+
+So :func:`track`, at each reading, predicts the motion by extrapolating the last two
+solutions (readings at a steady rate) and
+
+1. takes the continuation of the previous solution (an Euler step in ``s`` and Newton) when
+   it stays in the same compartment (``det J_p`` keeps its sign) and agrees with the
+   prediction: the regular case, one Newton solve;
+2. otherwise follows the SC solution curve from the previous solution in both directions
+   with CVODES (:func:`~scdk_sym.solvers.sc.trace`) within an arc-length budget (doubled
+   until a crossing agrees with the prediction), collects up to two ``s = 1`` crossings per
+   direction and keeps the verified one nearest to the prediction;
+3. when nothing agrees (a reading on, or within rounding of, the singular manifold, where
+   the two solutions nearly coincide and the curve only grazes ``s = 1``), searches again
+   with the small-step predictor-corrector of :mod:`~scdk_sym.solvers.modes`, which refines
+   turning points of ``s``, and with Newton from the prediction.
 """
 
 from __future__ import annotations
@@ -153,7 +165,11 @@ def _next(
         budget = BUDGET_FACTOR * expected * 2**attempt + 1e-9 * max(1.0, model.length_scale)
         candidates = []
         for direction in (1.0, -1.0):
-            tr = trace(model, theta, prev, direction, max_hits=HITS_PER_DIRECTION, max_arc=budget)
+            try:
+                tr = trace(model, theta, prev, direction, max_hits=HITS_PER_DIRECTION,
+                           max_arc=budget)  # fmt: skip
+            except PathError:
+                continue  # the integration failed on this side: the refined search may not
             for hit in tr.hits:
                 judge.add(candidates, hit.y, hit.arc, tr.crossings[: hit.crossings])
         best = judge.best(candidates)
