@@ -12,6 +12,7 @@ import os
 import shutil
 import subprocess
 import tempfile
+from collections.abc import Sequence
 from dataclasses import fields
 from pathlib import Path
 
@@ -32,20 +33,44 @@ def compiler() -> str:
     return cc
 
 
-def generate_c(kernels: Kernels, name: str, directory: Path, with_header: bool = True) -> Path:
-    """Write the C source (and header) of all kernels; returns the source path."""
+def write_c(
+    functions: Sequence[ca.Function], name: str, directory: Path, with_header: bool = True
+) -> Path:
+    """Write the C source ``name.c`` (and ``name.h``) of some CasADi Functions; returns the
+    source path."""
     gen = ca.CodeGenerator(f"{name}.c", {"with_header": with_header, "with_export": True})
-    for f in kernels.all():
+    for f in functions:
         gen.add(f)
-    gen.add(kernels.field.jacobian())  # "jac_<name>": CVODES asks for it
     directory.mkdir(parents=True, exist_ok=True)
-    cwd = os.getcwd()
-    try:
-        os.chdir(directory)
-        gen.generate()
-    finally:
-        os.chdir(cwd)
+    gen.generate(f"{directory}{os.sep}")
     return directory / f"{name}.c"
+
+
+def generate_c(kernels: Kernels, name: str, directory: Path, with_header: bool = True) -> Path:
+    """Write the C source (and header) of all kernels of a model; returns the source path."""
+    # "jac_<field>": CVODES asks for the Jacobian of the field it integrates
+    return write_c([*kernels.all(), kernels.field.jacobian()], name, directory, with_header)
+
+
+def cached_library(functions: Sequence[ca.Function], name: str) -> Path:
+    """A shared library of some Functions, compiled once into the cache directory.
+
+    Keyed by a hash of the generated source and the compiler flags; for the kernels of a
+    model prefer :func:`compiled_kernels`, which needs no code generation when cached.
+    """
+    with tempfile.TemporaryDirectory() as tmp:
+        src = write_c(functions, name, Path(tmp), with_header=False)
+        key = hashlib.sha256(src.read_bytes() + " ".join(CFLAGS).encode()).hexdigest()[:20]
+        target = cache_dir() / f"{name}_{key}.so"
+        if not target.exists():
+            _compile_into(src, target)
+    return target
+
+
+def _compile_into(source: Path, target: Path) -> None:
+    partial = target.with_suffix(f".{os.getpid()}.tmp")
+    compile_shared(source, partial)
+    os.replace(partial, target)  # atomic: concurrent processes never load a partial file
 
 
 def compile_shared(source: Path, target: Path) -> Path:
@@ -80,9 +105,6 @@ def compiled_kernels(model) -> Kernels:
     target = cache_dir() / f"kernels_{cache_key(model)}.so"
     if not target.exists():
         with tempfile.TemporaryDirectory() as tmp:
-            src = generate_c(kern, "scdk_kernels", Path(tmp), with_header=False)
-            partial = target.with_suffix(f".{os.getpid()}.tmp")
-            compile_shared(src, partial)
-            os.replace(partial, target)
+            _compile_into(generate_c(kern, "scdk_kernels", Path(tmp), with_header=False), target)
     loaded = {f.name: ca.external(getattr(kern, f.name).name(), str(target)) for f in fields(kern)}
     return Kernels(**loaded)

@@ -177,32 +177,9 @@ def curve_kernels(model: Model, backend: str = "casadi") -> CurveKernels:
 
 
 def _compile(kern: CurveKernels) -> CurveKernels:
-    import hashlib
-    import os
-    import tempfile
-    from pathlib import Path
+    from ..kernels.compile import cached_library
 
-    from ..kernels.cache import cache_dir
-    from ..kernels.compile import CFLAGS, compile_shared
-
-    with tempfile.TemporaryDirectory() as tmp:
-        gen = ca.CodeGenerator("scdk_curve.c", {"with_header": False, "with_export": True})
-        for f in kern.all():
-            gen.add(f)
-        cwd = os.getcwd()
-        try:
-            os.chdir(tmp)
-            gen.generate()
-        finally:
-            os.chdir(cwd)
-        src = Path(tmp) / "scdk_curve.c"
-        code = src.read_text()
-        key = hashlib.sha256(code.encode() + " ".join(CFLAGS).encode()).hexdigest()[:20]
-        target = cache_dir() / f"curve_{key}.so"
-        if not target.exists():
-            partial = target.with_suffix(f".{os.getpid()}.tmp")
-            compile_shared(src, partial)
-            os.replace(partial, target)
+    target = cached_library(kern.all(), "scdk_curve")
     return CurveKernels(*(ca.external(f.name(), str(target)) for f in kern.all()))
 
 
