@@ -242,6 +242,28 @@ def _branch_curves(results: Sequence[SolveResult]):
     return out
 
 
+def _plot_along_s(results, path, which: int, ylabel: str, title: str):
+    """One curve per solve against ``s``: ``which`` 2 is det J_p, 3 is s'."""
+    fig = _figure()
+    ax = fig.add_subplot(1, 1, 1)
+    for curve in _branch_curves(results):
+        r, s, v, style = curve[0], curve[1], curve[which], curve[4]
+        ax.plot(s, v, label=f"{r.branch} (b = {r.b:+.0f})", **style)
+        ax.plot(s[:1], v[:1], "o", color=style["color"])
+        ax.plot(s[-1:], v[-1:], "s", color=style["color"])
+        for c in r.crossings:
+            ax.plot([c.s], [0.0], "x", color=COLORS["singular"], markersize=9, mew=2)
+    ax.axhline(0.0, color="black", linewidth=0.8)
+    ax.axvline(1.0, color="gray", linewidth=0.8, linestyle=":")
+    ax.set_xlabel("s")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize="small")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
 def plot_det_jp(results: Sequence[SolveResult], path: str | Path, title: str | None = None):
     """``det J_p`` along ``s`` for each solve (the paper's Fig. 5).
 
@@ -253,23 +275,8 @@ def plot_det_jp(results: Sequence[SolveResult], path: str | Path, title: str | N
     Returns:
         The path written.
     """
-    fig = _figure()
-    ax = fig.add_subplot(1, 1, 1)
-    for r, s, det, _, style in _branch_curves(results):
-        ax.plot(s, det, label=f"{r.branch} (b = {r.b:+.0f})", **style)
-        ax.plot(s[:1], det[:1], "o", color=style["color"])
-        ax.plot(s[-1:], det[-1:], "s", color=style["color"])
-        for c in r.crossings:
-            ax.plot([c.s], [0.0], "x", color=COLORS["singular"], markersize=9, mew=2)
-    ax.axhline(0.0, color="black", linewidth=0.8)
-    ax.axvline(1.0, color="gray", linewidth=0.8, linestyle=":")
-    ax.set_xlabel("s")
-    ax.set_ylabel("det J_p")
-    ax.set_title(title or "det J_p along the path (o start, square solution, x singular)")
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize="small")
-    fig.tight_layout()
-    return _save(fig, path)
+    default = "det J_p along the path (o start, square solution, x singular)"
+    return _plot_along_s(results, path, 2, "det J_p", title or default)
 
 
 def plot_phase(results: Sequence[SolveResult], path: str | Path, title: str | None = None):
@@ -283,23 +290,8 @@ def plot_phase(results: Sequence[SolveResult], path: str | Path, title: str | No
     Returns:
         The path written.
     """
-    fig = _figure()
-    ax = fig.add_subplot(1, 1, 1)
-    for r, s, _, sdot, style in _branch_curves(results):
-        ax.plot(s, sdot, label=f"{r.branch} (b = {r.b:+.0f})", **style)
-        ax.plot(s[:1], sdot[:1], "o", color=style["color"])
-        ax.plot(s[-1:], sdot[-1:], "s", color=style["color"])
-        for c in r.crossings:
-            ax.plot([c.s], [0.0], "x", color=COLORS["singular"], markersize=9, mew=2)
-    ax.axhline(0.0, color="black", linewidth=0.8)
-    ax.axvline(1.0, color="gray", linewidth=0.8, linestyle=":")
-    ax.set_xlabel("s")
-    ax.set_ylabel("s' = b det J_p")
-    ax.set_title(title or "phase plot (o start, square solution, x singular)")
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize="small")
-    fig.tight_layout()
-    return _save(fig, path)
+    default = "phase plot (o start, square solution, x singular)"
+    return _plot_along_s(results, path, 3, "s' = b det J_p", title or default)
 
 
 def plot_solve(
