@@ -36,7 +36,7 @@ from ..errors import InputError, PathError
 from ..model.model import Model
 from ..results import Configuration, Crossing, TrackResult
 from .modes import curve_kernels, difference, follow_curve
-from .sc import solve, trace, validate_start
+from .sc import engine, solve, trace, validate_start
 
 BACKENDS = ("c", "cvodes")
 #: Arc-length budget of each direction, in multiples of the predicted arc of the step.
@@ -150,13 +150,11 @@ def _next(
     accuracy = float(np.linalg.norm(steps[0] - steps[1])) if len(steps) == 2 else 0.0
     # regular case: the continuation from the previous solution (an Euler step in s and
     # Newton) stays in its compartment and agrees with the predicted motion
-    y_fast = _continuation(model, prev, theta)
-    if y_fast is not None:
-        miss = float(np.linalg.norm(difference(model, y_fast, prev.y) - predicted))
+    fast = _continuation(model, prev, theta)
+    if fast is not None:
+        miss = float(np.linalg.norm(difference(model, fast.y, prev.y) - predicted))
         if len(configs) < 2 or miss <= AGREEMENT * float(np.linalg.norm(predicted)):
-            cfg = model.configuration(y_fast, theta)
-            if cfg.residual <= model.tolerance:
-                return cfg
+            return fast
     expected = math.hypot(float(np.linalg.norm(predicted)), size)
     judge = _Judge(model, prev, theta, predicted if len(configs) >= 2 else None, accuracy)
     best = None
@@ -292,29 +290,30 @@ def _refined(model: Model, prev: Configuration, theta: np.ndarray, expected: flo
     return candidates
 
 
-def _continuation(model: Model, prev: Configuration, theta: np.ndarray) -> np.ndarray | None:
+def _continuation(model: Model, prev: Configuration, theta: np.ndarray) -> Configuration | None:
     """The solution at ``theta`` continuing ``prev`` in its compartment, or None.
 
-    An Euler step ``dy = J_p^{-1} J_s dtheta`` and Newton at ``theta``; accepted when Newton
-    converged, moved the prediction by less than a tenth of the step and ``det J_p`` kept its
-    sign (no singular manifold in between, as far as this cheap test can tell).
+    One zero-copy call of the warm kernel (an RK4 step in ``s`` from ``prev`` and Newton at
+    ``theta``, with the residuals and ``J_p`` at both ends); accepted when Newton converged,
+    moved the prediction by less than a tenth of the step and ``det J_p`` kept its sign (no
+    singular manifold in between, as far as this cheap test can tell).
     """
     y_loc, c = model.chart.to_local(prev.y)
-    Jp, Js = (np.array(a) for a in model.kernels.jac(y_loc, prev.theta, c))
-    det_prev = float(np.linalg.det(Jp))
-    try:
-        dy = np.linalg.solve(Jp, Js @ (theta - prev.theta))
-    except np.linalg.LinAlgError:
+    y, corr, _, res, J1, J0, T, x = engine(model).warm(y_loc, prev.theta, theta, c)
+    if not (np.all(np.isfinite(y)) and res[0] <= 0.1 * model.tolerance):
         return None
-    if not np.all(np.isfinite(dy)) or np.max(np.abs(dy)) > max(1.0, model.length_scale):
-        return None  # (nearly) singular: no continuation to trust
-    y, res = curve_kernels(model).polish(y_loc + dy, theta, c)
-    y = np.array(y).ravel()
-    if not (np.all(np.isfinite(y)) and float(res) <= 0.1 * model.tolerance):
+    step = float(np.max(np.abs(y - y_loc)))
+    if step > max(1.0, model.length_scale) or corr[0] > 0.1 * step + 1e-12:
         return None
-    if float(np.linalg.norm(y - y_loc - dy)) > 0.1 * float(np.linalg.norm(dy)) + 1e-12:
+    m = model.m
+    if (
+        not np.linalg.det(J1.reshape(m, m, order="F")) * np.linalg.det(J0.reshape(m, m, order="F"))
+        > 0
+    ):
         return None
-    det_new = float(np.linalg.det(np.array(model.kernels.jac(y, theta, c)[0])))
-    if not det_new * det_prev > 0:
-        return None
-    return model.chart.to_canonical(y, c)
+    y_can = model.chart.to_canonical(y, c)
+    theta = np.array(theta, dtype=float)
+    return Configuration(
+        theta, y_can, x.copy(), T.reshape(4, 4, order="F").copy(),
+        model.joint_values(y_can, theta), float(res[0]),
+    )  # fmt: skip
