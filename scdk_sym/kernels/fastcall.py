@@ -17,6 +17,7 @@ class Buffered:
 
     def __init__(self, f: ca.Function) -> None:
         self.function = f
+        self.names = f.name_in()
         self._buf, self._run = f.buffer()
         self.args = [np.zeros(f.nnz_in(i)) for i in range(f.n_in())]
         self.res = [np.zeros(f.nnz_out(i)) for i in range(f.n_out())]

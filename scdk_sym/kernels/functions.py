@@ -114,7 +114,7 @@ def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
     f_probe = ca.Function(
         f"{name}_probe",
         [q, p, c],
-        [tangent, ca.vec(Jp), x_s],
+        [ca.densify(e) for e in (tangent, ca.vec(Jp), x_s)],
         ["q", "p", "c"],
         ["tangent", "J_p", "x"],
     )

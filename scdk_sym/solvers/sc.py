@@ -42,15 +42,40 @@ BACKENDS = ("casadi", "compiled")
 
 @dataclass
 class Engine:
-    """Per-model numeric machinery of the SC solver (kernels, integrator, mapped probe)."""
+    """Per-model numeric machinery of the SC solver (kernels, integrator, mapped probe).
+
+    ``integrator``, ``probe`` and ``warm`` are called through zero-copy buffers (see
+    :mod:`scdk_sym.kernels.fastcall`): use :meth:`integrate` and :meth:`probe_samples`.
+    """
 
     model: Model
     kernels: object
-    integrator: ca.Function
-    probe: ca.Function
+    integrator: Buffered
+    probe: Buffered
     m: int
     k: int
     warm: Buffered
+
+    def integrate(self, q: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """(m+1, GRID) samples of one chunk of the SC field from ``q``; p = (params, chart)."""
+        f = self.integrator
+        out = f(
+            *[
+                q if n == "x0" else p if n == "p" else a
+                for n, a in zip(f.names, f.args, strict=True)
+            ]
+        )
+        return out[0].reshape(self.m + 1, GRID, order="F").copy()
+
+    def probe_samples(self, Q: np.ndarray, p: np.ndarray, c: np.ndarray):
+        """(tangents (m+1, N), vec J_p (m*m, N), x (n, N)) at the N = GRID + 1 samples Q."""
+        n = GRID + 1
+        T, J, X = self.probe(Q.ravel(order="F"), np.tile(p, n), np.tile(c, n))
+        return (
+            T.reshape(-1, n, order="F").copy(),
+            J.reshape(-1, n, order="F").copy(),
+            X.reshape(-1, n, order="F").copy(),
+        )
 
 
 def engine(model: Model, backend: str = "casadi") -> Engine:
@@ -78,7 +103,9 @@ def engine(model: Model, backend: str = "casadi") -> Engine:
     dae = {"x": q, "p": ca.vertcat(p, c), "ode": kern.field(q, p, c)}
     grid = np.linspace(0.0, 1.0, GRID + 1)[1:]
     integ = ca.integrator("sc_chunk", "cvodes", dae, 0.0, grid, CVODES_OPTIONS)
-    eng = Engine(model, kern, integ, kern.probe.map(GRID + 1), m, k, Buffered(kern.warm))
+    eng = Engine(
+        model, kern, Buffered(integ), Buffered(kern.probe.map(GRID + 1)), m, k, Buffered(kern.warm)
+    )
     store[backend] = eng
     return eng
 
@@ -225,7 +252,7 @@ def trace(
         chunks += 1
         p = np.concatenate([theta1, dtheta, tangent, [scale, GAIN]])
         try:
-            xf = np.array(eng.integrator(x0=q, p=np.concatenate([p, c]))["xf"])
+            xf = eng.integrate(q, np.concatenate([p, c]))
         except RuntimeError:
             xf = np.full((m + 1, GRID), np.nan)
         Q = np.hstack([q[:, None], xf])
@@ -234,10 +261,7 @@ def trace(
             if scale < 1e-12 * ell0:
                 raise PathError(f"integration of the SC field failed near q={q.tolist()}")
             continue
-        reps = (1, GRID + 1)
-        T, Jv, X = (
-            np.array(a) for a in eng.probe(Q, np.tile(p[:, None], reps), np.tile(c[:, None], reps))
-        )
+        T, Jv, X = eng.probe_samples(Q, p, c)
         t_end = T[:, -1]
         cosine = float(t_end[:-1] @ tangent[:-1] + w * w * t_end[-1] * tangent[-1])
         if cosine < 0.8:
