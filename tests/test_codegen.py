@@ -245,6 +245,24 @@ def test_generated_kernels_equal_the_casadi_functions(boundary):
     assert qn[-1] > 0  # oriented by v = e_s: s increases
 
 
+@pytest.mark.parametrize("name", ["planar_hexa", "planar_3rpr"])
+def test_tracker_kernels_are_dense_at_the_c_boundary(name):
+    """CasADi's C reads and writes nonzeros only; the tracker indexes dense column-major arrays.
+
+    These models' J_p has structural zeros (a closure involves some of the joints only).
+    """
+    model = shipped(name)
+    assert not model.kernels.jac.sparsity_out(0).is_dense()
+    kern = build_tracker_kernels(model.symbolic, model.chart.rotations, "ref")
+    for f in kern.all():
+        assert all(f.sparsity_in(i).is_dense() for i in range(f.n_in())), f.name()
+        assert all(f.sparsity_out(i).is_dense() for i in range(f.n_out())), f.name()
+    y, c = model.chart.to_local(model.home.y)
+    theta = model.home.theta
+    for ours, ref in zip(kern.jac(y, theta, c), model.kernels.jac(y, theta, c), strict=True):
+        np.testing.assert_array_equal(np.array(ours), np.array(ref))
+
+
 def test_cli_writes_sources_with_a_prefix(tmp_path, capsys):
     assert main(["codegen", str(ROOT / "models" / "planar_3rpr"), "--out", str(tmp_path),
                  "--prefix", "rpr", "--no-shared", "--json"]) == 0  # fmt: skip

@@ -214,3 +214,140 @@ def test_the_library_is_cached_on_disk(hexapod, monkeypatch):
 
     monkeypatch.setattr(clib, "compile_library", refuse)
     assert clib.tracker_library(fresh).path == path
+
+
+# ------------------------------------------------------------ coarse paths through a fold
+
+SEED_SINGULAR_PHI = 0.575360  # the paper's singular configuration of the seed robot (x = y = 0)
+
+
+def seed_thetas(phis):
+    """Closed-form inverse kinematics of the seed robot (3-RRR, cm, rad) turning at x = y = 0.
+
+    Arm = rod = 7 cm, base side 20 cm, platform side 10 cm; vertex i of both at polar angle
+    -30, -150, 90 deg; working mode theta_i = atan2(d) - acos((|d|^2 + arm^2 - rod^2) / (2 arm
+    |d|)) with d the platform vertex minus the base vertex (independent of the model).
+    """
+    arm = rod = 7.0
+    a = np.radians([-30.0, -150.0, 90.0])
+    base = 20.0 / np.sqrt(3.0) * np.c_[np.cos(a), np.sin(a)]
+    rows = []
+    for phi in phis:
+        d = 10.0 / np.sqrt(3.0) * np.c_[np.cos(a + phi), np.sin(a + phi)] - base
+        r = np.linalg.norm(d, axis=1)
+        cosine = (r**2 + arm**2 - rod**2) / (2.0 * arm * r)
+        rows.append(np.arctan2(d[:, 1], d[:, 0]) - np.arccos(cosine))
+    return np.array(rows)
+
+
+def det_jp(model, y, theta):
+    """det J_p at canonical y, from the model's CasADi Jacobian (numpy LU, not the C code)."""
+    y_loc, c = model.chart.to_local(y)
+    return float(np.linalg.det(np.array(model.kernels.jac(y_loc, theta, c)[0])))
+
+
+def test_seed_closed_form_is_the_papers_singular_reading():
+    # the paper prints theta = [1.166, -0.928, -3.023] at its singular configuration
+    np.testing.assert_allclose(seed_thetas([SEED_SINGULAR_PHI])[0], [1.166, -0.928, -3.023],
+                               rtol=0, atol=6e-4)  # fmt: skip
+
+
+@pytest.mark.parametrize("count", [7, 9, 13, 27, 61])
+def test_seed_robot_coarse_path_follows_the_motion_through_the_fold(count):
+    """Few samples across the fold: the mirror solution lies nearer to the prediction's error
+    than the step, and the first reading repeats the start (no motion known yet)."""
+    model = shipped("planar_hexa")
+    phis = np.linspace(0.4, 1.0, count)
+    thetas = seed_thetas(phis)
+    start = model.inverse_kinematics([0.0, 0.0, 0.4])
+    res = track_c(model, thetas, start)
+    np.testing.assert_allclose(res.x, np.c_[0 * phis, 0 * phis, phis], rtol=0, atol=1e-8)
+    passive = np.array([model.inverse_kinematics([0.0, 0.0, p]).y for p in phis])
+    np.testing.assert_allclose(res.y, passive, rtol=0, atol=1e-8)
+    assert len(res.crossings) == 1
+    crossing = res.crossings[0]
+    assert crossing.index == int(np.flatnonzero(phis < SEED_SINGULAR_PHI)[-1])
+    assert abs(crossing.x[2] - SEED_SINGULAR_PHI) < 1e-3
+    assert abs(det_jp(model, crossing.y, crossing.theta)) < 1e-8 * abs(
+        det_jp(model, start.y, start.theta)
+    )
+
+
+def test_det_output_is_det_jp_where_the_jacobian_has_structural_zeros():
+    """The seed robot's J_p has structural zeros (each closure involves some joints only);
+    the tracker must read the Jacobian kernel as a dense matrix."""
+    model = shipped("planar_hexa")
+    assert not model.kernels.jac.sparsity_out(0).is_dense()
+    phis = np.linspace(0.30, 0.90, 7)
+    thetas = seed_thetas(phis)
+    start = model.inverse_kinematics([0.0, 0.0, 0.25])
+    y0, c0 = model.chart.to_local(start.y)
+    out = clib.tracker_library(model).track(y0, c0, start.theta, thetas)
+    assert out.status == 0
+    ref = [det_jp(model, model.chart.to_canonical(y, c), th)
+           for y, th, c in zip(out.y, thetas, out.c, strict=True)]  # fmt: skip
+    np.testing.assert_allclose(out.det, ref, rtol=1e-9, atol=0)
+    assert np.sum(np.diff(np.sign(out.det)) != 0) == 1
+
+
+def _legs(A, B, y):
+    """Leg lengths of a 6-6 platform at y = (position, rotation vector) [m]."""
+    from scdk_sym.model.chart import rot_exp
+
+    return np.linalg.norm(y[:3] + B @ rot_exp(y[3:]).T - A, axis=1)
+
+
+def _leg_jacobian_det(A, B, y):
+    """det of the 6x6 platform Jacobian [u_i, (R b_i) x u_i] (u_i unit leg vectors)."""
+    from scdk_sym.model.chart import rot_exp
+
+    Rb = B @ rot_exp(y[3:]).T
+    d = y[:3] + Rb - A
+    u = d / np.linalg.norm(d, axis=1)[:, None]
+    return float(np.linalg.det(np.hstack([u, np.cross(Rb, u)])))
+
+
+@pytest.mark.parametrize("count", [5, 7, 9, 17, 33])
+def test_hexapod_coarse_path_through_its_twist_singularity(count):
+    """A 6-6 platform moved straight through its singular manifold (turned about z), coarsely."""
+    from factories import hexapod as general_hexapod
+
+    model = general_hexapod()
+    ang_b = np.radians([0, 120, 240]).repeat(2) + np.radians([-12, 12] * 3)
+    ang_p = np.roll(np.radians([60, 180, 300]).repeat(2) + np.radians([-20, 20] * 3), 1)
+    A = np.c_[0.5 * np.cos(ang_b), 0.5 * np.sin(ang_b), np.zeros(6)]
+    B = np.c_[0.3 * np.cos(ang_p), 0.3 * np.sin(ang_p), np.zeros(6)]
+    level, twist = np.array([0.0, 0.0, 0.6, 0.0, 0.0, 0.0]), np.eye(6)[5]
+    lo, hi = 1.0, 2.0  # bisection on the twist angle for the singular configuration
+    sign_lo = np.sign(_leg_jacobian_det(A, B, level + lo * twist))
+    assert sign_lo * _leg_jacobian_det(A, B, level + hi * twist) < 0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        same = np.sign(_leg_jacobian_det(A, B, level + mid * twist)) == sign_lo
+        lo, hi = (mid, hi) if same else (lo, mid)
+    direction = np.array([0.02, -0.03, 0.05, 0.3, -0.2, 1.0])
+    direction /= np.linalg.norm(direction)
+    t = np.linspace(-0.3, 0.3, count) + 0.0123
+    Y = level + lo * twist + t[:, None] * direction
+    thetas = np.array([_legs(A, B, y) for y in Y])
+    start = model.configuration(Y[0], thetas[0])
+
+    res = track_c(model, thetas, start)
+    np.testing.assert_allclose(res.y, Y, rtol=0, atol=1e-8)
+    assert len(res.crossings) == 1
+    assert res.crossings[0].index == int(np.flatnonzero(t < 0)[-1])
+    assert abs(_leg_jacobian_det(A, B, res.crossings[0].y)) < 1e-3 * abs(
+        _leg_jacobian_det(A, B, Y[0])
+    )
+
+
+@pytest.mark.parametrize("count", [8, 12, 20, 50])
+def test_hexapod_coarse_yaw_path_through_the_singular_orientation(hexapod, count):
+    X = fold_path(hexapod.home.x, count)
+    thetas = leg_lengths(X)
+    res = track_c(hexapod, thetas[1:], hexapod.inverse_kinematics(X[0]))
+    np.testing.assert_allclose(res.x, X[1:], rtol=0, atol=1e-8)
+    dets = [_leg_jacobian_det(A, B, y) for y in canonical_y(X[1:])]
+    flips = np.flatnonzero(np.sign(dets[1:]) != np.sign(dets[:-1]))
+    assert len(flips) == 1
+    assert [c.index for c in res.crossings] == [int(flips[0])]

@@ -65,6 +65,22 @@ class TrackerKernels:
         return [getattr(self, f.name) for f in fields(self)]
 
 
+def _dense(f: ca.Function) -> ca.Function:
+    """``f`` with every input and output dense (column-major, all entries stored).
+
+    CasADi's generated C reads and writes the nonzeros of each argument only; the C tracker
+    indexes its arrays as dense column-major matrices, so a structural zero (``J_p`` of a
+    chain whose closures each involve a subset of the joints) would shift every later entry.
+    """
+    if all(f.sparsity_in(i).is_dense() for i in range(f.n_in())) and all(
+        f.sparsity_out(i).is_dense() for i in range(f.n_out())
+    ):
+        return f
+    ins = [ca.SX.sym(f.name_in(i), f.size1_in(i), f.size2_in(i)) for i in range(f.n_in())]
+    outs = [ca.densify(o) for o in f.call(ins)]
+    return ca.Function(f.name(), ins, outs, f.name_in(), f.name_out())
+
+
 def _cayley(rho: ca.SX) -> ca.SX:
     from ..symbolic.kinematics import cayley
 
@@ -114,7 +130,8 @@ def build_tracker_kernels(
         prefix: C identifier prefix of the generated functions (``<prefix>_g``, ...).
 
     Returns:
-        The kernels; every Function is named ``<prefix>_<kernel>``.
+        The kernels; every Function is named ``<prefix>_<kernel>``, and every input and output
+        is dense (the C tracker indexes them as dense column-major arrays).
     """
     base = build_kernels(sym, name=prefix)
     y, theta, c = sym.y, sym.theta, sym.c
@@ -184,7 +201,7 @@ def build_tracker_kernels(
     recentre = ca.Function(f"{prefix}_recentre", [y, c], [y_out, c_out], ["y", "c"], ["y0", "c0"])
 
     g = ca.Function(f"{prefix}_g", [y, theta, c], [sym.g], ["y", "theta", "c"], ["g"])
-    return TrackerKernels(
+    kernels = dict(
         g=g,
         jac=base.jac,
         pose=base.pose,
@@ -195,3 +212,4 @@ def build_tracker_kernels(
         recentre=recentre,
         ik_step=base.ik_step,
     )
+    return TrackerKernels(**{name: _dense(fun) for name, fun in kernels.items()})

@@ -49,7 +49,11 @@ def track_c(
 
     Each reading is reached from the previous configuration along the singularity-consistent
     solution curve; where several solutions are met (near a fold of the direct kinematics)
-    the one continuing the motion (linear extrapolation of the last two samples) is kept.
+    the one continuing the motion is kept: the nearest to the extrapolation of the last
+    samples, and among those nearer to each other than the extrapolation is accurate, the
+    one farthest along the predicted motion. The start is not a sample: the first reading is
+    reached from it on the convergent branch, and the motion is extrapolated from the samples
+    on.
 
     Args:
         model: the model.
