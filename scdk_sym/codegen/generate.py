@@ -15,17 +15,15 @@ The four files compile with ``gcc -std=c99 -O2 -Wall`` and ``-lm`` alone.
 from __future__ import annotations
 
 import hashlib
-import os
 import re
 import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
-import casadi as ca
 import numpy as np
 
 from ..errors import BuildError, InputError
-from ..kernels.compile import compiler
+from ..kernels.compile import compiler, write_c
 from . import templates
 from .kernels import build_tracker_kernels
 
@@ -111,15 +109,7 @@ def generate(model, directory: str | Path, prefix: str = "scdk") -> GeneratedSou
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     kern = build_tracker_kernels(model.symbolic, model.chart.rotations, prefix)
-    gen = ca.CodeGenerator(f"{prefix}_kernels.c", {"with_header": True})
-    for f in kern.all():
-        gen.add(f)
-    cwd = os.getcwd()
-    try:
-        os.chdir(out)
-        gen.generate()
-    finally:
-        os.chdir(cwd)
+    write_c(kern.all(), f"{prefix}_kernels", out, with_header=True)
     funcs = kern.all()
     home = model.home
     y_loc, c = model.chart.to_local(home.y)

@@ -7,7 +7,7 @@ that is not square as written (redundant rows, idle freedoms) to an independent 
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import replace
 from functools import cached_property
 from pathlib import Path
@@ -544,7 +544,3 @@ def load_model(path: str | Path, frame: str | None = None) -> Model:
 def model_from_tree(tree: Tree, spec: Spec, frame: str | None = None) -> Model:
     """Make a model from an in-memory tree and spec (used by the builders)."""
     return Model(tree, spec, None, frame)
-
-
-def _as_mapping(values: Mapping[str, float]) -> dict[str, float]:
-    return {str(k): float(v) for k, v in values.items()}
