@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 import time
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -34,21 +34,10 @@ from scdk_sym.solvers.sc import solve
 from scdk_sym.solvers.track_c import track_c
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+from stewart import anchors, leg_lengths  # noqa: E402  (references shared with the tests)
+
 MODEL = ROOT / "models" / "stewart_gough"
-
-
-def anchors(model_dir: Path) -> tuple[np.ndarray, np.ndarray]:
-    """(6, 3) base and platform anchors [m], read from the URDF."""
-    root = ET.parse(model_dir / "robot.urdf").getroot()
-
-    def read(kind):
-        rows = []
-        for i in range(1, 7):
-            origin = root.find(f"joint[@name='{kind}_anchor_{i}_joint']/origin")
-            rows.append([float(v) for v in origin.get("xyz").split()])
-        return np.array(rows)
-
-    return read("base"), read("platform")
 
 
 def smooth_path(home: np.ndarray, n: int) -> np.ndarray:
@@ -69,10 +58,6 @@ def fold_path(home: np.ndarray, n: int) -> np.ndarray:
     X[:, 2] += 0.02 * t
     X[:, 3] += 0.05 * t
     return X
-
-
-def leg_lengths(X: np.ndarray, A: np.ndarray, B: np.ndarray) -> np.ndarray:
-    return np.array([np.linalg.norm(x[:3] + B @ rpy_matrix(*x[3:]).T - A, axis=1) for x in X])
 
 
 def rpy(R: np.ndarray) -> np.ndarray:

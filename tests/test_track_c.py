@@ -1,10 +1,10 @@
 """Trajectory tracking with the generated C tracker (scdk_sym.solvers.track_c)."""
 
 import shutil
-import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
+import stewart
 from factories import MODELS, shipped
 
 import scdk_sym as sc
@@ -20,26 +20,12 @@ pytestmark = pytest.mark.skipif(
 )
 
 
-def anchors(model_dir):
-    """(6, 3) base and platform anchors read from the URDF text (independent of the model)."""
-    root = ET.parse(model_dir / "robot.urdf").getroot()
-
-    def read(kind):
-        rows = []
-        for i in range(1, 7):
-            origin = root.find(f"joint[@name='{kind}_anchor_{i}_joint']/origin")
-            rows.append([float(v) for v in origin.get("xyz").split()])
-        return np.array(rows)
-
-    return read("base"), read("platform")
-
-
-A, B = anchors(MODELS / "stewart_gough")
+A, B = stewart.anchors(MODELS / "stewart_gough")
 
 
 def leg_lengths(X):
-    """Closed-form inverse kinematics of the hexapod: |p + R b_i - a_i| per pose [m]."""
-    return np.array([np.linalg.norm(x[:3] + B @ rpy_matrix(*x[3:]).T - A, axis=1) for x in X])
+    """Closed-form inverse kinematics of the shipped hexapod [m]."""
+    return stewart.leg_lengths(X, A, B)
 
 
 def canonical_y(X):
