@@ -51,6 +51,10 @@ class Configuration:
         }
 
 
+#: Kinds of singular points met along a path.
+CROSSING_KINDS = ("fold", "bifurcation")
+
+
 @dataclass(frozen=True)
 class Crossing:
     """A crossing of the singular manifold (``det J_p`` changes sign) along a path.
@@ -60,7 +64,11 @@ class Crossing:
         x: (n,) workspace coordinates at the crossing.
         y: (m,) unknown joint values at the crossing.
         theta: (k,) actuated joint values at the crossing.
-        index: for tracks, the sample index after which the crossing occurs (else -1).
+        index: for tracks, the sample index after which the crossing occurs (-1 before the
+            first sample, and for solves).
+        kind: "fold" (the solution curve turns: ``s'`` and ``det J_p`` change sign together)
+            or "bifurcation" (two solution branches cross: ``H = [J_p, -j_s]`` drops rank,
+            ``det J_p`` changes sign while ``s`` keeps its direction).
     """
 
     s: float
@@ -68,21 +76,24 @@ class Crossing:
     y: np.ndarray
     theta: np.ndarray
     index: int = -1
+    kind: str = "fold"
 
     def __post_init__(self) -> None:
         for name in ("x", "y", "theta"):
             object.__setattr__(self, name, _frozen(getattr(self, name)))
+        object.__setattr__(self, "index", int(self.index))
+        if self.kind not in CROSSING_KINDS:
+            raise ValueError(f"unknown crossing kind {self.kind!r}; kinds: fold, bifurcation")
 
     def to_dict(self) -> dict:
-        d = {
+        return {
             "s": float(self.s),
             "x": self.x.tolist(),
             "y": self.y.tolist(),
             "theta": self.theta.tolist(),
+            "index": self.index,
+            "kind": self.kind,
         }
-        if self.index >= 0:
-            d["index"] = self.index
-        return d
 
 
 @dataclass(frozen=True)
