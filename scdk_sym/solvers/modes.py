@@ -45,7 +45,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import InputError, ScdkError
-from ..model.chart import cayley, rot_exp, rot_log
+from ..follower.geometry import difference, features, in_chart, kinds, local_features, periodic  # noqa: F401
 from ..model.model import Model, as_vector
 from ..results import Configuration
 from .sc import null_direction, validate_start
@@ -186,88 +186,6 @@ def _compile(kern: CurveKernels) -> CurveKernels:
 # ---------------------------------------------------------------------------- geometry
 
 
-def _kinds(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Indices of the unknowns: (revolute angles, floating rotations, the others); cached."""
-    cached = model.__dict__.get("_unknown_kinds")
-    if cached is None:
-        types = {j.name: j.type for j in model.tree.joints}
-        per = [
-            i for i, n in enumerate(model.unknowns) if types.get(n) in ("revolute", "continuous")
-        ]
-        rot = [i for idx in model.chart.rotations for i in idx]
-        plain = [i for i in range(model.m) if i not in set(per) | set(rot)]
-        cached = tuple(np.array(v, dtype=int) for v in (per, rot, plain))
-        model.__dict__["_unknown_kinds"] = cached
-    return cached
-
-
-def _periodic(model: Model) -> np.ndarray:
-    """Indices of the unknowns that are angles of revolute joints (equal modulo 2 pi)."""
-    return _kinds(model)[0]
-
-
-def features(model: Model, Y: np.ndarray) -> np.ndarray:
-    """Chart-free coordinates of canonical unknowns, for comparisons.
-
-    Revolute angles become ``(cos, sin)``, floating rotations their rotation matrix; other
-    unknowns stay. Two configurations coincide when their features do.
-
-    Args:
-        model: the model.
-        Y: (N, m) canonical unknowns.
-
-    Returns:
-        (N, F) features [model length unit or 1].
-    """
-    Y = np.atleast_2d(np.asarray(Y, float))
-    per, _, plain = _kinds(model)
-    parts = [Y[:, plain], np.cos(Y[:, per]), np.sin(Y[:, per])]
-    for idx in model.chart.rotations:
-        W = Y[:, list(idx)]
-        angle = np.linalg.norm(W, axis=1)
-        safe = np.where(angle < 1e-12, 1.0, angle)
-        a = np.where(angle < 1e-12, 1.0, np.sin(angle) / safe)[:, None, None]
-        b = np.where(angle < 1e-12, 0.5, (1 - np.cos(angle)) / safe**2)[:, None, None]
-        K = np.zeros((len(W), 3, 3))
-        K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -W[:, 2], W[:, 1], -W[:, 0]
-        K = K - K.transpose(0, 2, 1)
-        R = np.eye(3) + a * K + b * K @ K
-        parts.append(R.reshape(len(W), 9))
-    return np.hstack(parts)
-
-
-def _local_features(model: Model, y_loc: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """:func:`features` of one vector of unknowns given in the local chart ``c``."""
-    per, _, plain = _kinds(model)
-    parts = [y_loc[plain], np.cos(y_loc[per]), np.sin(y_loc[per])]
-    for i, idx in enumerate(model.chart.rotations):
-        R = c[9 * i : 9 * i + 9].reshape(3, 3, order="F") @ cayley(y_loc[list(idx)])
-        parts.append(R.ravel())
-    return np.concatenate(parts)
-
-
-def difference(model: Model, y_a: np.ndarray, y_b: np.ndarray) -> np.ndarray:
-    """``y_a - y_b`` for canonical unknowns: angles wrapped to (-pi, pi], rotations of floating
-    joints as the rotation vector of ``R_b^T R_a`` [rad].
-
-    Args:
-        model: the model.
-        y_a: (m,) canonical unknowns.
-        y_b: (m,) canonical unknowns.
-
-    Returns:
-        (m,) difference in the tangent space at ``y_b``.
-    """
-    d = np.asarray(y_a, float) - np.asarray(y_b, float)
-    per = _periodic(model)
-    if per.size:
-        d[per] = (d[per] + math.pi) % (2 * math.pi) - math.pi
-    for idx in model.chart.rotations:
-        ii = list(idx)
-        d[ii] = rot_log(rot_exp(y_b[ii]).T @ rot_exp(y_a[ii]))
-    return d
-
-
 def _scale(model: Model) -> float:
     return max(1.0, model.length_scale)
 
@@ -358,9 +276,9 @@ def follow_curve(
     p = np.concatenate([theta1, dtheta])
     w2 = float(dtheta @ dtheta)
     weight = np.append(np.ones(m), w2)
-    per = _periodic(model)
+    per = periodic(model)
     rots = model.chart.rotations
-    rot_idx = _kinds(model)[1]
+    rot_idx = kinds(model)[1]
     out = Curve()
     y_loc, c = model.chart.to_local(y_start)
     q = np.append(y_loc, s_start)
@@ -409,7 +327,7 @@ def follow_curve(
         for i in turns:  # turning points of s: every loop has some; met again = going round
             a = T[-1, i] / (T[-1, i] - T[-1, i + 1])
             qt = Q[:, i] + a * (Q[:, i + 1] - Q[:, i])
-            f = np.append(_local_features(model, qt[:m], c), qt[m] * w)
+            f = np.append(local_features(model, qt[:m], c), qt[m] * w)
             arc_t = out.arc + h * (i + a)
             if turning:
                 F = np.array([t[0] for t in turning])
@@ -424,7 +342,7 @@ def follow_curve(
             y_loc = _polish_between(model, kern, Q[:, i], Q[:, i + 1], T[:, i], T[:, i + 1],
                                     h, theta0, c)  # fmt: skip
             if y_loc is not None:
-                f_hit = _local_features(model, y_loc, c)[None]
+                f_hit = local_features(model, y_loc, c)[None]
                 if f_seen.size and np.min(np.max(np.abs(f_seen - f_hit), axis=1)) <= tol:
                     out.repeated = True  # met twice: the follower jumped onto a loop it went round
                     break
@@ -432,7 +350,7 @@ def follow_curve(
                 out.hit_arcs.append(out.arc + h * (i + 0.5))
                 f_seen = np.vstack([f_seen, f_hit]) if f_seen.size else f_hit
         # closure: distance of the path to the start point expressed in the current chart
-        q_ref = _in_chart(q_first, c_first, c, rots)
+        q_ref = in_chart(q_first, c_first, c, rots)
         if q_ref is not None:
             D = Q - q_ref[:, None]
             if per.size:
@@ -490,25 +408,6 @@ def _hidden_pair(s_vals: np.ndarray, ts: np.ndarray, h: float) -> bool:
         if np.any(s * a <= 0):
             return True
     return False
-
-
-def _in_chart(q_first, c_first, c, rots) -> np.ndarray | None:
-    """The start point ``q_first`` (chart ``c_first``) in chart ``c`` (None if too far)."""
-    if not rots:
-        return q_first
-    q = q_first.copy()
-    for i, idx in enumerate(rots):
-        ii = list(idx)
-        R0 = c_first[9 * i : 9 * i + 9].reshape(3, 3, order="F") @ cayley(q_first[ii])
-        Rrel = c[9 * i : 9 * i + 9].reshape(3, 3, order="F").T @ R0
-        tr = 1.0 + float(np.trace(Rrel))
-        if tr < 0.5:  # more than ~140 deg away: not close
-            return None
-        q[ii] = np.array(
-            [Rrel[2, 1] - Rrel[1, 2], Rrel[0, 2] - Rrel[2, 0], Rrel[1, 0] - Rrel[0, 1]]
-        )
-        q[ii] /= tr
-    return q
 
 
 def _polish_between(model, kern, qa, qb, ta, tb, h, theta0, c) -> np.ndarray | None:
@@ -739,7 +638,7 @@ class RandomStarts:
     def _refill(self) -> None:
         model, n = self.model, self.batch
         Y = np.tile(np.array(model.home.y, dtype=float), (n, 1))
-        per, _, plain = _kinds(model)
+        per, _, plain = kinds(model)
         Y[:, per] = self.rng.uniform(-math.pi, math.pi, (n, per.size))
         spread = RANDOM_SPREAD * model.length_scale
         Y[:, plain] += self.rng.uniform(-spread, spread, (n, len(plain)))

@@ -17,111 +17,20 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-import casadi as ca
 import numpy as np
 
-from ..errors import InputError, NotAssembledError, PathError, SolveError, VerificationError
-from ..kernels.fastcall import Buffered
+from ..errors import (
+    InputError,
+    NotAssembledError,
+    PathError,
+    ScdkError,
+    SolveError,
+    VerificationError,
+)
+from ..follower.curve import Hit, Line, follow, null_direction  # noqa: F401
+from ..follower.cvodes import BACKENDS, GRID, Engine, engine  # noqa: F401
 from ..model.model import Model, as_vector
 from ..results import Configuration, Crossing, PathSamples, SolveResult
-
-#: Output samples per integrated chunk.
-GRID = 8
-#: Stabilisation gain K (g decays as exp(-K tau) over one chunk).
-GAIN = 5.0
-CVODES_OPTIONS = {
-    "linear_multistep_method": "adams",
-    "nonlinear_solver_iteration": "functional",
-    "abstol": 1e-11,
-    "reltol": 1e-10,
-    "max_num_steps": 5000,
-    "disable_internal_warnings": True,
-}
-BACKENDS = ("casadi", "compiled")
-
-
-@dataclass
-class Engine:
-    """Per-model numeric machinery of the SC solver (kernels, integrator, mapped probe).
-
-    ``integrator``, ``probe`` and ``warm`` are called through zero-copy buffers (see
-    :mod:`scdk_sym.kernels.fastcall`): use :meth:`integrate` and :meth:`probe_samples`.
-    """
-
-    model: Model
-    kernels: object
-    integrator: Buffered
-    probe: Buffered
-    m: int
-    k: int
-    warm: Buffered
-
-    def integrate(self, q: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """(m+1, GRID) samples of one chunk of the SC field from ``q``; p = (params, chart)."""
-        f = self.integrator
-        out = f(
-            *[
-                q if n == "x0" else p if n == "p" else a
-                for n, a in zip(f.names, f.args, strict=True)
-            ]
-        )
-        return out[0].reshape(self.m + 1, GRID, order="F").copy()
-
-    def probe_samples(self, Q: np.ndarray, p: np.ndarray, c: np.ndarray):
-        """(tangents (m+1, N), vec J_p (m*m, N), x (n, N)) at the N = GRID + 1 samples Q."""
-        n = GRID + 1
-        T, J, X = self.probe(Q.ravel(order="F"), np.tile(p, n), np.tile(c, n))
-        return (
-            T.reshape(-1, n, order="F").copy(),
-            J.reshape(-1, n, order="F").copy(),
-            X.reshape(-1, n, order="F").copy(),
-        )
-
-
-def engine(model: Model, backend: str = "casadi") -> Engine:
-    """The (cached) SC engine of a model.
-
-    Args:
-        model: the model.
-        backend: "casadi" (SX Functions) or "compiled" (generated C, cached on disk).
-    """
-    store = model.__dict__.setdefault("_engines", {})
-    if backend in store:
-        return store[backend]
-    if backend == "casadi":
-        kern = model.kernels
-    elif backend == "compiled":
-        from ..kernels.compile import compiled_kernels
-
-        kern = compiled_kernels(model)
-    else:
-        raise InputError(f"unknown backend {backend!r}; backends: {', '.join(BACKENDS)}")
-    m, k = model.m, model.k
-    q = ca.MX.sym("q", m + 1)
-    p = ca.MX.sym("p", 2 * k + m + 3)
-    c = ca.MX.sym("c", model.chart.size)
-    dae = {"x": q, "p": ca.vertcat(p, c), "ode": kern.field(q, p, c)}
-    grid = np.linspace(0.0, 1.0, GRID + 1)[1:]
-    integ = ca.integrator("sc_chunk", "cvodes", dae, 0.0, grid, CVODES_OPTIONS)
-    eng = Engine(
-        model, kern, Buffered(integ), Buffered(kern.probe.map(GRID + 1)), m, k, Buffered(kern.warm)
-    )
-    store[backend] = eng
-    return eng
-
-
-def null_direction(Jp: np.ndarray, js: np.ndarray) -> np.ndarray:
-    """Unit vector along nu = [adj(J_p) j_s; det J_p] (generalised cross product of H's rows)."""
-    H = np.hstack([Jp, -js[:, None]])
-    _, _, Vt = np.linalg.svd(H)
-    t = Vt[-1]
-    if np.linalg.det(np.vstack([H, t])) < 0:
-        t = -t
-    return t
-
-
-def _wnorm(v: np.ndarray, w: float) -> float:
-    return float(math.sqrt(float(v[:-1] @ v[:-1]) + (w * v[-1]) ** 2))
 
 
 def validate_start(
@@ -147,36 +56,22 @@ def validate_start(
     return start
 
 
-@dataclass(frozen=True)
-class Hit:
-    """A point where the traced curve meets ``s = 1``: a direct-kinematics solution.
-
-    Attributes:
-        y: (m,) canonical unknowns of the solution.
-        arc: arc length from the start at which it was met.
-        crossings: number of singular-manifold crossings before it.
-        arriving: +1 if ``s`` was increasing through 1 there, -1 if decreasing.
-    """
-
-    y: np.ndarray
-    arc: float
-    crossings: int
-    arriving: float
-
-
 @dataclass
 class Trace:
     """What :func:`trace` met along the solution curve through the start.
 
     Attributes:
-        hits: ``s = 1`` crossings, in order of arc length.
-        crossings: singular-manifold crossings, in order.
+        hits: ``s = 1`` crossings (:class:`~scdk_sym.follower.curve.Hit`), in order of arc
+            length.
+        crossings: singular points (folds and bifurcations), in order.
         crossing_arcs: arc length of each crossing.
         direction: +1 / -1, the sign of b relative to nu.
         det0: ``det J_p`` at the start.
         arc: arc length travelled.
         closed: the curve came back to its start (it was followed entirely).
+        stalled: the curve could not be followed further.
         path: sampled curve (when recorded).
+        s_range: (min, max) of ``s`` met.
     """
 
     hits: list[Hit] = field(default_factory=list)
@@ -186,6 +81,7 @@ class Trace:
     det0: float = 0.0
     arc: float = 0.0
     closed: bool = False
+    stalled: bool = False
     path: PathSamples | None = None
     s_range: tuple[float, float] = (0.0, 0.0)
 
@@ -194,9 +90,8 @@ def start_direction(
     model: Model, theta0: np.ndarray, start: Configuration, backend: str = "casadi"
 ):
     """(nu unit vector, det J_p) at the start of the path towards ``theta0``."""
-    eng = engine(model, backend)
     y_loc, c = model.chart.to_local(start.y)
-    Jp, Js = (np.array(a) for a in eng.kernels.jac(y_loc, start.theta, c))
+    Jp, Js = (np.array(a) for a in model.kernels.jac(y_loc, start.theta, c))
     return null_direction(Jp, Js @ (theta0 - start.theta)), float(np.linalg.det(Jp))
 
 
@@ -210,8 +105,12 @@ def trace(
     max_arc: float | None = None,
     backend: str = "casadi",
     record_path: bool = False,
+    predictor: str = "cvodes",
 ) -> Trace:
     """Follow the SC solution curve from ``start`` towards ``theta0`` and collect what it meets.
+
+    The curve follower (:func:`scdk_sym.follower.curve.follow`) on the line from
+    ``start.theta`` to ``theta0``, with CVODES integrating the SC ODE (``predictor="cvodes"``).
 
     Args:
         model: the model.
@@ -223,154 +122,24 @@ def trace(
             to ``s = 1`` plus 20 model sizes).
         backend: kernel backend.
         record_path: keep the sampled curve.
-
-    Raises:
-        PathError: the integration itself failed (the field turned too sharply).
+        predictor: "cvodes" or "rk4" (see :mod:`scdk_sym.follower.curve`).
     """
-    eng = engine(model, backend)
-    kern = eng.kernels
-    m, _k = eng.m, eng.k
     theta1 = np.array(start.theta, dtype=float)
-    dtheta = np.asarray(theta0, float) - theta1
-    w = float(np.linalg.norm(dtheta))
-    y_loc, c = model.chart.to_local(start.y)
-    floating = bool(model.chart.rotations)
-    Jp, Js = (np.array(a) for a in kern.jac(y_loc, theta1, c))
-    nu = null_direction(Jp, Js @ dtheta)
-    out = Trace(direction=direction, det0=float(np.linalg.det(Jp)))
-    tangent = direction * nu / _wnorm(nu, w)
-    ell0 = 1.0 / max(abs(tangent[-1]), 1e-6)  # arc length per unit s at the start
-    ell0 = min(ell0, 1e3 * max(1.0, model.length_scale))
-    budget = max_arc if max_arc is not None else 60.0 * ell0 + 20.0 * max(1.0, model.length_scale)
-    scale = 0.5 * ell0
-    q = np.concatenate([y_loc, [0.0]])
-    q_start = q.copy()
-    s_lo = s_hi = 0.0
-    rec: dict[str, list] = {"q": [], "J": [], "x": [], "arc": []}
-    chunks = 0
-    while out.arc < budget and chunks < 4000:
-        chunks += 1
-        p = np.concatenate([theta1, dtheta, tangent, [scale, GAIN]])
-        try:
-            xf = eng.integrate(q, np.concatenate([p, c]))
-        except RuntimeError:
-            xf = np.full((m + 1, GRID), np.nan)
-        Q = np.hstack([q[:, None], xf])
-        if not np.all(np.isfinite(Q)):
-            scale /= 4
-            if scale < 1e-12 * ell0:
-                raise PathError(f"integration of the SC field failed near q={q.tolist()}")
-            continue
-        T, Jv, X = eng.probe_samples(Q, p, c)
-        t_end = T[:, -1]
-        cosine = float(t_end[:-1] @ tangent[:-1] + w * w * t_end[-1] * tangent[-1])
-        if cosine < 0.8:
-            scale /= 2
-            if scale < 1e-12 * ell0:
-                raise PathError(f"the SC field turned too sharply near q={q.tolist()}")
-            continue
-        s_vals, ts = Q[-1], T[-1]
-        bad_finish = False
-        new_hits: list[Hit] = []
-        new_cross: list[tuple[Crossing, float]] = []
-        for i in range(GRID):
-            seg_arc = out.arc + scale * i / GRID
-            if ts[i] * ts[i + 1] < 0:  # s' changes sign: a crossing of the singular manifold
-                cr = _locate_crossing(eng, Q[:, i], Q[:, i + 1], ts[i], ts[i + 1], p, c)
-                new_cross.append((cr, seg_arc + scale * 0.5 / GRID))
-            if (s_vals[i] - 1.0) * (s_vals[i + 1] - 1.0) <= 0 and s_vals[i] != s_vals[i + 1]:
-                if s_vals[i + 1] == 1.0 and i + 1 < GRID:
-                    continue  # counted at the next segment
-                if ts[i] * ts[i + 1] < 0:  # a fold in the same segment: resolve it first
-                    bad_finish = True
-                    break
-                hit = _finish(eng, Q[:, i], Q[:, i + 1], theta1, dtheta, c, seg_arc)
-                if hit is None:
-                    bad_finish = True
-                    break
-                y_can = model.chart.to_canonical(hit, c) if floating else hit
-                arriving = 1.0 if s_vals[i + 1] > s_vals[i] else -1.0
-                new_hits.append(Hit(y_can, seg_arc, len(out.crossings) + len(new_cross), arriving))
-        if bad_finish:  # the finishing step left the curve: redo this chunk with finer samples
-            scale /= 4
-            if scale < 1e-12 * ell0:
-                raise PathError("could not finish the path at s = 1")
-            continue
-        for cr, a in new_cross:
-            out.crossings.append(cr)
-            out.crossing_arcs.append(a)
-        s_lo, s_hi = min(s_lo, s_vals.min()), max(s_hi, s_vals.max())
-        if record_path:
-            first = 1 if rec["q"] else 0  # a chunk starts where the previous one ended
-            Qc = Q[:, first:].T
-            if floating:
-                Qc = np.array([np.append(model.chart.to_canonical(r[:-1], c), r[-1]) for r in Qc])
-            rec["q"].extend(Qc)
-            rec["J"].extend(Jv[:, first:].T)
-            rec["x"].extend(X[:, first:].T)
-            rec["arc"].extend(out.arc + scale * np.arange(first, GRID + 1) / GRID)
-        out.hits.extend(new_hits)
-        out.arc += scale
-        if len(out.hits) >= max_hits:
-            break
-        q = Q[:, -1]
-        tangent = t_end / _wnorm(t_end, w)
-        if floating:  # re-centre the orientation chart on the current rotation
-            y_new, c = model.chart.recentre(q[:-1], c)
-            q = np.append(y_new, q[-1])
-            pn = np.concatenate([theta1, dtheta, tangent, [scale, GAIN]])
-            tangent = np.array(kern.probe(q, pn, c)[0]).ravel()
-        elif out.arc > 2 * scale and _near(Q, q_start, 0.05 * scale):
-            out.closed = True
-            break
-        if cosine > 0.995:
-            scale = min(scale * 1.6, 2.0 * ell0)
-    out.s_range = (float(s_lo), float(s_hi))
-    if record_path and rec["q"]:
-        out.path = _samples(rec, direction, model)
-    return out
-
-
-def _near(Q: np.ndarray, q0: np.ndarray, tol: float) -> bool:
-    return bool(np.min(np.linalg.norm(Q[:, 1:] - q0[:, None], axis=0)) < tol)
-
-
-def _finish(eng: Engine, qa, qb, theta1, dtheta, c, arc) -> np.ndarray | None:
-    """The solution at s = 1 between samples qa and qb (or None if the finish left the curve)."""
-    m = eng.m
-    ya, sa = qa[:m], qa[-1]
-    if sa == 1.0:
-        return np.array(ya)
-    y_end, res, _ = eng.kernels.finish(ya, sa, theta1, dtheta, c)
-    y_end = np.array(y_end).ravel()
-    seg = np.linalg.norm(qb[:m] - ya) + 1e-12
-    if not np.all(np.isfinite(y_end)) or np.linalg.norm(y_end - ya) > 3 * seg + 1e-9:
-        return None
-    return y_end
-
-
-def _locate_crossing(eng: Engine, qa, qb, ta, tb, p, c) -> Crossing:
-    alpha = ta / (ta - tb)
-    q0 = qa + alpha * (qb - qa)
-    q1 = np.array(eng.kernels.cross(q0, p, c)).ravel()
-    seg = np.linalg.norm(qb - qa)
-    if not np.all(np.isfinite(q1)) or np.linalg.norm(q1 - q0) > 2 * seg + 1e-12:
-        q1 = q0  # fall back on the interpolated point (accurate to the sample spacing)
-    m, k = eng.m, eng.k
-    theta = p[:k] + q1[-1] * p[k : 2 * k]
-    cfg = eng.model.configuration(q1[:m], theta, c)
-    return Crossing(float(q1[-1]), cfg.x, cfg.y, cfg.theta)
-
-
-def _samples(rec: dict, direction: float, model: Model) -> PathSamples:
-    Q = np.array(rec["q"])
-    m = model.m
-    J = np.array(rec["J"]).reshape(len(rec["J"]), m, m).transpose(0, 2, 1)  # CasADi: column-major
-    det = np.linalg.det(J)
-    return PathSamples(
-        s=Q[:, -1], y=Q[:, :-1], x=np.array(rec["x"]), det_jp=det, sdot=direction * det,
-        arc=np.array(rec["arc"]),
-    )  # fmt: skip
+    line = Line(theta1, np.asarray(theta0, float) - theta1)
+    walk = follow(model, line, start.y, 0.0, direction, predictor=predictor, backend=backend,
+                  max_hits=max_hits, max_arc=max_arc, record=record_path)  # fmt: skip
+    return Trace(
+        hits=walk.hits,
+        crossings=walk.singular,
+        crossing_arcs=walk.singular_arcs,
+        direction=direction,
+        det0=walk.det0,
+        arc=walk.arc,
+        closed=walk.closed,
+        stalled=walk.stalled,
+        path=walk.path,
+        s_range=walk.s_range,
+    )
 
 
 def solve(
@@ -391,10 +160,15 @@ def solve(
         model: the model.
         theta0: (k,) actuated joint values [rad or model length unit].
         start: assembled start configuration (default: ``model.home``).
-        branch: "convergent" (``b det J_p > 0`` at the start: stays in the start's
-            compartment) or "divergent" (moves away, crosses the singular manifold).
-        b: the paper's signed scalar; when given, its sign selects the direction of
-            ``nu`` and overrides ``branch``.
+        branch: "convergent" (``b det J_p > 0`` at the start: the solution reached without
+            leaving the start's side of the singular surface, along the paper's straight path)
+            or "divergent" (the solution across the nearest singular surface: the nearest
+            singular configuration on the assembled manifold is located, crossed, and the
+            path converges from the other side to ``theta0``; see
+            :mod:`scdk_sym.follower.singular`).
+        b: the paper's signed scalar; when given, its sign selects the direction of ``nu``
+            on the paper's straight path ``theta1 + s (theta0 - theta1)`` and overrides
+            ``branch`` (the literal algorithm).
         backend: "casadi" or "compiled" kernels.
         max_arc: arc-length budget of the path (see :func:`trace`).
         record_path: keep the sampled curve in ``result.path`` (for plots).
@@ -404,13 +178,16 @@ def solve(
             else the full CVODES path is integrated.
 
     Returns:
-        A verified :class:`SolveResult`; ``result.crossings`` lists the singular-manifold
-        crossings met on the way.
+        A verified :class:`SolveResult`; ``result.crossings`` lists the singular points met on
+        the way (each with ``kind`` "fold" or "bifurcation"); ``result.status`` is
+        "converged", or "singular" when the solution itself is singular (``theta0`` on the
+        singular surface: ``J_p`` singular to 1e-6 relative).
 
     Raises:
         InputError: bad shapes, NaN, unknown branch.
-        PathError: the curve never reached ``s = 1`` within the budget (e.g. theta0 is not
-            reachable along this curve, or it closed on itself).
+        SolveError: the start is singular and no ``b`` was given (the branch is undefined).
+        PathError: no solution was reached (the message says what was tried; every real
+            solution at ``theta0`` is listed by :func:`scdk_sym.assembly_modes`).
         VerificationError: the final configuration failed its residual check.
     """
     theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
@@ -418,40 +195,149 @@ def solve(
         raise InputError(f"unknown branch {branch!r}; branches: convergent, divergent")
     if b is not None and (not math.isfinite(b) or b == 0):
         raise InputError(f"b must be a non-zero finite number, got {b!r}")
+    if max_arc is not None and not (max_arc > 0):
+        raise InputError(f"max_arc must be a positive arc length, got {max_arc!r}")
     if fast and not record_path and b is None and branch == "convergent":
         start = validate_start(model, start, check_residual=False)
         res = _fast_convergent(model, theta0, start, backend)
         if res is not None:
             return res
     start = validate_start(model, start)
-    dtheta = theta0 - start.theta
-    if float(np.linalg.norm(dtheta)) <= 1e-14 * max(1.0, float(np.linalg.norm(theta0))):
-        return _result(model, start.y, theta0, (), "convergent", 1.0, start, None)
     nu, det0 = start_direction(model, theta0, start, backend)
-    if b is None:
-        if abs(nu[-1]) < 1e-10:
-            raise SolveError(
-                "the start configuration is singular (det J_p ~ 0): the branch is undefined; "
-                "pass b=+1 or b=-1"
-            )
-        sign = 1.0 if nu[-1] > 0 else -1.0
-        direction = sign if branch == "convergent" else -sign
-    else:
+    same = _same_theta(theta0, start.theta)
+    if b is not None:
+        if same:
+            return _result(model, start.y, theta0, (), "convergent", 1.0, start, None)
         direction = 1.0 if b > 0 else -1.0
-    name = "convergent" if direction * det0 > 0 else "divergent"
-    tr = trace(
-        model, theta0, start, direction, max_arc=max_arc, backend=backend, record_path=record_path
-    )
-    if not tr.hits:
-        why = "it closed on itself" if tr.closed else f"within arc length {tr.arc:.3g}"
-        raise PathError(
-            f"the solution curve from the start did not reach s = 1 for theta0={theta0.tolist()} "
-            f"({why}; s stayed in [{tr.s_range[0]:.3g}, {tr.s_range[1]:.3g}]): theta0 is not "
-            "reachable along this path"
+        name = "convergent" if direction * det0 > 0 else "divergent"
+        return _along_line(model, theta0, start, direction, name, backend, max_arc, record_path)
+    if _singular_start(model, start):
+        raise SolveError(
+            f"the start configuration is singular (J_p singular, det {det0:.3g}): the branch "
+            "is undefined; pass b=+1 or b=-1, or start from a nearby non-singular configuration"
         )
-    hit = tr.hits[0]
-    crossings = tuple(tr.crossings[: hit.crossings])
-    return _result(model, hit.y, theta0, crossings, name, direction, start, tr.path)
+    sign = 1.0 if det0 > 0 else -1.0
+    if branch == "convergent":
+        if same:
+            return _result(model, start.y, theta0, (), "convergent", sign, start, None)
+        return _along_line(model, theta0, start, sign, "convergent", backend, max_arc, record_path)
+    return _divergent(model, theta0, start, sign, backend, max_arc, record_path)
+
+
+def _same_theta(a: np.ndarray, b: np.ndarray) -> bool:
+    return float(np.linalg.norm(a - b)) <= 1e-14 * max(1.0, float(np.linalg.norm(a)))
+
+
+def _singular_start(model: Model, start: Configuration) -> bool:
+    y_loc, c = model.chart.to_local(start.y)
+    S = np.linalg.svd(np.array(model.kernels.jac(y_loc, start.theta, c)[0]), compute_uv=False)
+    return not S[-1] > 1e-10 * S[0]
+
+
+def _along_line(model, theta0, start, direction, name, backend, max_arc, record_path):
+    """The first ``s = 1`` crossing along the straight path in one direction (or the singular
+    solution where the curve only touches ``s = 1``)."""
+    tr = trace(model, theta0, start, direction, max_arc=max_arc, backend=backend,
+               record_path=record_path)  # fmt: skip
+    if tr.hits:
+        hit = tr.hits[0]
+        crossings = tuple(tr.crossings[: hit.crossings])
+        return _result(model, hit.y, theta0, crossings, name, direction, start, tr.path)
+    touch = _touching(model, theta0, tr)
+    if touch is not None:
+        y, n = touch
+        crossings = tuple(tr.crossings[:n])
+        return _result(model, y, theta0, crossings, name, direction, start, tr.path)
+    if tr.stalled:
+        why = "the curve could not be followed further"
+    elif tr.closed:
+        why = "the curve closed on itself"
+    else:
+        why = f"not within arc length {tr.arc:.3g}"
+    raise PathError(
+        f"{name} branch: the solution curve from the start did not reach s = 1 (theta0="
+        f"{theta0.tolist()}): {why}; s stayed in [{tr.s_range[0]:.3g}, {tr.s_range[1]:.3g}]; "
+        "every real solution: sc.assembly_modes(model, theta0)"
+    )
+
+
+def _touching(model, theta0, tr) -> tuple[np.ndarray, int] | None:
+    """A fold of the curve at ``s = 1`` (``theta0`` on the singular surface): the singular
+    solution there, polished at ``theta0``, and the number of crossings before it."""
+    from ..follower.kernels import follower_kernels
+
+    polish = follower_kernels(model).polish
+    for i, cr in enumerate(tr.crossings):
+        if cr.kind != "fold" or abs(cr.s - 1.0) > 1e-6:
+            continue
+        y, c = model.chart.to_local(cr.y)
+        for _ in range(8):  # Newton converges only linearly to a double root
+            y_new, res = polish(y, theta0, c)
+            y = np.array(y_new).ravel()
+            if not np.all(np.isfinite(y)) or float(res) <= 1e-3 * model.tolerance:
+                break
+        if np.all(np.isfinite(y)) and model.residual(y, theta0, c) <= model.tolerance:
+            return model.chart.to_canonical(y, c), i
+    return None
+
+
+def _divergent(model, theta0, start, sign, backend, max_arc, record_path) -> SolveResult:
+    """Across the nearest singular surface: locate it, cross, converge to theta0 from the
+    other side; else the paper's straight path in the divergent direction."""
+    from ..follower.singular import across, across_fold, nearest_singular
+
+    tried = []
+    res = None
+    other = across(model, start, first=start.theta - theta0, backend=backend, record=record_path,
+                   paper_only=True)  # fmt: skip
+    if other is None:
+        # the nearest singular configuration on the manifold, then from it to theta0 on the
+        # other sheet (theta1 -> theta* -> theta0)
+        fold = nearest_singular(model, start, backend)
+        leg = None if fold is None else across_fold(model, start, fold, theta0, backend=backend)
+        if leg is not None:
+            cfg, met = leg
+            return _result(model, cfg.y, theta0, (_on_path(fold, start, theta0), *met),
+                           "divergent", -sign, start, None)  # fmt: skip
+        tried.append("from the nearest singular configuration: no solution on the other side")
+        other = across(model, start, backend=backend)
+    if other is None:
+        tried.append("no singular surface was reached from the start")
+    if other is not None and res is None:
+        try:
+            res = solve(model, theta0, start=other.start, branch="convergent", backend=backend,
+                        max_arc=max_arc, record_path=record_path)  # fmt: skip
+        except ScdkError as exc:
+            tried.append(f"from across the nearest singular surface: {exc}")
+        else:
+            if _is_same_side(model, start, res):
+                tried.append("the path from across the nearest singular surface came back")
+                res = None
+    if other is not None and res is not None:
+        d = theta0 - start.theta
+        dd = float(d @ d)
+        cr = other.crossing
+        s_cross = float((cr.theta - start.theta) @ d / dd) if dd else 0.0
+        first = Crossing(s_cross, cr.x, cr.y, cr.theta, kind=cr.kind)
+        path = res.path
+        if other.path is not None and path is not None:
+            path = _joined(other.path, path, -sign)
+        return SolveResult(
+            x=res.x, y=res.y, theta=res.theta, platform_pose=res.platform_pose,
+            joints=res.joints, residual=res.residual,
+            crossings=(first, *res.crossings), status=res.status,
+            branch="divergent", b=-sign, start=start, path=path,
+        )  # fmt: skip
+    if not _same_theta(theta0, start.theta):
+        try:
+            return _along_line(model, theta0, start, -sign, "divergent", backend, max_arc,
+                               record_path)  # fmt: skip
+        except PathError as exc:
+            tried.append(f"along the straight path: {exc}")
+    raise PathError(
+        f"divergent branch at theta0={theta0.tolist()}: no solution across a singular surface "
+        f"was reached ({'; '.join(tried)}); every real solution: sc.assembly_modes(model, theta0)"
+    )
 
 
 def _fast_convergent(model, theta0, start, backend) -> SolveResult | None:
@@ -509,9 +395,48 @@ def _result(model, y, theta0, crossings, branch, direction, start, path) -> Solv
         joints=cfg.joints,
         residual=cfg.residual,
         crossings=crossings,
-        status="converged",
+        status="singular" if _is_singular(model, cfg) else "converged",
         branch=branch,
         b=direction,
         start=start,
         path=path,
     )
+
+
+def _is_singular(model: Model, cfg: Configuration) -> bool:
+    """J_p singular to 1e-6 relative at a configuration."""
+    y_loc, c = model.chart.to_local(cfg.y)
+    S = np.linalg.svd(np.array(model.kernels.jac(y_loc, cfg.theta, c)[0]), compute_uv=False)
+    return not S[-1] > 1e-6 * S[0]
+
+
+def _is_same_side(model: Model, a: Configuration, b) -> bool:
+    """det J_p has the same sign at two configurations."""
+    dets = []
+    for cfg in (a, b):
+        y, c = model.chart.to_local(cfg.y)
+        dets.append(float(np.linalg.det(np.array(model.kernels.jac(y, cfg.theta, c)[0]))))
+    return dets[0] * dets[1] > 0
+
+
+def _joined(first: PathSamples, rest: PathSamples, b: float) -> PathSamples:
+    """The paper's divergent path: the line away from theta0 (``s -> -s``) and back through
+    the start's theta, then the convergent path to theta0 (``s' = b det J_p``)."""
+    det = np.concatenate([first.det_jp, rest.det_jp[1:]])
+    return PathSamples(
+        s=np.concatenate([-first.s, rest.s[1:]]),
+        y=np.vstack([first.y, rest.y[1:]]),
+        x=np.vstack([first.x, rest.x[1:]]),
+        det_jp=det,
+        sdot=b * det,
+        arc=np.concatenate([first.arc, first.arc[-1] + rest.arc[1:]]),
+    )
+
+
+def _on_path(cr: Crossing, start: Configuration, theta0: np.ndarray) -> Crossing:
+    """A crossing with ``s`` the projection of its ``theta`` on the line from the start to
+    ``theta0`` (exact when it lies on it; 0 when ``theta0`` is the start's)."""
+    d = theta0 - start.theta
+    dd = float(d @ d)
+    s = float((cr.theta - start.theta) @ d / dd) if dd else 0.0
+    return Crossing(s, cr.x, cr.y, cr.theta, kind=cr.kind)

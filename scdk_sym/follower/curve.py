@@ -1,0 +1,662 @@
+"""The curve follower: one implementation of following a solution curve of the closures.
+
+For a line ``theta(s) = theta1 + s dtheta`` in joint space the solutions of
+``g(y, theta(s)) = 0`` form curves in ``q = (y, s)``. :func:`follow` walks such a curve from
+an assembled point along the oriented singularity-consistent tangent (see
+:mod:`scdk_sym.follower.kernels`) and reports what it meets:
+
+- **level crossings** (``s`` passes a level, e.g. ``s = 1``: a direct-kinematics solution at
+  ``theta(1)``), finished by Newton at fixed ``theta`` from a cubic Hermite guess and
+  verified;
+- **folds** (``s`` turns: ``t_s`` and ``det J_p`` change sign together), located by Newton on
+  ``[g; t_s] = 0``;
+- **bifurcations** (two branches cross: ``H' = [J_p, -j_s]`` drops rank, ``det J_p`` changes
+  sign while ``t_s`` does not), stepped over along the incoming tangent with a corrector on the
+  plane normal to it, so the walk continues on the branch whose tangent continues the
+  incoming one, and located by bisection of ``det J_p`` on the curve.
+
+Two predictors produce the samples, judged by the same rules:
+
+- ``"rk4"``: ``STEPS`` explicit steps of arc length ``h`` per call (RK4 along the tangent field,
+  Newton corrections on the plane normal to the tangent), accepted one by one;
+- ``"cvodes"``: CasADi's CVODES integrating the stabilised SC ODE over ``GRID`` samples of arc
+  length ``h`` (:mod:`scdk_sym.follower.cvodes`), accepted as a whole.
+
+Step control: a rejected step halves ``h`` (a quarter where an event needs resolution: a
+level crossing and a fold in one step, a turning point that could hide two crossings of a
+level, a finish that left the curve); a smooth chunk grows it by 1.6. When ``h`` has shrunk
+``STALL_HALVINGS`` times in a row the follower tries to step over (a bifurcation, where no
+tangent field is smooth); failing that the walk ends ``stalled``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError
+from ..results import Crossing, PathSamples
+from .geometry import features, in_chart, periodic
+from .kernels import follower_kernels
+
+#: A predictor-corrector step is accepted when its first correction is below this fraction of
+#: the step, its last below NEWTON_TOL model sizes, and the tangent turned by < acos(MIN_COS).
+MAX_PREDICTOR_ERROR = 0.1
+NEWTON_TOL = 1e-7
+MIN_COS = 0.7
+#: A CVODES chunk is accepted when its end tangent is within acos(CHUNK_COS) of its start's.
+CHUNK_COS = 0.8
+#: Rejections in a row (each halving the step) before stepping over.
+STALL_HALVINGS = 6
+#: A stepped-over point must continue the incoming tangent within acos(STEP_OVER_COS).
+STEP_OVER_COS = 0.9
+#: The orientation chart is re-centred when a Rodrigues parameter exceeds this (~53 deg).
+RECENTRE = 0.5
+#: Rodrigues parameters of the chart stay below this (127 deg) inside one call.
+CHART_LIMIT = 2.0
+PREDICTORS = ("rk4", "cvodes")
+
+
+@dataclass(frozen=True)
+class Line:
+    """A line in joint space, ``theta(s) = theta1 + s dtheta``.
+
+    Attributes:
+        theta1: (k,) actuated values at ``s = 0`` [rad or model length unit].
+        dtheta: (k,) direction; ``theta(1) = theta1 + dtheta``.
+    """
+
+    theta1: np.ndarray
+    dtheta: np.ndarray
+
+    def at(self, s: float) -> np.ndarray:
+        return self.theta1 + s * self.dtheta
+
+
+@dataclass(frozen=True)
+class Hit:
+    """A crossing of a level of ``s`` (a solution at ``theta(level)``).
+
+    Attributes:
+        y: (m,) canonical unknowns of the verified solution.
+        level: the level of ``s``.
+        arc: arc length from the start at which it was met.
+        crossings: number of singular points (folds and bifurcations) met before it.
+        arriving: +1 if ``s`` was increasing through the level, -1 if decreasing.
+    """
+
+    y: np.ndarray
+    level: float
+    arc: float
+    crossings: int
+    arriving: float
+
+
+@dataclass
+class Walk:
+    """What :func:`follow` met along one curve.
+
+    Attributes:
+        hits: level crossings, in order of arc length.
+        singular: folds and bifurcations (``Crossing`` with ``s`` on the line), in order.
+        singular_arcs: arc length of each.
+        det0: ``det J_p`` at the start.
+        arc: arc length followed (metric ``|dy|^2 + (|dtheta| ds)^2``).
+        steps: accepted steps (samples).
+        rejected: rejected steps or chunks.
+        step_overs: bifurcations stepped over after a stall.
+        closed: the curve came back to its start.
+        reversed: ... but backwards (the walk jumped between nearly touching branches).
+        repeated: a hit or a fold was met a second time (it went round a loop it jumped onto).
+        timed_out: stopped by the deadline.
+        stalled: stopped because the step could not be continued (nor stepped over).
+        s_range: (min, max) of ``s`` met.
+        path: the sampled curve when recorded.
+        end: (q local, tangent, chart) of the last accepted point.
+    """
+
+    hits: list[Hit] = field(default_factory=list)
+    singular: list[Crossing] = field(default_factory=list)
+    singular_arcs: list[float] = field(default_factory=list)
+    det0: float = 0.0
+    arc: float = 0.0
+    steps: int = 0
+    rejected: int = 0
+    step_overs: int = 0
+    closed: bool = False
+    reversed: bool = False
+    repeated: bool = False
+    timed_out: bool = False
+    stalled: bool = False
+    s_range: tuple[float, float] = (0.0, 0.0)
+    path: PathSamples | None = field(default=None, repr=False)
+    end: tuple[np.ndarray, np.ndarray, np.ndarray] | None = field(default=None, repr=False)
+
+
+def null_direction(Jp: np.ndarray, js: np.ndarray) -> np.ndarray:
+    """Unit vector along nu = [adj(J_p) j_s; det J_p] (generalised cross product of H's rows)."""
+    H = np.hstack([Jp, -js[:, None]])
+    _, _, Vt = np.linalg.svd(H)
+    t = Vt[-1]
+    if np.linalg.det(np.vstack([H, t])) < 0:
+        t = -t
+    return t
+
+
+# ---------------------------------------------------------------------------- predictors
+
+
+@dataclass
+class _Chunk:
+    Q: np.ndarray  # (m+1, n+1) samples, the first the current point
+    T: np.ndarray  # (m+1, n+1) unit tangents
+    D: np.ndarray  # (n+1,) det J_p
+    ok: int  # accepted steps (leading)
+    smooth: bool  # every accepted step well inside the tolerances: the step may grow
+    partial: bool = False  # some steps of the call were rejected
+
+
+class _RK4:
+    """Explicit predictor-corrector steps (:class:`~scdk_sym.follower.kernels.FollowerKernels`)."""
+
+    def __init__(self, model, kern, p, weight, scale):
+        self.model, self.kern, self.p, self.scale = model, kern, p, scale
+        self.m = model.m
+        self.rot_idx = [i for idx in model.chart.rotations for i in idx]
+
+    def advance(self, q, t, h, c, det) -> _Chunk:
+        m = self.m
+        X, info, J = (np.array(a) for a in self.kern.steps(np.concatenate([q, t]), h, self.p, c))
+        good = (
+            np.all(np.isfinite(X), axis=0)
+            & (info[0] <= MAX_PREDICTOR_ERROR * h)
+            & (info[1] <= NEWTON_TOL * self.scale)
+            & (info[2] >= MIN_COS)
+        )
+        if self.rot_idx:
+            good &= np.max(np.abs(X[self.rot_idx]), axis=0) <= CHART_LIMIT
+        n_ok = int(np.argmin(good)) if not good.all() else good.size
+        Q = np.hstack([q[:, None], X[: m + 1, :n_ok]])
+        T = np.hstack([t[:, None], X[m + 1 :, :n_ok]])
+        D = np.concatenate([[det], _dets(J[:, :n_ok], m)])
+        smooth = bool(n_ok == good.size and info[0].max() < 0.02 * h and info[2].min() > 0.95)
+        return _Chunk(Q, T, D, n_ok, smooth, n_ok < good.size)
+
+
+class _Cvodes:
+    """CVODES chunks of the stabilised SC field (:mod:`scdk_sym.follower.cvodes`)."""
+
+    def __init__(self, model, eng, line, w):
+        from .cvodes import GAIN
+
+        self.model, self.eng, self.line, self.w, self.gain = model, eng, line, w, GAIN
+        self.m = model.m
+        self.rot_idx = [i for idx in model.chart.rotations for i in idx]
+
+    def advance(self, q, t, h, c, det) -> _Chunk:
+        from .cvodes import GRID
+
+        m = self.m
+        p = np.concatenate([self.line.theta1, self.line.dtheta, t, [GRID * h, self.gain]])
+        try:
+            X = self.eng.integrate(q, np.concatenate([p, c]))
+        except RuntimeError:
+            X = np.full((m + 1, GRID), np.nan)
+        Q = np.hstack([q[:, None], X])
+        bad = _Chunk(Q[:, :1], t[:, None], np.array([det]), 0, False)
+        if not np.all(np.isfinite(Q)):
+            return bad
+        if self.rot_idx and np.max(np.abs(Q[self.rot_idx])) > CHART_LIMIT:
+            return bad
+        T, Jv, _ = self.eng.probe_samples(Q, p, c)
+        te = T[:, -1]
+        cosine = float(te[:-1] @ t[:-1] + self.w**2 * te[-1] * t[-1])
+        if not cosine >= CHUNK_COS:
+            return bad
+        D = np.concatenate([[det], _dets(Jv[:, 1:], m)])
+        T[:, 0] = t
+        return _Chunk(Q, T, D, GRID, cosine > 0.995)
+
+
+def _dets(J: np.ndarray, m: int) -> np.ndarray:
+    """det of column-major vec(J_p) columns (m*m, N) -> (N,)."""
+    if J.shape[1] == 0:
+        return np.zeros(0)
+    return np.linalg.det(J.T.reshape(-1, m, m).transpose(0, 2, 1))
+
+
+# ---------------------------------------------------------------------------- the walk
+
+
+def _hermite(u: np.ndarray) -> np.ndarray:
+    """Cubic Hermite basis (h00, h10, h01, h11) at the fractions ``u`` of a step."""
+    u2, u3 = u * u, u * u * u
+    return np.array([2 * u3 - 3 * u2 + 1, u3 - 2 * u2 + u, -2 * u3 + 3 * u2, u3 - u2])
+
+
+_FINE = np.linspace(0.0, 1.0, 65)
+_BASIS = _hermite(_FINE)
+
+
+def _hidden_pair(sa: float, sb: float, ta: float, tb: float, h: float, level: float) -> bool:
+    """Whether a turning point of s inside a step crosses the level twice between samples."""
+    a, b = sa - level, sb - level
+    if ta * tb >= 0 or a * b <= 0:
+        return False
+    s = np.array([a, h * ta, b, h * tb]) @ _BASIS
+    return bool(np.any(s * a <= 0))
+
+
+def follow(
+    model,
+    line: Line,
+    y_start: np.ndarray,
+    s_start: float,
+    direction: float,
+    *,
+    predictor: str = "rk4",
+    backend: str = "casadi",
+    levels: tuple[float, ...] = (1.0,),
+    max_hits: int | float = math.inf,
+    max_arc: float | None = None,
+    max_steps: int = 20000,
+    deadline: float = math.inf,
+    step: float | None = None,
+    record: bool = False,
+    stop_when_closed: bool = True,
+    tangent: np.ndarray | None = None,
+    chart: np.ndarray | None = None,
+) -> Walk:
+    """Follow the solution curve of ``g(y, line.at(s)) = 0`` from ``(y_start, s_start)``.
+
+    Args:
+        model: the model.
+        line: the line in joint space.
+        y_start: (m,) canonical unknowns of an assembled point of the curve (or local ones
+            with ``chart``).
+        s_start: its path parameter.
+        direction: +1 to follow ``nu = [adj(J_p) j_s; det J_p]`` (``s' = det J_p``), -1 for
+            ``-nu``; ignored when ``tangent`` is given.
+        predictor: "rk4" (explicit predictor-corrector) or "cvodes" (the SC ODE by CVODES).
+        backend: kernels, "casadi" (SX) or "compiled" (generated C).
+        levels: levels of ``s`` whose crossings are reported (and finished at
+            ``line.at(level)``).
+        max_hits: stop after this many level crossings.
+        max_arc: arc-length budget (default: 60 arc lengths per unit of ``s`` at the start
+            plus 20 model sizes).
+        max_steps: stop after this many accepted steps.
+        deadline: ``time.perf_counter()`` value at which to stop.
+        step: initial arc length per step (default: a sixteenth of the arc per unit ``s``, at
+            most 0.05 model sizes).
+        record: keep the sampled curve in ``walk.path``.
+        stop_when_closed: stop when the curve comes back to its start.
+        tangent: (m+1,) initial tangent orientation (instead of ``direction``).
+        chart: chart of ``y_start`` when it is given in local coordinates.
+
+    Returns:
+        A :class:`Walk`.
+
+    Raises:
+        InputError: unknown predictor or backend.
+    """
+    if predictor not in PREDICTORS:
+        raise InputError(f"unknown predictor {predictor!r}; predictors: {', '.join(PREDICTORS)}")
+    kern = follower_kernels(model, backend)
+    m = model.m
+    scale = max(1.0, float(model.length_scale))
+    tol = float(model.tolerance)
+    theta1 = np.asarray(line.theta1, float)
+    dtheta = np.asarray(line.dtheta, float)
+    p = np.concatenate([theta1, dtheta])
+    w2 = float(dtheta @ dtheta)
+    w = math.sqrt(w2)
+    weight = np.append(np.ones(m), w2)
+    if chart is None:
+        y_loc, c = model.chart.to_local(y_start)
+    else:
+        y_loc, c = np.array(y_start, dtype=float), np.array(chart, dtype=float)
+    q = np.append(y_loc, float(s_start))
+    if tangent is None:
+        Jp, Js = (np.array(a) for a in model.kernels.jac(y_loc, line.at(s_start), c))
+        v0 = direction * null_direction(Jp, Js @ dtheta)
+    else:
+        v0 = np.asarray(tangent, float)
+    t_raw, J0 = kern.tangent(q, v0, p, c)
+    t = np.array(t_raw).ravel()
+    det = float(_dets(np.array(J0), m)[0])
+    out = Walk(det0=det)
+    ell0 = min(1.0 / max(abs(t[-1]) * w, 1e-6) * w, 1e3 * scale) if w > 0 else scale
+    ell0 = max(ell0, 1e-9 * scale)
+    budget = 60.0 * ell0 + 20.0 * scale if max_arc is None else float(max_arc)
+    if predictor == "rk4":
+        pred = _RK4(model, kern, p, weight, scale)
+        h = min(ell0 / 16, 0.05 * scale) if step is None else float(step)
+        h_max = 0.5 * scale
+    else:
+        from .cvodes import GRID, engine
+
+        pred = _Cvodes(model, engine(model, backend), line, w)
+        h = min(ell0 / 16, 0.05 * scale) if step is None else float(step)
+        h_max = 2.0 * ell0 / GRID
+    h_min = 1e-12 * max(ell0, 1e-6 * scale)
+    rots = model.chart.rotations
+    rot_idx = [i for idx in rots for i in idx]
+    per = periodic(model)
+    q_first, c_first, t_first = q.copy(), c.copy(), t.copy()
+    left = False
+    halvings = 0
+    h_good = h
+    s_lo = s_hi = float(q[-1])
+    f_hits = np.zeros((0, 0))
+    f_folds: list[tuple[np.ndarray, float]] = []
+    rec: dict[str, list] = {"q": [], "c": [], "det": [], "arc": []}
+    if record:
+        rec["q"].append(q.copy())
+        rec["c"].append(c.copy())
+        rec["det"].append(det)
+        rec["arc"].append(0.0)
+    skip_level_at_start = True
+    while out.arc < budget and out.steps < max_steps:
+        if time.perf_counter() > deadline:
+            out.timed_out = True
+            break
+        ch = pred.advance(q, t, h, c, det)
+        if ch.ok == 0:
+            out.rejected += 1
+            halvings += 1
+            h /= 2
+            if halvings >= STALL_HALVINGS or h < h_min:
+                stepped = _step_over(model, kern, p, weight, q, t, c, det, h_good, tol)
+                if stepped is None:
+                    out.stalled = True
+                    break
+                q_new, t_new, det_new, length = stepped
+                out.step_overs += 1
+                if det_new * det < 0:
+                    cr = _locate_bifurcation(model, kern, line, p, weight, q, q_new, c, det)
+                    out.singular.append(cr)
+                    out.singular_arcs.append(out.arc + 0.5 * length)
+                q, t, det = q_new, t_new, det_new
+                out.arc += length
+                out.steps += 1
+                h, halvings = h_good, 0
+                skip_level_at_start = False
+                if record:
+                    _record(rec, q, c, det, out.arc)
+            continue
+        Q, T, D = ch.Q, ch.T, ch.D
+        n = ch.ok
+        # walk the accepted segments in order; stop at the first that needs a smaller step
+        refine_at = None
+        replaced = None
+        last = n
+        for j in range(n):
+            seg = Q[:, j + 1] - Q[:, j]
+            turn = T[-1, j] * T[-1, j + 1] < 0
+            flip = D[j] * D[j + 1] < 0
+            crossing_levels = [
+                L
+                for L in levels
+                if (Q[-1, j] - L) * (Q[-1, j + 1] - L) <= 0
+                and Q[-1, j] != Q[-1, j + 1]
+                and not (skip_level_at_start and j == 0 and Q[-1, 0] == L)
+            ]
+            hidden = any(
+                _hidden_pair(Q[-1, j], Q[-1, j + 1], T[-1, j], T[-1, j + 1], h, L) for L in levels
+            )
+            # leaving a level and turning back through it within one step
+            hidden |= bool(turn and skip_level_at_start and j == 0 and Q[-1, 0] in levels)
+            if (hidden or (crossing_levels and turn)) and h / 4 >= h_min:
+                refine_at = j
+                break
+            if flip and not turn:
+                # a bifurcation inside the segment: continue straight through it
+                length = float(math.sqrt(weight @ (seg * seg)))
+                q_str = _straight(kern, p, Q[:, j], T[:, j], length, c, tol)
+                if q_str is not None and _wdist(weight, q_str, Q[:, j + 1]) > 0.05 * length:
+                    t_str, det_str = _tangent(kern, q_str, T[:, j], p, c, m)
+                    replaced = (j, q_str, t_str, det_str)
+                q_b = replaced[1] if replaced is not None else Q[:, j + 1]
+                cr = _locate_bifurcation(model, kern, line, p, weight, Q[:, j], q_b, c, D[j])
+                out.singular.append(cr)
+                out.singular_arcs.append(out.arc + h * (j + 0.5))
+                if replaced is not None:
+                    break
+            if turn:
+                cr = _locate_fold(model, kern, line, p, Q[:, j], Q[:, j + 1], T[:, j],
+                                  T[:, j + 1], c)  # fmt: skip
+                f = np.append(features(model, cr.y)[0], cr.s * w)
+                for f_old, a_old in f_folds:
+                    if np.max(np.abs(f_old - f)) < 2 * h + 1e-6 * scale and (
+                        out.arc + h * j - a_old > 4 * h
+                    ):
+                        out.repeated = True
+                f_folds.append((f, out.arc + h * j))
+                out.singular.append(cr)
+                out.singular_arcs.append(out.arc + h * (j + 0.5))
+            for L in crossing_levels:
+                y_hit = _finish(model, kern, line, Q[:, j], Q[:, j + 1], T[:, j], T[:, j + 1],
+                                h, L, c, tol)  # fmt: skip
+                if y_hit is None:
+                    if h / 4 >= h_min:
+                        refine_at = j
+                        break
+                    continue
+                y_can = model.chart.to_canonical(y_hit, c)
+                f_hit = features(model, y_can)
+                if f_hits.size and np.min(np.max(np.abs(f_hits - f_hit), axis=1)) <= 1e-6 * scale:
+                    out.repeated = True
+                    continue
+                f_hits = np.vstack([f_hits, f_hit]) if f_hits.size else f_hit
+                out.hits.append(
+                    Hit(
+                        y_can,
+                        float(L),
+                        out.arc + h * (j + 0.5),
+                        len(out.singular),
+                        1.0 if Q[-1, j + 1] > Q[-1, j] else -1.0,
+                    )
+                )
+                if len(out.hits) >= max_hits:
+                    break
+            if refine_at is not None:
+                break
+            if len(out.hits) >= max_hits:
+                last = j + 1
+                break
+        else:
+            last = n
+        used = last if refine_at is None else refine_at
+        if replaced is not None:
+            used = replaced[0]
+        # closure: distance of the accepted path to the start point in the current chart
+        if stop_when_closed and used > 0:
+            q_ref = in_chart(q_first, c_first, c, rots)
+            if q_ref is not None:
+                Qu = Q[:, : used + 1]
+                Dq = Qu - q_ref[:, None]
+                if per.size:
+                    Dq[per] = (Dq[per] + math.pi) % (2 * math.pi) - math.pi
+                E = np.diff(Qu, axis=1)
+                tau = np.clip(
+                    -(weight @ (Dq[:, :-1] * E)) / np.maximum(weight @ (E * E), 1e-300), 0, 1
+                )
+                P = Dq[:, :-1] + tau * E
+                dist = np.sqrt(weight @ (P * P))
+                if not left:
+                    left = bool(np.any(dist > 3 * h))
+                elif np.any(dist < 0.1 * h):
+                    jj = int(np.argmin(dist))
+                    out.closed = True
+                    out.reversed = bool(weight @ (T[:, jj + 1] * t_first) < 0)
+        if used > 0:
+            skip_level_at_start = False
+            s_lo = min(s_lo, float(Q[-1, : used + 1].min()))
+            s_hi = max(s_hi, float(Q[-1, : used + 1].max()))
+            if record:
+                for j in range(1, used + 1):
+                    _record(rec, Q[:, j], c, float(D[j]), out.arc + h * j)
+            out.steps += used
+            out.arc += h * used
+            q, t, det = Q[:, used].copy(), T[:, used].copy(), float(D[used])
+        if replaced is not None:
+            j, q_str, t_str, det_str = replaced
+            length = float(math.sqrt(weight @ ((q_str - q) ** 2)))
+            q, t, det = q_str, t_str, det_str
+            out.arc += length
+            out.steps += 1
+            skip_level_at_start = False
+            if record:
+                _record(rec, q, c, det, out.arc)
+        t = t / math.sqrt(float(weight @ (t * t)))
+        if out.closed or out.repeated or len(out.hits) >= max_hits:
+            break
+        if rots and np.max(np.abs(q[rot_idx])) > RECENTRE:
+            y_new, c = model.chart.recentre(q[:-1], c)
+            q = np.append(y_new, q[-1])
+            t = np.array(kern.tangent(q, t, p, c)[0]).ravel()
+        if refine_at is not None:
+            h /= 4
+            out.rejected += 1
+        elif ch.partial and replaced is None:
+            h /= 2
+            out.rejected += 1
+        else:
+            halvings = 0
+            h_good = h
+            if ch.smooth:
+                h = min(1.6 * h, h_max)
+        if replaced is not None or used == last:
+            halvings = 0
+    out.s_range = (s_lo, s_hi)
+    out.end = (q, t, c)
+    if record and rec["q"]:
+        out.path = _samples(model, line, rec, direction)
+    return out
+
+
+def _record(rec, q, c, det, arc) -> None:
+    rec["q"].append(np.array(q, dtype=float))
+    rec["c"].append(np.array(c, dtype=float))
+    rec["det"].append(float(det))
+    rec["arc"].append(float(arc))
+
+
+def _samples(model, line: Line, rec: dict, direction: float) -> PathSamples:
+    Q = np.array(rec["q"])
+    Y = np.array([model.chart.to_canonical(r[:-1], cc) for r, cc in zip(Q, rec["c"], strict=True)])
+    X = []
+    for r, cc in zip(Q, rec["c"], strict=True):
+        X.append(np.array(model.kernels.pose(r[:-1], line.at(r[-1]), cc)[1]).ravel())
+    det = np.array(rec["det"])
+    return PathSamples(
+        s=Q[:, -1], y=Y, x=np.array(X), det_jp=det, sdot=direction * det, arc=np.array(rec["arc"])
+    )
+
+
+def _wdist(weight, a, b) -> float:
+    d = a - b
+    return float(math.sqrt(weight @ (d * d)))
+
+
+def _tangent(kern, q, v, p, c, m) -> tuple[np.ndarray, float]:
+    t, J = kern.tangent(q, v, p, c)
+    return np.array(t).ravel(), float(_dets(np.array(J), m)[0])
+
+
+def _straight(kern, p, q, t, length, c, tol) -> np.ndarray | None:
+    """The curve point on the plane normal to ``t`` at ``length`` along it (None if Newton
+    did not converge there or moved off by more than half the length)."""
+    q_pred = q + length * t
+    q_new, res = kern.plane(q_pred, t, p, c)
+    q_new = np.array(q_new).ravel()
+    if not (np.all(np.isfinite(q_new)) and float(res) <= 0.1 * tol):
+        return None
+    if float(np.max(np.abs(q_new - q_pred))) > 0.5 * length:
+        return None
+    return q_new
+
+
+def _step_over(model, kern, p, weight, q, t, c, det, h_good, tol):
+    """Step over a point the predictors cannot pass (a bifurcation): straight along ``t`` with
+    a corrector on the plane normal to it, at a few lengths; the new point must continue the
+    incoming tangent. Returns (q, t, det, length) or None."""
+    m = model.m
+    for length in (2.0 * h_good, 8.0 * h_good, 0.5 * h_good, 32.0 * h_good):
+        q_new = _straight(kern, p, q, t, length, c, tol)
+        if q_new is None:
+            continue
+        t_new, det_new = _tangent(kern, q_new, t, p, c, m)
+        if not np.all(np.isfinite(t_new)):
+            continue
+        if float(weight @ (t_new * t)) >= STEP_OVER_COS:
+            return q_new, t_new, det_new, _wdist(weight, q_new, q)
+    return None
+
+
+def _locate_bifurcation(model, kern, line, p, weight, qa, qb, c, det_a) -> Crossing:
+    """Where ``det J_p`` vanishes between two points of one branch: bisection on points of the
+    curve (the chord's points corrected on planes normal to it)."""
+    m = model.m
+    d = qb - qa
+    d = d / math.sqrt(float(weight @ (d * d)) + 1e-300)
+    lo, hi = 0.0, 1.0
+    best = 0.5 * (qa + qb)
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        q_mid, _res = kern.plane(qa + mid * (qb - qa), d, p, c)
+        q_mid = np.array(q_mid).ravel()
+        if not np.all(np.isfinite(q_mid)):
+            break
+        best = q_mid
+        _t, det_mid = _tangent(kern, q_mid, d, p, c, m)
+        if det_mid * det_a > 0:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo < 1e-10:
+            break
+    theta = line.at(float(best[-1]))
+    cfg = model.configuration(best[:m], theta, c)
+    return Crossing(float(best[-1]), cfg.x, cfg.y, cfg.theta, kind="bifurcation")
+
+
+def _locate_fold(model, kern, line, p, qa, qb, ta, tb, c) -> Crossing:
+    """The turning point of ``s`` between two samples (Newton on ``[g; t_s] = 0`` from the
+    point where the interpolated ``t_s`` vanishes; that point itself if Newton strays)."""
+    m = model.m
+    alpha = ta[-1] / (ta[-1] - tb[-1])
+    q0 = qa + alpha * (qb - qa)
+    q1 = np.array(kern.fold(q0, ta, p, c)).ravel()
+    seg = float(np.linalg.norm(qb - qa))
+    if not np.all(np.isfinite(q1)) or float(np.linalg.norm(q1 - q0)) > 2 * seg + 1e-12:
+        q1 = q0
+    cfg = model.configuration(q1[:m], line.at(float(q1[-1])), c)
+    return Crossing(float(q1[-1]), cfg.x, cfg.y, cfg.theta, kind="fold")
+
+
+def _finish(model, kern, line, qa, qb, ta, tb, h, level, c, tol) -> np.ndarray | None:
+    """The solution at ``s = level`` between two samples (cubic Hermite guess + Newton at
+    ``line.at(level)``), in chart ``c``; None if Newton failed or strayed."""
+    m = model.m
+    if qa[-1] == level:
+        return np.array(qa[:m])
+    s = np.array([qa[-1] - level, h * ta[-1], qb[-1] - level, h * tb[-1]]) @ _BASIS
+    j = np.nonzero(s[:-1] * s[1:] <= 0)[0]
+    u = 0.5
+    if j.size:
+        i = j[0]
+        u = _FINE[i] + (_FINE[i + 1] - _FINE[i]) * s[i] / (s[i] - s[i + 1] + 1e-300)
+    H = _hermite(np.array([u]))[:, 0]
+    y_guess = H[0] * qa[:m] + H[1] * h * ta[:m] + H[2] * qb[:m] + H[3] * h * tb[:m]
+    y, res = kern.polish(y_guess, line.at(level), c)
+    y = np.array(y).ravel()
+    if not (np.all(np.isfinite(y)) and float(res) <= 0.1 * tol):
+        return None
+    seg = float(np.linalg.norm(qb[:m] - qa[:m]))
+    if float(np.linalg.norm(y - y_guess)) > 3 * seg + 10 * tol:
+        return None
+    return y

@@ -1,0 +1,100 @@
+"""CVODES, CasADi's integrator, on the stabilised singularity-consistent field.
+
+The field (:mod:`scdk_sym.kernels.functions`) is integrated over one chunk of arc length at a
+time with ``GRID`` output samples; :mod:`scdk_sym.follower.curve` judges each chunk (its
+``cvodes`` predictor) exactly as it judges the explicit predictor-corrector steps.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from ..errors import InputError
+from ..kernels.fastcall import Buffered
+
+#: Output samples per integrated chunk.
+GRID = 8
+#: Stabilisation gain K (g decays as exp(-K tau) over one chunk).
+GAIN = 5.0
+CVODES_OPTIONS = {
+    "linear_multistep_method": "adams",
+    "nonlinear_solver_iteration": "functional",
+    "abstol": 1e-11,
+    "reltol": 1e-10,
+    "max_num_steps": 5000,
+    "disable_internal_warnings": True,
+}
+BACKENDS = ("casadi", "compiled")
+
+
+@dataclass
+class Engine:
+    """Per-model numeric machinery of the SC solver (kernels, integrator, mapped probe).
+
+    ``integrator``, ``probe`` and ``warm`` are called through zero-copy buffers (see
+    :mod:`scdk_sym.kernels.fastcall`): use :meth:`integrate` and :meth:`probe_samples`.
+    """
+
+    model: object
+    kernels: object
+    integrator: Buffered
+    probe: Buffered
+    m: int
+    k: int
+    warm: Buffered
+
+    def integrate(self, q: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """(m+1, GRID) samples of one chunk of the SC field from ``q``; p = (params, chart)."""
+        f = self.integrator
+        out = f(
+            *[
+                q if n == "x0" else p if n == "p" else a
+                for n, a in zip(f.names, f.args, strict=True)
+            ]
+        )
+        return out[0].reshape(self.m + 1, GRID, order="F").copy()
+
+    def probe_samples(self, Q: np.ndarray, p: np.ndarray, c: np.ndarray):
+        """(tangents (m+1, N), vec J_p (m*m, N), x (n, N)) at the N = GRID + 1 samples Q."""
+        n = GRID + 1
+        T, J, X = self.probe(Q.ravel(order="F"), np.tile(p, n), np.tile(c, n))
+        return (
+            T.reshape(-1, n, order="F").copy(),
+            J.reshape(-1, n, order="F").copy(),
+            X.reshape(-1, n, order="F").copy(),
+        )
+
+
+def engine(model, backend: str = "casadi") -> Engine:
+    """The (cached) SC engine of a model.
+
+    Args:
+        model: the model.
+        backend: "casadi" (SX Functions) or "compiled" (generated C, cached on disk).
+    """
+    store = model.__dict__.setdefault("_engines", {})
+    if backend in store:
+        return store[backend]
+    if backend == "casadi":
+        kern = model.kernels
+    elif backend == "compiled":
+        from ..kernels.compile import compiled_kernels
+
+        kern = compiled_kernels(model)
+    else:
+        raise InputError(f"unknown backend {backend!r}; backends: {', '.join(BACKENDS)}")
+    m, k = model.m, model.k
+    q = ca.MX.sym("q", m + 1)
+    p = ca.MX.sym("p", 2 * k + m + 3)
+    c = ca.MX.sym("c", model.chart.size)
+    dae = {"x": q, "p": ca.vertcat(p, c), "ode": kern.field(q, p, c)}
+    grid = np.linspace(0.0, 1.0, GRID + 1)[1:]
+    integ = ca.integrator("sc_chunk", "cvodes", dae, 0.0, grid, CVODES_OPTIONS)
+    eng = Engine(
+        model, kern, Buffered(integ), Buffered(kern.probe.map(GRID + 1)), m, k, Buffered(kern.warm)
+    )
+    store[backend] = eng
+    return eng

@@ -1,0 +1,367 @@
+"""Crossing the nearest singular surface: the divergent branch of the SC method.
+
+The divergent branch is "the solution across the singular surface". The paper's straight line
+from the start's ``theta`` to ``theta0`` reaches that surface only if the line happens to cross
+it: near a tangency, or with revolute actuators whose line wraps around, it never folds. So
+:func:`across` heads for the surface instead: from the start it follows, with the one curve
+follower, the line in joint space along which ``|det J_p|`` decreases fastest on the start's
+sheet (``d det / d theta`` with ``dy / d theta = J_p^{-1} J_s``), re-aimed from where each line
+ends, until the curve turns (a fold) or passes a bifurcation; the curve continued through it
+comes back on the other sheet to the line's start, the mirror configuration, from which a
+convergent solve reaches ``theta0`` (the paper allows any parameterisation that is transversal
+at the singularity).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..results import Configuration, Crossing, PathSamples
+from .curve import Line, follow
+from .kernels import follower_kernels
+
+#: Lines aimed at the singular surface before giving up.
+AIMS = 12
+#: Mirror points tried by Newton (multiples of the way from the start to the fold).
+REFLECTIONS = (2.0, 3.0, 1.5, 5.0)
+#: Relative tilt of each aim (a fixed random direction, see :func:`_descent`).
+TILT = 0.05
+TILT_SEED = 20240501
+
+
+@dataclass(frozen=True)
+class Across:
+    """The other side of the nearest singular surface.
+
+    Attributes:
+        start: assembled configuration on the other side (``det J_p`` of the opposite sign to
+            the start's).
+        crossing: the singular point crossed (``s`` on the line it was met on).
+        aims: lines aimed at the surface (0: the ``first`` line was taken).
+        path: the sampled curve of the ``first`` line, when taken and recorded.
+    """
+
+    start: Configuration
+    crossing: Crossing
+    aims: int
+    path: PathSamples | None = None
+
+
+def _descent(model, kern, y_loc, theta, c) -> tuple[np.ndarray, float, float]:
+    """(unit direction of theta along which the smallest singular value of J_p decreases
+    fastest on the start's sheet, det J_p, estimated distance to the singular surface along it
+    [rad or model length unit])."""
+    m = model.m
+    _g, Jp, Js, dJ = (np.array(a) for a in kern.singular(y_loc, theta, c))
+    det = float(np.linalg.det(Jp))
+    U, S, Vt = np.linalg.svd(Jp)
+    grad = dJ.T @ np.outer(U[:, -1], Vt[-1]).ravel(order="F")  # d sigma_min / d(y, theta)
+    g_theta = grad[m:] + grad[:m] @ np.linalg.solve(Jp, Js)
+    # a symmetric robot aimed along a symmetric line meets pitchforks (two branches crossing)
+    # where a generic line meets folds: tilt the aim by a fixed small random direction
+    tilt = np.random.default_rng(TILT_SEED).normal(size=g_theta.size)
+    g_theta = g_theta + TILT * float(np.linalg.norm(g_theta)) * tilt / np.linalg.norm(tilt)
+    n = float(np.linalg.norm(g_theta))
+    if not (n > 0 and math.isfinite(n)):
+        return np.zeros_like(theta), det, math.inf
+    return -g_theta / n, det, float(S[-1]) / n
+
+
+def across(
+    model,
+    start: Configuration,
+    *,
+    first: np.ndarray | None = None,
+    backend: str = "casadi",
+    predictor: str = "cvodes",
+    record: bool = False,
+    paper_only: bool = False,
+) -> Across | None:
+    """Cross the singular surface nearest to ``start`` (see the module documentation).
+
+    Args:
+        model: the model.
+        start: assembled, non-singular start.
+        first: (k,) a line to try first, ``start.theta + s first`` for s in [0, 1] (the
+            paper's divergent direction, away from ``theta0``): taken when the curve turns on
+            it and comes back to ``start.theta`` on the other sheet (then the result is the
+            paper's divergent path exactly).
+        backend: kernel backend.
+        predictor: predictor of the curve follower.
+        record: keep the sampled curve of the ``first`` line.
+        paper_only: try the ``first`` line only.
+
+    Returns:
+        The configuration across it, or None when no singular surface was reached.
+    """
+    kern = follower_kernels(model, backend)
+    tol = float(model.tolerance)
+    scale = max(1.0, float(model.length_scale))
+    y_loc, c = model.chart.to_local(start.y)
+    d, det0, reach = _descent(model, kern, y_loc, np.array(start.theta, dtype=float), c)
+    sign0 = math.copysign(1.0, det0)
+    if first is not None and np.any(first):
+        line = Line(np.array(start.theta, dtype=float), np.asarray(first, float))
+        walk = follow(model, line, start.y, 0.0, sign0, predictor=predictor, backend=backend,
+                      levels=(0.0, 1.0), max_hits=1, record=record)  # fmt: skip
+        if walk.hits and walk.hits[0].level == 0.0 and walk.hits[0].crossings:
+            hit = walk.hits[0]
+            cfg = model.configuration(hit.y, start.theta)
+            if cfg.residual <= tol and _det_sign(model, cfg) * sign0 < 0:
+                return Across(cfg, walk.singular[hit.crossings - 1], 0, walk.path)
+    if paper_only:
+        return None
+    cur = start
+    lines: list[Line] = []
+    for aim in range(1, AIMS + 1):
+        if not np.any(d):
+            return None
+        length = min(max(2.0 * reach, 1e-3 * scale), 2.0 * scale)
+        line = Line(np.array(cur.theta, dtype=float), length * d)
+        lines.append(line)
+        walk = follow(model, line, cur.y, 0.0, _det_sign(model, cur), predictor=predictor,
+                      backend=backend, levels=(0.0, 1.0), max_hits=1)  # fmt: skip
+        if not walk.hits:
+            return None
+        hit = walk.hits[0]
+        cfg = model.configuration(hit.y, line.at(hit.level))
+        if not cfg.residual <= tol:
+            return None
+        if hit.crossings == 0:
+            if hit.level != 1.0:
+                return None
+            cur = cfg  # the line ended short of the surface: aim again from its end
+            yh, ch = model.chart.to_local(cfg.y)
+            d, _det, reach = _descent(model, kern, yh, cfg.theta, ch)
+            continue
+        if _det_sign(model, cfg) * sign0 > 0:
+            return None  # crossed back: not the other side
+        crossing = walk.singular[hit.crossings - 1]
+        # come back on the other sheet along the lines followed, to the start's theta
+        back = [] if hit.level == 0.0 else [line]
+        back += lines[-2::-1]
+        for ln in back:
+            w = follow(model, ln, cfg.y, 1.0, -_det_sign(model, cfg), predictor=predictor,
+                       backend=backend, levels=(0.0,), max_hits=1)  # fmt: skip
+            if not w.hits or w.hits[0].crossings:
+                break  # the other sheet turns: start from where we are
+            nxt = model.configuration(w.hits[0].y, ln.theta1)
+            if not nxt.residual <= tol:
+                break
+            cfg = nxt
+        return Across(cfg, crossing, aim)
+    return None
+
+
+def _det_sign(model, cfg: Configuration) -> float:
+    y, c = model.chart.to_local(cfg.y)
+    return 1.0 if np.linalg.det(np.array(model.kernels.jac(y, cfg.theta, c)[0])) > 0 else -1.0
+
+
+def from_fold(
+    model,
+    fold: Crossing,
+    theta0: np.ndarray,
+    sign0: float,
+    *,
+    backend: str = "casadi",
+    predictor: str = "cvodes",
+) -> tuple[np.ndarray, list[Crossing]] | None:
+    """From a fold, on the other sheet, along the line from its ``theta`` to ``theta0``.
+
+    At the fold ``(y*, theta*)`` the line ``theta* + s (theta0 - theta*)`` has a curve through
+    ``(y*, 0)`` with two directions; the one entering the sheet where ``det J_p`` has the sign
+    opposite to ``sign0`` is followed to ``s = 1``.
+
+    Args:
+        model: the model.
+        fold: the fold (a crossing located by the follower).
+        theta0: (k,) target.
+        sign0: sign of ``det J_p`` on the start's side.
+        backend: kernel backend.
+        predictor: predictor of the curve follower.
+
+    Returns:
+        (canonical unknowns at ``theta0``, singular points met after the fold), or None.
+    """
+    kern = follower_kernels(model, backend)
+    m = model.m
+    tol = float(model.tolerance)
+    theta_f = np.asarray(fold.theta, float)
+    dtheta = np.asarray(theta0, float) - theta_f
+    if not float(np.linalg.norm(dtheta)) > 0:
+        return None
+    line = Line(theta_f, dtheta)
+    p = np.concatenate([theta_f, dtheta])
+    y_loc, c = model.chart.to_local(fold.y)
+    q_f = np.append(y_loc, 0.0)
+    Jp, Js = (np.array(a) for a in model.kernels.jac(y_loc, theta_f, c))
+    t = np.linalg.svd(np.hstack([Jp, -(Js @ dtheta)[:, None]]))[2][-1]
+    w2 = float(dtheta @ dtheta)
+    t = t / math.sqrt(float(t[:m] @ t[:m]) + w2 * t[m] ** 2)
+    scale = max(1.0, float(model.length_scale))
+    for length in (1e-4 * scale, 1e-3 * scale, 1e-5 * scale):
+        for sgn in (1.0, -1.0):
+            v = sgn * t
+            q1, res = kern.plane(q_f + length * v, v, p, c)
+            q1 = np.array(q1).ravel()
+            if not (np.all(np.isfinite(q1)) and float(res) <= 0.1 * tol):
+                continue
+            t1, J1 = kern.tangent(q1, v, p, c)
+            if not np.linalg.det(np.array(J1).reshape(m, m, order="F")) * sign0 < 0:
+                continue
+            walk = follow(model, line, q1[:m], float(q1[-1]), 1.0, predictor=predictor,
+                          backend=backend, levels=(1.0,), max_hits=1,
+                          tangent=np.array(t1).ravel(), chart=c)  # fmt: skip
+            if not walk.hits:
+                continue
+            hit = walk.hits[0]
+            return hit.y, walk.singular[: hit.crossings]
+    return None
+
+
+#: Descent iterations onto the singular surface (:func:`nearest_singular`).
+DESCENT_ITERATIONS = 100
+#: Longest descent step [model sizes].
+MAX_STEP = 0.1
+
+
+def _signed_sigma(Jp: np.ndarray, dJ: np.ndarray) -> tuple[float, np.ndarray, float]:
+    """(sign(det J_p) sigma_min(J_p), its gradient over (y, theta), sigma_min / sigma_max)."""
+    U, S, Vt = np.linalg.svd(Jp)
+    sign = 1.0 if np.linalg.det(Jp) >= 0 else -1.0
+    grad = dJ.T @ np.outer(U[:, -1], Vt[-1]).ravel(order="F")
+    return sign * float(S[-1]), sign * grad, float(S[-1] / S[0])
+
+
+def nearest_singular(model, start: Configuration, backend: str = "casadi") -> Crossing | None:
+    """A singular configuration near ``start`` on the assembled manifold (or None).
+
+    Descends ``|f|``, ``f = sign(det J_p) sigma_min(J_p)`` (Lipschitz in ``J_p``, about linear in
+    the distance to a fold), over ``z = (y, theta)`` on the manifold ``g = 0``: the
+    minimum-norm Newton step of ``f`` in the tangent space (at most ``MAX_STEP`` model
+    sizes), projected back by minimum-norm Gauss-Newton on ``g`` and halved until ``|f|``
+    decreases. Near the surface this is Newton on ``[g; f] = 0``: quadratic convergence to a
+    fold.
+
+    Args:
+        model: the model.
+        start: assembled, non-singular start.
+        backend: kernel backend.
+
+    Returns:
+        The singular configuration as a ``Crossing`` (``s = 0``, kind "fold"), or None when the
+        descent stopped at a non-singular point.
+    """
+    kern = follower_kernels(model, backend)
+    m = model.m
+    y, c = model.chart.to_local(start.y)
+    tol = float(model.tolerance)
+    cap = MAX_STEP * max(1.0, float(model.length_scale))
+    z = np.concatenate([y, np.array(start.theta, dtype=float)])
+
+    def evaluate(z):
+        g, Jp, Js, dJ = (np.array(a) for a in kern.singular(z[:m], z[m:], c))
+        return g.ravel(), Jp, Js, dJ
+
+    def project(z):
+        for _ in range(12):
+            g, Jp, Js, _ = evaluate(z)
+            if not (np.all(np.isfinite(g)) and np.all(np.isfinite(Jp))):
+                return None
+            if float(np.max(np.abs(g))) <= 1e-3 * tol:
+                return z
+            z = z - np.linalg.lstsq(np.hstack([Jp, -Js]), g, rcond=None)[0]
+        return z if float(np.max(np.abs(evaluate(z)[0]))) <= 0.1 * tol else None
+
+    _g, Jp, Js, dJ = evaluate(z)
+    f, grad, rel = _signed_sigma(Jp, dJ)
+    for _ in range(DESCENT_ITERATIONS):
+        if rel <= 1e-13:
+            break
+        G = np.hstack([Jp, -Js])
+        gt = grad - G.T @ np.linalg.lstsq(G @ G.T, G @ grad, rcond=None)[0]
+        n2 = float(gt @ gt)
+        if not n2 > 0:
+            return None
+        dz = -(f / n2) * gt
+        size = float(np.linalg.norm(dz))
+        if size > cap:
+            dz *= cap / size
+        for _halving in range(12):
+            z_new = project(z + dz)
+            if z_new is not None:
+                _g, Jp_n, Js_n, dJ_n = evaluate(z_new)
+                f_n, grad_n, rel_n = _signed_sigma(Jp_n, dJ_n)
+                if abs(f_n) < abs(f):
+                    break
+            dz *= 0.5
+        else:
+            break
+        z, Jp, Js, f, grad, rel = z_new, Jp_n, Js_n, f_n, grad_n, rel_n
+    if not rel <= 1e-9:
+        return None
+    cfg = model.configuration(z[:m], z[m:], c)
+    if not cfg.residual <= tol:
+        return None
+    return Crossing(0.0, cfg.x, cfg.y, cfg.theta, kind="fold")
+
+
+def across_fold(
+    model,
+    start: Configuration,
+    fold: Crossing,
+    theta0: np.ndarray,
+    *,
+    backend: str = "casadi",
+    predictor: str = "cvodes",
+) -> tuple[Configuration, list[Crossing]] | None:
+    """The solution at ``theta0`` on the other side of ``fold``, nearest to it.
+
+    Candidates, each verified (residual) and kept only if ``det J_p`` has the sign opposite to
+    the start's: the end of the curve from the fold to ``theta0`` on the other sheet
+    (:func:`from_fold`), and Newton at ``theta0`` from the start mirrored through the fold
+    (``start + a (fold - start)`` for ``a`` in ``REFLECTIONS``: near a fold the two sheets are
+    mirror images to first order). The one nearest to the fold (chart-free features) is
+    returned with the singular points met on its way.
+
+    Args:
+        model: the model.
+        start: the start (non-singular).
+        fold: a singular configuration near it.
+        theta0: (k,) target.
+        backend: kernel backend.
+        predictor: predictor of the curve follower.
+
+    Returns:
+        (configuration at ``theta0``, singular points met after the fold) or None.
+    """
+    from .geometry import difference, features
+
+    kern = follower_kernels(model, backend)
+    tol = float(model.tolerance)
+    sign0 = _det_sign(model, start)
+    candidates: list[tuple[np.ndarray, list[Crossing]]] = []
+    leg = from_fold(model, fold, theta0, sign0, backend=backend, predictor=predictor)
+    if leg is not None:
+        candidates.append(leg)
+    y_s, c = model.chart.to_local(start.y)
+    d = difference(model, fold.y, start.y)
+    for a in REFLECTIONS:
+        y, _res = kern.polish(y_s + a * d, theta0, c)
+        y = np.array(y).ravel()
+        if np.all(np.isfinite(y)):
+            candidates.append((model.chart.to_canonical(y, c), []))
+    f_fold = features(model, fold.y)[0]
+    best = None
+    for y, met in candidates:
+        cfg = model.configuration(y, theta0)
+        if not (cfg.residual <= tol and _det_sign(model, cfg) * sign0 < 0):
+            continue
+        dist = float(np.max(np.abs(features(model, cfg.y)[0] - f_fold)))
+        if best is None or dist < best[0] - 1e-9:
+            best = (dist, cfg, met)
+    return None if best is None else (best[1], best[2])
