@@ -6,10 +6,14 @@ import argparse
 import json
 import sys
 from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .errors import InputError, ScdkError
+from .errors import InputError, ScdkError, SolveError
+
+if TYPE_CHECKING:
+    from .results import SolveResult
 
 #: Subcommand name -> (help, add-arguments function, run function); extended by modules below.
 COMMANDS: dict[str, tuple[str, Callable, Callable]] = {}
@@ -82,34 +86,68 @@ def _solve_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
 
+def _one_line(exc: Exception) -> str:
+    """The message of an exception on one line."""
+    return " ".join(str(exc).split())
+
+
+def _failed_record(branch: str, exc: Exception) -> dict:
+    """JSON record of a branch whose solve failed."""
+    return {
+        "branch": branch,
+        "status": "failed",
+        "error": _one_line(exc),
+        "error_type": type(exc).__name__,
+    }
+
+
 @command("solve", "direct kinematics by the singularity-consistent method", _solve_args)
 def _solve(args: argparse.Namespace) -> int:
-    from .solvers.sc import solve
+    """Solve one branch, or both (``--branch both``).
+
+    With both branches, a branch whose solver fails (:class:`SolveError`: the path did not reach
+    ``s = 1``, the result failed verification, ...) is reported in place of its solution and
+    the other branch is still printed; the exit code is 1 only when every branch failed. Errors
+    that do not depend on the branch (bad input, model, start, build) end the command as usual.
+    """
+    from .solvers import sc
 
     model = load(args)
     theta = floats(args.theta, "--theta")
     start = start_configuration(model, args)
-    branches = (
-        ["convergent", "divergent"] if args.branch == "both" and args.b is None else [args.branch]
-    )
-    results = [
-        solve(model, theta, start=start, branch=br, b=args.b, backend=args.backend)
-        for br in branches
-    ]
+    both = args.branch == "both" and args.b is None
+    branches = ["convergent", "divergent"] if both else [args.branch]
+    results: list[tuple[str, SolveResult | SolveError]] = []
+    for br in branches:
+        try:
+            res = sc.solve(model, theta, start=start, branch=br, b=args.b, backend=args.backend)
+        except SolveError as exc:
+            if not both:
+                raise
+            results.append((br, exc))
+        else:
+            results.append((br, res))
+    failed = [(br, r) for br, r in results if isinstance(r, SolveError)]
     if args.json:
-        dump(
-            results[0].to_dict()
-            if len(results) == 1
-            else {"solutions": [r.to_dict() for r in results]}
-        )
-        return 0
-    print(f"model {model.name}: x = ({', '.join(model.workspace)}) of {model.frame!r}")
-    print(f"start x = {fmt(start.x)}  theta0 = {fmt(theta)}")
-    for r in results:
-        n = len(r.crossings)
-        print(f"{r.branch:>10}: x = {fmt(r.x)}  residual {r.residual:.1e}  crossings {n}")
-        for c in r.crossings:
-            print(f"{'':>12}singular crossing at s = {c.s:.6f}: x = {fmt(c.x)}")
+        records = [
+            _failed_record(br, r) if isinstance(r, SolveError) else r.to_dict() for br, r in results
+        ]
+        dump(records[0] if not both else {"solutions": records})
+    else:
+        print(f"model {model.name}: x = ({', '.join(model.workspace)}) of {model.frame!r}")
+        print(f"start x = {fmt(start.x)}  theta0 = {fmt(theta)}")
+        for br, r in results:
+            if isinstance(r, SolveError):
+                print(f"{br:>10}: error: {_one_line(r)}")
+                continue
+            n = len(r.crossings)
+            print(f"{r.branch:>10}: x = {fmt(r.x)}  residual {r.residual:.1e}  crossings {n}")
+            for c in r.crossings:
+                print(f"{'':>12}singular crossing ({c.kind}) at s = {c.s:.6f}: x = {fmt(c.x)}")
+    if len(failed) == len(results):
+        for br, exc in failed:
+            print(f"scdk {args.command}: error: {br}: {_one_line(exc)}", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -1,11 +1,14 @@
 """Command-line interface (scdk_sym.cli)."""
 
 import json
+import math
 
 import pytest
-from factories import MODELS
+from factories import MODELS, shipped
 
+import scdk_sym.solvers.sc as sc_module
 from scdk_sym.cli import main
+from scdk_sym.errors import PathError
 
 SEED = ["--theta", "1.292,-0.802,-2.896", "--from-x", "0,0,0.4"]
 
@@ -30,15 +33,129 @@ def test_solve_both_branches_human_output(capsys):
     assert main(["solve", str(MODELS / "planar_hexa"), *SEED, "--branch", "both"]) == 0
     out = capsys.readouterr().out
     lines = [ln for ln in out.splitlines() if "x = [" in ln]
-    assert lines[1].strip().startswith("convergent: x = [") and "0.2074" in lines[1]
-    assert lines[2].strip().startswith("divergent: x = [") and "0.9999" in lines[2]
-    assert "singular crossing at s = -0.27" in out and "0.5753" in out
+    # the paper's phi = 0.2074 and 0.9999 (section 5), printed to 6 digits
+    assert lines[1].strip().startswith("convergent: x = [") and "0.207456]" in lines[1]
+    assert lines[2].strip().startswith("divergent: x = [") and "0.999914]" in lines[2]
+    assert "crossings 0" in lines[1] and "crossings 1" in lines[2]
+    # the paper's singular configuration phi = 0.5754, a turning point of the curve
+    assert lines[3].strip().startswith("singular crossing (fold) at s = -0.278")
+    assert lines[3].endswith("0.575367]")
 
 
 def test_solve_both_branches_json(capsys):
     assert main(["solve", str(MODELS / "planar_hexa"), *SEED, "--branch", "both", "--json"]) == 0
     sols = json.loads(capsys.readouterr().out)["solutions"]
     assert [round(s["x"][2], 3) for s in sols] == [0.207, 1.0]
+
+
+def delta_arm_step() -> tuple[list[str], float]:
+    """``--theta`` for the Delta's arms 0.02 rad below home, and the closed-form z there [m].
+
+    With equal arm angles the platform stays on the axis; each rod (length l) then joins the
+    elbow (R + L cos t, -L sin t) to its anchor (r, z) in the arm's vertical plane, so
+    z = -L sin t - sqrt(l^2 - (R - r + L cos t)^2) (platform below the elbows). Dimensions of
+    models/README.md: inradii of the 457.3 mm and 115.0 mm triangles, arm 112 mm, rod 232 mm.
+    """
+    t = float(shipped("delta").home.theta[0]) + 0.02
+    big_r, r = 0.4573 / (2 * math.sqrt(3)), 0.1150 / (2 * math.sqrt(3))
+    arm, rod = 0.112, 0.232
+    z = -arm * math.sin(t) - math.sqrt(rod**2 - (big_r - r + arm * math.cos(t)) ** 2)
+    return [f"--theta={t!r},{t!r},{t!r}"], z
+
+
+#: The one-line message of the stand-in solver failure.
+LOST = "the solution curve from the start did not reach s = 1 (stand-in failure)"
+
+
+def fail_branches(monkeypatch, *failing: str, sep: str = "\n  ") -> None:
+    """Make ``sc.solve`` raise PathError for the ``failing`` branches, solve the others.
+
+    The message is ``LOST``, ``sep`` and the branch in parentheses (by default on two lines,
+    which ``--branch both`` must print on one).
+    """
+    real = sc_module.solve
+
+    def solve(model, theta0, *args, branch="convergent", **kwargs):
+        if branch in failing:
+            raise PathError(f"{LOST}{sep}({branch})")
+        return real(model, theta0, *args, branch=branch, **kwargs)
+
+    monkeypatch.setattr(sc_module, "solve", solve)
+
+
+def test_solve_both_keeps_the_convergent_answer_when_divergent_fails(capsys, monkeypatch):
+    theta, z = delta_arm_step()
+    fail_branches(monkeypatch, "divergent")
+    assert main(["solve", str(MODELS / "delta"), *theta, "--branch", "both"]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == ""
+    lines = captured.out.splitlines()
+    assert len(lines) == 4
+    head, _, tail = lines[2].partition("]")
+    assert head.startswith("convergent: x = [") and tail.endswith("crossings 0")
+    x = [float(v) for v in head.removeprefix("convergent: x = [").split(",")]
+    assert abs(x[0]) < 1e-12 and abs(x[1]) < 1e-12 and abs(x[2] - z) < 1e-6  # 6 digits
+    assert lines[3] == f" divergent: error: {LOST} (divergent)"
+
+
+def test_solve_both_json_reports_the_failed_branch(capsys, monkeypatch):
+    theta, z = delta_arm_step()
+    fail_branches(monkeypatch, "divergent")
+    assert main(["solve", str(MODELS / "delta"), *theta, "--branch", "both", "--json"]) == 0
+    sols = json.loads(capsys.readouterr().out)["solutions"]
+    assert len(sols) == 2
+    good, bad = sols
+    assert good["branch"] == "convergent" and good["status"] == "converged"
+    assert abs(good["x"][0]) < 1e-12 and abs(good["x"][1]) < 1e-12
+    assert abs(good["x"][2] - z) < 1e-12 and good["residual"] <= 1e-10
+    assert good["crossings"] == [] and len(good["platform_pose"]) == 4
+    assert bad == {
+        "branch": "divergent",
+        "status": "failed",
+        "error": f"{LOST} (divergent)",
+        "error_type": "PathError",
+    }
+
+
+@pytest.mark.parametrize("json_output", [False, True])
+def test_solve_both_branches_failing_exit_1(capsys, monkeypatch, json_output):
+    theta, _ = delta_arm_step()
+    fail_branches(monkeypatch, "convergent", "divergent")
+    argv = ["solve", str(MODELS / "delta"), *theta, "--branch", "both"]
+    assert main(argv + ["--json"] * json_output) == 1
+    captured = capsys.readouterr()
+    assert captured.err.splitlines() == [
+        f"scdk solve: error: {br}: {LOST} ({br})" for br in ("convergent", "divergent")
+    ]
+    if json_output:
+        sols = json.loads(captured.out)["solutions"]
+        assert [(s["branch"], s["status"], s["error_type"]) for s in sols] == [
+            ("convergent", "failed", "PathError"),
+            ("divergent", "failed", "PathError"),
+        ]
+        assert sols[0]["error"] == f"{LOST} (convergent)"
+    else:
+        lines = captured.out.splitlines()
+        expected = [f"{br:>10}: error: {LOST} ({br})" for br in ("convergent", "divergent")]
+        assert lines[2:] == expected
+
+
+def test_solve_single_branch_failure_is_unchanged(capsys, monkeypatch):
+    theta, _ = delta_arm_step()
+    fail_branches(monkeypatch, "divergent", sep=" ")
+    assert main(["solve", str(MODELS / "delta"), *theta, "--branch", "divergent"]) == 1
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err.splitlines() == [f"scdk solve: error: {LOST} (divergent)"]
+
+
+def test_solve_both_input_error_is_reported_once(capsys):
+    argv = ["solve", str(MODELS / "planar_hexa"), "--theta", "1,2", "--branch", "both"]
+    assert main(argv) == 1
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    message = "theta0 (theta_1, theta_2, theta_3) must have 3 values, got 2: [1.0, 2.0]"
+    assert captured.err.splitlines() == [f"scdk solve: error: {message}"]
 
 
 @pytest.mark.parametrize(
