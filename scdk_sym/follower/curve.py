@@ -39,7 +39,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..results import Crossing, PathSamples
-from .geometry import features, in_chart, periodic
+from .geometry import features, in_chart, local_features, periodic
 from .kernels import follower_kernels
 
 #: A predictor-corrector step is accepted when its first correction is below this fraction of
@@ -53,6 +53,11 @@ CHUNK_COS = 0.8
 STALL_HALVINGS = 6
 #: A stepped-over point must continue the incoming tangent within acos(STEP_OVER_COS).
 STEP_OVER_COS = 0.9
+#: det J_p changing sign without a turn of s is a bifurcation where H' = [J_p, -j_s] has
+#: sigma_min / sigma_max below this (else the step jumped across a fold and is refined).
+BIFURCATION_RANK = 1e-3
+#: Largest initial step [model sizes].
+FIRST_STEP = 0.01
 #: The orientation chart is re-centred when a Rodrigues parameter exceeds this (~53 deg).
 RECENTRE = 0.5
 #: Rodrigues parameters of the chart stay below this (127 deg) inside one call.
@@ -269,6 +274,7 @@ def follow(
     stop_when_closed: bool = True,
     tangent: np.ndarray | None = None,
     chart: np.ndarray | None = None,
+    locate: bool = True,
 ) -> Walk:
     """Follow the solution curve of ``g(y, line.at(s)) = 0`` from ``(y_start, s_start)``.
 
@@ -290,11 +296,13 @@ def follow(
         max_steps: stop after this many accepted steps.
         deadline: ``time.perf_counter()`` value at which to stop.
         step: initial arc length per step (default: a sixteenth of the arc per unit ``s``, at
-            most 0.05 model sizes).
+            most ``FIRST_STEP`` model sizes).
         record: keep the sampled curve in ``walk.path``.
         stop_when_closed: stop when the curve comes back to its start.
         tangent: (m+1,) initial tangent orientation (instead of ``direction``).
         chart: chart of ``y_start`` when it is given in local coordinates.
+        locate: locate folds by Newton (else: interpolated between the samples, their ``x``
+            not computed, for searches that only count them).
 
     Returns:
         A :class:`Walk`.
@@ -333,13 +341,15 @@ def follow(
     budget = 60.0 * ell0 + 20.0 * scale if max_arc is None else float(max_arc)
     if predictor == "rk4":
         pred = _RK4(model, kern, p, weight, scale)
-        h = min(ell0 / 16, 0.05 * scale) if step is None else float(step)
+        backup = None
+        h = min(ell0 / 16, FIRST_STEP * scale) if step is None else float(step)
         h_max = 0.5 * scale
     else:
         from .cvodes import GRID, engine
 
         pred = _Cvodes(model, engine(model, backend), line, w)
-        h = min(ell0 / 16, 0.05 * scale) if step is None else float(step)
+        backup = _RK4(model, kern, p, weight, scale)
+        h = min(ell0 / 16, FIRST_STEP * scale) if step is None else float(step)
         h_max = 2.0 * ell0 / GRID
     h_min = 1e-12 * max(ell0, 1e-6 * scale)
     rots = model.chart.rotations
@@ -364,6 +374,10 @@ def follow(
             out.timed_out = True
             break
         ch = pred.advance(q, t, h, c, det)
+        if ch.ok == 0 and backup is not None:
+            # CVODES could not integrate this stretch (e.g. next to two crossing branches,
+            # where no smooth field exists): the explicit predictor-corrector takes over here
+            ch = backup.advance(q, t, h, c, det)
         if ch.ok == 0:
             out.rejected += 1
             halvings += 1
@@ -413,7 +427,9 @@ def follow(
                 refine_at = j
                 break
             if flip and not turn:
-                # a bifurcation inside the segment: continue straight through it
+                # det J_p changed sign without a turn of s: two branches crossing (H' drops
+                # rank at the point) or a step that jumped across a fold (then H' keeps its
+                # rank, and smaller steps show the turn)
                 length = float(math.sqrt(weight @ (seg * seg)))
                 q_str = _straight(kern, p, Q[:, j], T[:, j], length, c, tol)
                 if q_str is not None and _wdist(weight, q_str, Q[:, j + 1]) > 0.05 * length:
@@ -421,13 +437,39 @@ def follow(
                     replaced = (j, q_str, t_str, det_str)
                 q_b = replaced[1] if replaced is not None else Q[:, j + 1]
                 cr = _locate_bifurcation(model, kern, line, p, weight, Q[:, j], q_b, c, D[j])
+                if _rank_ratio(model, cr, dtheta) > BIFURCATION_RANK and h / 4 >= h_min:
+                    replaced = None
+                    refine_at = j
+                    break
                 out.singular.append(cr)
                 out.singular_arcs.append(out.arc + h * (j + 0.5))
                 if replaced is not None:
                     break
             if turn:
-                cr = _locate_fold(model, kern, line, p, Q[:, j], Q[:, j + 1], T[:, j],
-                                  T[:, j + 1], c)  # fmt: skip
+                if locate:
+                    cr = _locate_fold(model, kern, line, p, Q[:, j], Q[:, j + 1], T[:, j],
+                                      T[:, j + 1], c)  # fmt: skip
+                else:
+                    cr = _interpolated_fold(model, line, Q[:, j], Q[:, j + 1], T[:, j],
+                                            T[:, j + 1], c)  # fmt: skip
+                if locate and _rank_ratio(model, cr, dtheta) < BIFURCATION_RANK:
+                    # not a fold: two branches cross there and the predictor swung onto the
+                    # other one; step straight over the point from the sample before it
+                    length = float(math.sqrt(weight @ (seg * seg)))
+                    stepped = _step_over(model, kern, p, weight, Q[:, j], T[:, j], c, D[j],
+                                         length, tol)  # fmt: skip
+                    if stepped is not None:
+                        q_new, t_new, det_new, _len = stepped
+                        replaced = (j, q_new, t_new, det_new)
+                        if det_new * D[j] < 0:
+                            cr = _locate_bifurcation(model, kern, line, p, weight, Q[:, j],
+                                                     q_new, c, D[j])  # fmt: skip
+                            out.singular.append(cr)
+                            out.singular_arcs.append(out.arc + h * (j + 0.5))
+                        break
+                    if h / 4 >= h_min:
+                        refine_at = j
+                        break
                 f = np.append(features(model, cr.y)[0], cr.s * w)
                 for f_old, a_old in f_folds:
                     if np.max(np.abs(f_old - f)) < 2 * h + 1e-6 * scale and (
@@ -446,7 +488,7 @@ def follow(
                         break
                     continue
                 y_can = model.chart.to_canonical(y_hit, c)
-                f_hit = features(model, y_can)
+                f_hit = local_features(model, y_hit, c)[None]
                 if f_hits.size and np.min(np.max(np.abs(f_hits - f_hit), axis=1)) <= 1e-6 * scale:
                     out.repeated = True
                     continue
@@ -585,7 +627,7 @@ def _step_over(model, kern, p, weight, q, t, c, det, h_good, tol):
     a corrector on the plane normal to it, at a few lengths; the new point must continue the
     incoming tangent. Returns (q, t, det, length) or None."""
     m = model.m
-    for length in (2.0 * h_good, 8.0 * h_good, 0.5 * h_good, 32.0 * h_good):
+    for length in (2.0 * h_good, 8.0 * h_good, 32.0 * h_good, 128.0 * h_good, 0.5 * h_good):
         q_new = _straight(kern, p, q, t, length, c, tol)
         if q_new is None:
             continue
@@ -605,7 +647,7 @@ def _locate_bifurcation(model, kern, line, p, weight, qa, qb, c, det_a) -> Cross
     d = d / math.sqrt(float(weight @ (d * d)) + 1e-300)
     lo, hi = 0.0, 1.0
     best = 0.5 * (qa + qb)
-    for _ in range(40):
+    for _ in range(24):
         mid = 0.5 * (lo + hi)
         q_mid, _res = kern.plane(qa + mid * (qb - qa), d, p, c)
         q_mid = np.array(q_mid).ravel()
@@ -617,7 +659,7 @@ def _locate_bifurcation(model, kern, line, p, weight, qa, qb, c, det_a) -> Cross
             lo = mid
         else:
             hi = mid
-        if hi - lo < 1e-10:
+        if hi - lo < 1e-7:
             break
     theta = line.at(float(best[-1]))
     cfg = model.configuration(best[:m], theta, c)
@@ -636,6 +678,15 @@ def _locate_fold(model, kern, line, p, qa, qb, ta, tb, c) -> Crossing:
         q1 = q0
     cfg = model.configuration(q1[:m], line.at(float(q1[-1])), c)
     return Crossing(float(q1[-1]), cfg.x, cfg.y, cfg.theta, kind="fold")
+
+
+def _interpolated_fold(model, line, qa, qb, ta, tb, c) -> Crossing:
+    """The turning point of ``s`` interpolated between two samples (``x`` left empty)."""
+    m = model.m
+    alpha = ta[-1] / (ta[-1] - tb[-1])
+    q = qa + alpha * (qb - qa)
+    theta = line.at(float(q[-1]))
+    return Crossing(float(q[-1]), np.zeros(0), model.chart.to_canonical(q[:m], c), theta)
 
 
 def _finish(model, kern, line, qa, qb, ta, tb, h, level, c, tol) -> np.ndarray | None:
@@ -660,3 +711,12 @@ def _finish(model, kern, line, qa, qb, ta, tb, h, level, c, tol) -> np.ndarray |
     if float(np.linalg.norm(y - y_guess)) > 3 * seg + 10 * tol:
         return None
     return y
+
+
+def _rank_ratio(model, cr: Crossing, dtheta: np.ndarray) -> float:
+    """sigma_min / sigma_max of H' = [J_p, -J_s dtheta / |dtheta|] at a point."""
+    y, c = model.chart.to_local(cr.y)
+    Jp, Js = (np.array(a) for a in model.kernels.jac(y, cr.theta, c))
+    js = Js @ dtheta / max(float(np.linalg.norm(dtheta)), 1e-300)
+    S = np.linalg.svd(np.hstack([Jp, -js[:, None]]), compute_uv=False)
+    return float(S[-1] / S[0])

@@ -25,8 +25,10 @@ from .kernels import follower_kernels
 
 #: Lines aimed at the singular surface before giving up.
 AIMS = 12
-#: Mirror points tried by Newton (multiples of the way from the start to the fold).
-REFLECTIONS = (2.0, 3.0, 1.5, 5.0)
+#: Mirror points tried by Newton: multiples of the distance from the start to the fold, and
+#: fixed distances [model sizes], beyond the fold along the null vector of J_p.
+REFLECTIONS = (1.0, 2.0, 4.0)
+RADII = (1e-3, 3e-3, 1e-2, 3e-2, 0.1)
 #: Relative tilt of each aim (a fixed random direction, see :func:`_descent`).
 TILT = 0.05
 TILT_SEED = 20240501
@@ -323,10 +325,11 @@ def across_fold(
 
     Candidates, each verified (residual) and kept only if ``det J_p`` has the sign opposite to
     the start's: the end of the curve from the fold to ``theta0`` on the other sheet
-    (:func:`from_fold`), and Newton at ``theta0`` from the start mirrored through the fold
-    (``start + a (fold - start)`` for ``a`` in ``REFLECTIONS``: near a fold the two sheets are
-    mirror images to first order). The one nearest to the fold (chart-free features) is
-    returned with the singular points met on its way.
+    (:func:`from_fold`), and Newton at ``theta0`` from points beyond the fold along the null
+    vector of ``J_p`` there (near a fold the two sheets are mirror images along it to first
+    order; distances ``REFLECTIONS`` times the start's and ``RADII`` model sizes). The one
+    nearest to the fold (chart-free features) is returned with the singular points met on
+    its way.
 
     Args:
         model: the model.
@@ -348,16 +351,31 @@ def across_fold(
     leg = from_fold(model, fold, theta0, sign0, backend=backend, predictor=predictor)
     if leg is not None:
         candidates.append(leg)
-    y_s, c = model.chart.to_local(start.y)
-    d = difference(model, fold.y, start.y)
-    for a in REFLECTIONS:
-        y, _res = kern.polish(y_s + a * d, theta0, c)
-        y = np.array(y).ravel()
-        if np.all(np.isfinite(y)):
-            candidates.append((model.chart.to_canonical(y, c), []))
+    # to first order about the fold the configurations over theta are
+    # y_f + J_p^+ J_s (theta - theta_f) + t u (u: null vector of J_p), the two sheets having
+    # opposite signs of t: Newton at theta0 from points on the other sheet's side, at multiples
+    # of the start's |t| and at fixed distances
+    y_f, c = model.chart.to_local(fold.y)
+    Jp, Js = (np.array(a) for a in model.kernels.jac(y_f, fold.theta, c))
+    u = np.linalg.svd(Jp)[2][-1]
+    Jp_pinv = np.linalg.pinv(Jp, rcond=1e-10)
+    d = difference(model, start.y, fold.y) - Jp_pinv @ Js @ (start.theta - fold.theta)
+    t_s = float(u @ d)
+    base = y_f + Jp_pinv @ Js @ (np.asarray(theta0, float) - fold.theta)
+    scale = max(1.0, float(model.length_scale))
+    radii = [a * abs(t_s) for a in REFLECTIONS if a * abs(t_s) > 0] + [r * scale for r in RADII]
+    signs = (-1.0, 1.0) if t_s == 0 else (-math.copysign(1.0, t_s),)
+    for sgn in signs:
+        for r in radii:
+            y, _res = kern.polish(base + sgn * r * u, theta0, c)
+            y = np.array(y).ravel()
+            if np.all(np.isfinite(y)) and float(np.max(np.abs(y - y_f))) <= 10.0 * scale:
+                candidates.append((model.chart.to_canonical(y, c), []))
     f_fold = features(model, fold.y)[0]
     best = None
     for y, met in candidates:
+        if not np.all(np.isfinite(y)):
+            continue
         cfg = model.configuration(y, theta0)
         if not (cfg.residual <= tol and _det_sign(model, cfg) * sign0 < 0):
             continue

@@ -28,9 +28,9 @@ runs out). A curve ends when it comes back to its start, when it meets a solutio
 turning point of ``s`` a second time (the follower went round a loop it jumped onto near
 two nearly touching branches), or at its arc-length or step budget.
 
-The curves are followed by a predictor-corrector on the SC tangent (RK4 predictor along the
-unit tangent of ``nu``, Newton corrector on the plane normal to it, ``STEPS`` steps per call of
-one CasADi function, SX or generated C) with adaptive arc-length steps; each ``s = 1``
+The curves are followed by the one curve follower (:mod:`scdk_sym.follower.curve`, explicit
+predictor-corrector on the SC tangent, folds and bifurcations handled there), with kernels as
+SX Functions or generated C; each ``s = 1``
 crossing is polished by Newton at ``theta0``, verified and deduplicated.
 """
 
@@ -41,149 +41,24 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-import casadi as ca
 import numpy as np
 
 from ..errors import InputError, ScdkError
-from ..follower.geometry import difference, features, in_chart, kinds, local_features, periodic  # noqa: F401
+from ..follower.curve import Line, follow
+from ..follower.geometry import difference, features, kinds  # noqa: F401
+from ..follower.kernels import follower_kernels
 from ..model.model import Model, as_vector
 from ..results import Configuration
-from .sc import null_direction, validate_start
+from .sc import validate_start
 
-#: Predictor-corrector steps evaluated per call of the compiled step function.
-STEPS = 16
-#: Newton corrections per step.
-CORRECTIONS = 3
-#: Newton steps of the final polish at ``theta0``.
-POLISH_STEPS = 8
-#: A step is accepted when the corrector moved the prediction by less than this fraction of
-#: the step and the tangent turned by less than acos(MIN_COS).
-MAX_PREDICTOR_ERROR = 0.1
-MIN_COS = 0.7
-#: ... and the last Newton correction was below this (relative to the model size).
-NEWTON_TOL = 1e-7
-#: The step grows by 1.5 after a chunk whose steps all did better than these.
-GROW_PREDICTOR = 0.02
-GROW_COS = 0.95
 BACKENDS = ("casadi", "compiled")
-#: The orientation chart is re-centred when a Rodrigues parameter exceeds this (~53 deg).
-RECENTRE = 0.5
 #: Random starts: coordinates other than angles within this many model sizes of home.
 RANDOM_SPREAD = 1.5
 
 
-# ---------------------------------------------------------------------------- kernels
-
-
-@dataclass(frozen=True)
-class CurveKernels:
-    """CasADi Functions of the curve follower of one model.
-
-    Attributes:
-        steps: (x[2(m+1)], h, p[2k], c) -> (X[2(m+1), STEPS], info[3, STEPS]): ``STEPS``
-            predictor-corrector steps of arc length ``h`` from ``x = (q, v)`` (a point of the
-            curve and its unit tangent), ``p = (theta1, dtheta)``; ``info`` rows: first and last
-            Newton correction (weighted norm), cosine between the tangents before and after.
-        tangent: (q, v, p, c) -> unit tangent of the curve at ``q`` oriented along ``v``.
-        polish: (y, theta, c) -> (y, max|g|): ``POLISH_STEPS`` Newton steps at fixed theta.
-    """
-
-    steps: ca.Function
-    tangent: ca.Function
-    polish: ca.Function
-
-    def all(self) -> list[ca.Function]:
-        return [self.steps, self.tangent, self.polish]
-
-
-def _build_curve_kernels(model: Model) -> CurveKernels:
-    sym = model.symbolic
-    m, k = sym.m, sym.k
-    y, c = sym.y, sym.c
-    s = ca.SX.sym("s")
-    theta1 = ca.SX.sym("theta1", k)
-    dtheta = ca.SX.sym("dtheta", k)
-    p = ca.vertcat(theta1, dtheta)
-    q = ca.vertcat(y, s)
-    g, Jp, Js = ca.substitute([sym.g, sym.J_p, sym.J_s], [sym.theta], [theta1 + s * dtheta])
-    H = ca.horzcat(Jp, -(Js @ dtheta))
-    w2 = ca.dot(dtheta, dtheta)
-    weight = ca.vertcat(ca.DM.ones(m), w2)
-    v = ca.SX.sym("v", m + 1)
-    e = ca.DM.zeros(m + 1)
-    e[m] = 1.0
-    # [H; v^T] t = e gives t parallel to nu = [adj(J_p) j_s; det J_p] with v.t > 0 (Cramer):
-    # regular on the singular manifold, oriented by continuity with v.
-    t = ca.solve(ca.vertcat(H, v.T), e)
-    t = t / ca.sqrt(ca.dot(weight * t, t))
-    f_tan = ca.Function("scdk_curve_tangent", [q, v, p, c], [t], ["q", "v", "p", "c"], ["t"])
-    f_gH = ca.Function("scdk_curve_gH", [q, p, c], [g, H])
-
-    x = ca.SX.sym("x", 2 * (m + 1))
-    h = ca.SX.sym("h")
-    q0, v0 = x[: m + 1], x[m + 1 :]
-    t1 = v0  # the caller passes the unit tangent at q0
-    t2 = f_tan(q0 + h / 2 * t1, t1, p, c)
-    t3 = f_tan(q0 + h / 2 * t2, t1, p, c)
-    t4 = f_tan(q0 + h * t3, t1, p, c)
-    q_pred = q0 + h / 6 * (t1 + 2 * t2 + 2 * t3 + t4)
-    row = (weight * t1).T
-    qk = q_pred
-    corrections = []
-    for _ in range(CORRECTIONS):
-        gk, Hk = f_gH(qk, p, c)
-        dq = -ca.solve(ca.vertcat(Hk, row), ca.vertcat(gk, row @ (qk - q_pred)))
-        corrections.append(ca.sqrt(ca.dot(weight * dq, dq)))
-        qk = qk + dq
-    t_new = f_tan(qk, t1, p, c)
-    info = ca.vertcat(corrections[0], corrections[-1], ca.dot(weight * t_new, t1))
-    step = ca.Function("scdk_curve_step", [x, h, p, c], [ca.vertcat(qk, t_new), info])
-    f_steps = step.mapaccum("scdk_curve_steps", STEPS)
-
-    theta = ca.SX.sym("theta", k)
-    g0, J0 = ca.substitute([sym.g, sym.J_p], [sym.theta], [theta])
-    newton = ca.Function("scdk_newton1", [y, theta, c], [y - ca.solve(J0, g0)])
-    yk = y
-    for _ in range(POLISH_STEPS):
-        yk = newton(yk, theta, c)
-    res = ca.norm_inf(ca.substitute(g0, y, yk))
-    f_polish = ca.Function(
-        "scdk_curve_polish", [y, theta, c], [yk, res], ["y", "theta", "c"], ["y_solved", "residual"]
-    )
-    return CurveKernels(f_steps, f_tan, f_polish)
-
-
-def curve_kernels(model: Model, backend: str = "casadi") -> CurveKernels:
-    """The (cached) curve-following kernels of a model.
-
-    Args:
-        model: the model.
-        backend: "casadi" (SX virtual machine) or "compiled" (generated C compiled with the
-            system compiler once, cached on disk by content hash; ~4x faster).
-
-    Raises:
-        InputError: unknown backend.
-        BuildError: no C compiler (compiled backend).
-    """
-    if backend not in BACKENDS:
-        raise InputError(f"unknown backend {backend!r}; backends: {', '.join(BACKENDS)}")
-    store = model.__dict__.setdefault("_curve_kernels", {})
-    if backend not in store:
-        kern = _build_curve_kernels(model)
-        if backend == "compiled":
-            kern = _compile(kern)
-        store[backend] = kern
-    return store[backend]
-
-
-def _compile(kern: CurveKernels) -> CurveKernels:
-    from ..kernels.compile import cached_library
-
-    target = cached_library(kern.all(), "scdk_curve")
-    return CurveKernels(*(ca.external(f.name(), str(target)) for f in kern.all()))
-
-
-# ---------------------------------------------------------------------------- geometry
+def curve_kernels(model: Model, backend: str = "casadi"):
+    """The curve follower's kernels (:func:`scdk_sym.follower.kernels.follower_kernels`)."""
+    return follower_kernels(model, backend)
 
 
 def _scale(model: Model) -> float:
@@ -244,12 +119,9 @@ def follow_curve(
     max_steps: int = 20000,
     step: float | None = None,
 ) -> Curve:
-    """Follow the curve ``g(y, theta1 + s dtheta) = 0`` from ``(y_start, s_start)``.
-
-    The orientation is the SC field's: ``direction = +1`` follows ``nu`` (``s' = det J_p``),
-    ``-1`` follows ``-nu``. The curve is followed until it closes (comes back to the start),
-    the arc-length budget is spent or the deadline passes; every crossing of ``s = 1`` is
-    polished by Newton at ``theta1 + dtheta`` and kept if verified.
+    """Follow the curve ``g(y, theta1 + s dtheta) = 0`` from ``(y_start, s_start)`` with the
+    curve follower (:func:`scdk_sym.follower.curve.follow`, explicit predictor-corrector) and
+    collect its ``s = 1`` crossings.
 
     Args:
         model: the model.
@@ -257,176 +129,43 @@ def follow_curve(
         dtheta: (k,) direction of the line (``theta0 = theta1 + dtheta`` at ``s = 1``).
         y_start: (m,) canonical unknowns of an assembled point of the curve.
         s_start: its path parameter.
-        direction: +1 or -1.
-        max_arc: arc-length budget, in the metric ``|dy|^2 + (|dtheta| ds)^2`` [model length
-            unit and rad, as y and theta].
+        direction: +1 follows ``nu`` (``s' = det J_p``), -1 follows ``-nu``.
+        max_arc: arc-length budget, in the metric ``|dy|^2 + (|dtheta| ds)^2``.
         deadline: ``time.perf_counter()`` value at which to stop.
         backend: "casadi" or "compiled".
         record: keep the accepted samples in ``curve.path``.
-        max_hits: stop after this many solutions (at the end of the chunk that met them).
+        max_hits: stop after this many solutions.
         max_steps: stop after this many accepted steps.
-        step: initial arc-length step (default 0.02 model sizes); adapted as the curve bends.
+        step: initial arc-length step (default 0.02 model sizes).
 
     Returns:
         A :class:`Curve`.
     """
-    kern = curve_kernels(model, backend)
-    m = model.m
-    theta0 = theta1 + dtheta
-    p = np.concatenate([theta1, dtheta])
-    w2 = float(dtheta @ dtheta)
-    weight = np.append(np.ones(m), w2)
-    per = periodic(model)
-    rots = model.chart.rotations
-    rot_idx = kinds(model)[1]
-    out = Curve()
-    y_loc, c = model.chart.to_local(y_start)
-    q = np.append(y_loc, s_start)
-    Jp, Js = (np.array(a) for a in model.kernels.jac(y_loc, theta1 + s_start * dtheta, c))
-    nu = null_direction(Jp, Js @ dtheta)
-    v = np.array(kern.tangent(q, direction * nu, p, c)).ravel()
-    q_first, c_first, t_first = q.copy(), c.copy(), v.copy()
-    scale = _scale(model)
-    h = 0.02 * scale if step is None else float(step)
-    h_max = 0.5 * scale
-    tol = 1e-6 * scale
-    f_seen = np.zeros((0, 0))
-    turning: list[tuple[np.ndarray, float]] = []  # (features, arc) of the turning points of s
-    w = math.sqrt(w2)
-    left = False  # moved away from the start (closure is tested only afterwards)
-    while out.arc < max_arc:
-        if time.perf_counter() > deadline:
-            out.timed_out = True
-            break
-        X, info = (np.array(a) for a in kern.steps(np.concatenate([q, v]), h, p, c))
-        good = (
-            np.all(np.isfinite(X), axis=0)
-            & (info[0] <= MAX_PREDICTOR_ERROR * h)
-            & (info[1] <= NEWTON_TOL * scale)
-            & (info[2] >= MIN_COS)
-        )
-        if rot_idx.size:  # stay well inside the orientation chart (Rodrigues: 2 = 127 deg)
-            good &= np.max(np.abs(X[rot_idx]), axis=0) <= 2.0
-        n_ok = int(np.argmin(good)) if not good.all() else good.size
-        if n_ok == 0:
-            out.rejected += 1
-            h /= 2
-            if h < 1e-10 * scale:
-                break  # the curve cannot be followed further (e.g. it ends at a leg of zero length)
-            continue
-        Q = np.hstack([q[:, None], X[: m + 1, :n_ok]])
-        T = np.hstack([v[:, None], X[m + 1 :, :n_ok]])
-        s_vals = Q[-1]
-        # a turning point of s between two samples could hide two crossings of s = 1
-        if _hidden_pair(s_vals, T[-1], h):
-            out.rejected += 1
-            h /= 4
-            continue
-        turns = np.nonzero(T[-1, :-1] * T[-1, 1:] < 0)[0]
-        out.crossings += int(turns.size)
-        for i in turns:  # turning points of s: every loop has some; met again = going round
-            a = T[-1, i] / (T[-1, i] - T[-1, i + 1])
-            qt = Q[:, i] + a * (Q[:, i + 1] - Q[:, i])
-            f = np.append(local_features(model, qt[:m], c), qt[m] * w)
-            arc_t = out.arc + h * (i + a)
-            if turning:
-                F = np.array([t[0] for t in turning])
-                A = np.array([t[1] for t in turning])
-                near = np.max(np.abs(F - f), axis=1) < 2 * h + tol
-                out.repeated |= bool(np.any(near & (arc_t - A > 4 * h)))
-            turning.append((f, arc_t))
-            out.turns.append((arc_t, model.chart.to_canonical(qt[:m], c), float(qt[m])))
-        for i in np.nonzero((s_vals[:-1] - 1.0) * (s_vals[1:] - 1.0) <= 0)[0]:
-            if s_vals[i] == s_vals[i + 1] or (out.steps == 0 and i == 0 and s_start == 1.0):
-                continue
-            y_loc = _polish_between(model, kern, Q[:, i], Q[:, i + 1], T[:, i], T[:, i + 1],
-                                    h, theta0, c)  # fmt: skip
-            if y_loc is not None:
-                f_hit = local_features(model, y_loc, c)[None]
-                if f_seen.size and np.min(np.max(np.abs(f_seen - f_hit), axis=1)) <= tol:
-                    out.repeated = True  # met twice: the follower jumped onto a loop it went round
-                    break
-                out.hits.append(model.chart.to_canonical(y_loc, c))
-                out.hit_arcs.append(out.arc + h * (i + 0.5))
-                f_seen = np.vstack([f_seen, f_hit]) if f_seen.size else f_hit
-        # closure: distance of the path to the start point expressed in the current chart
-        q_ref = in_chart(q_first, c_first, c, rots)
-        if q_ref is not None:
-            D = Q - q_ref[:, None]
-            if per.size:
-                D[per] = (D[per] + math.pi) % (2 * math.pi) - math.pi
-            E = np.diff(Q, axis=1)
-            tau = np.clip(-(weight @ (D[:, :-1] * E)) / np.maximum(weight @ (E * E), 1e-300), 0, 1)
-            P = D[:, :-1] + tau * E
-            dist = np.sqrt(weight @ (P * P))
-            if not left:
-                left = bool(np.any(dist > 3 * h))
-            elif np.any(dist < 0.1 * h):
-                j = int(np.argmin(dist))
-                out.closed = True
-                # passing the start backwards: the follower jumped between two nearly touching
-                # branches somewhere and came back over its own path
-                out.reversed = bool(weight @ (T[:, j + 1] * t_first) < 0)
-        if record:
-            for j in range(1, Q.shape[1]):
-                out.path.append(np.append(model.chart.to_canonical(Q[:m, j], c), Q[m, j]))
-        out.steps += n_ok
-        out.arc += h * n_ok
-        if out.closed or out.repeated or len(out.hits) >= max_hits or out.steps >= max_steps:
-            break
-        q, v = Q[:, -1], T[:, -1]
-        if rots and np.max(np.abs(q[rot_idx])) > RECENTRE:  # re-centre the orientation chart
-            y_new, c = model.chart.recentre(q[:-1], c)
-            q = np.append(y_new, q[-1])
-            v = np.array(kern.tangent(q, v, p, c)).ravel()
-        if n_ok < good.size:
-            out.rejected += 1
-            h /= 2
-        elif info[0].max() < GROW_PREDICTOR * h and info[2].min() > GROW_COS:
-            h = min(1.5 * h, h_max)
+    line = Line(np.asarray(theta1, float), np.asarray(dtheta, float))
+    h = 0.02 * _scale(model) if step is None else float(step)
+    walk = follow(model, line, y_start, s_start, direction, predictor="rk4", backend=backend,
+                  max_hits=max_hits, max_arc=max_arc, max_steps=max_steps, deadline=deadline,
+                  step=h, record=record, locate=False)  # fmt: skip
+    out = Curve(
+        hits=[hit.y for hit in walk.hits],
+        hit_arcs=[hit.arc for hit in walk.hits],
+        turns=[
+            (a, cr.y, cr.s)
+            for cr, a in zip(walk.singular, walk.singular_arcs, strict=True)
+            if cr.kind == "fold"
+        ],
+        arc=walk.arc,
+        steps=walk.steps,
+        rejected=walk.rejected,
+        closed=walk.closed,
+        reversed=walk.reversed,
+        repeated=walk.repeated,
+        crossings=len(walk.singular),
+        timed_out=walk.timed_out,
+    )
+    if record and walk.path is not None:
+        out.path = [np.append(y, s) for y, s in zip(walk.path.y, walk.path.s, strict=True)]
     return out
-
-
-def _hermite(u: np.ndarray) -> np.ndarray:
-    """Cubic Hermite basis (h00, h10, h01, h11) at the fractions ``u`` of a step."""
-    u2, u3 = u * u, u * u * u
-    return np.array([2 * u3 - 3 * u2 + 1, u3 - 2 * u2 + u, -2 * u3 + 3 * u2, u3 - u2])
-
-
-_FINE = np.linspace(0.0, 1.0, 65)
-_BASIS = _hermite(_FINE)
-
-
-def _hidden_pair(s_vals: np.ndarray, ts: np.ndarray, h: float) -> bool:
-    """Whether a turning point of s inside a step crosses s = 1 twice between two samples."""
-    for i in np.nonzero(ts[:-1] * ts[1:] < 0)[0]:
-        a, b = s_vals[i] - 1.0, s_vals[i + 1] - 1.0
-        if a * b <= 0:
-            continue
-        # cubic Hermite interpolant of s - 1 on the step (slopes ds/darc = t_s)
-        s = np.array([a, h * ts[i], b, h * ts[i + 1]]) @ _BASIS
-        if np.any(s * a <= 0):
-            return True
-    return False
-
-
-def _polish_between(model, kern, qa, qb, ta, tb, h, theta0, c) -> np.ndarray | None:
-    """The solution at s = 1 between two samples (cubic Hermite guess + Newton), in chart c."""
-    m = model.m
-    # the arc fraction where the Hermite interpolant of s meets 1
-    s = np.array([qa[-1] - 1.0, h * ta[-1], qb[-1] - 1.0, h * tb[-1]]) @ _BASIS
-    j = np.nonzero(s[:-1] * s[1:] <= 0)[0]
-    u = 0.5
-    if j.size:
-        i = j[0]
-        u = _FINE[i] + (_FINE[i + 1] - _FINE[i]) * s[i] / (s[i] - s[i + 1] + 1e-300)
-    H = _hermite(np.array([u]))[:, 0]
-    y_guess = H[0] * qa[:m] + H[1] * h * ta[:m] + H[2] * qb[:m] + H[3] * h * tb[:m]
-    y, res = kern.polish(y_guess, theta0, c)
-    y = np.array(y).ravel()
-    if not (np.all(np.isfinite(y)) and float(res) <= 0.1 * model.tolerance):
-        return None
-    return y
 
 
 # ---------------------------------------------------------------------------- search

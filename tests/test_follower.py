@@ -1,0 +1,92 @@
+"""The curve follower: folds, bifurcations, level crossings; both predictors decide alike.
+
+References: the seed robot's paper values (section 5), the closed form of the flat
+parallelogram of Gepetto's robot_delta (loop 1 is flat at mot1_rod2 = pi/12 and the
+parallelogram branch keeps free1_rod3 = mot1_rod2), and the independent closures of
+tests/references.py.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from factories import SEED_THETA0, SEED_X1, shipped
+from references import reference
+
+import scdk_sym as sc
+from scdk_sym.follower.curve import Line, follow
+from scdk_sym.follower.singular import nearest_singular
+
+GEPETTO = "tests/fixtures/gepetto/robot_delta"
+
+
+def robot_delta() -> sc.Model:
+    return sc.load_model(GEPETTO, frame="effector")
+
+
+@pytest.mark.parametrize("predictor", ["rk4", "cvodes"])
+def test_steps_straight_over_the_flat_parallelogram(predictor):
+    """A bifurcation: det J_p changes sign, s does not turn; the walk keeps the branch."""
+    model = robot_delta()
+    theta0 = np.array([0.0, 0.4])
+    home = model.home
+    line = Line(home.theta, theta0 - home.theta)
+    direction = -1.0 if home.y is not None else 1.0
+    walks = [follow(model, line, home.y, 0.0, d, predictor=predictor, max_hits=1, max_arc=5.0)
+             for d in (direction, -direction)]  # fmt: skip
+    walk = next(w for w in walks if w.hits)
+    assert [c.kind for c in walk.singular[: walk.hits[0].crossings]] == ["bifurcation"]
+    cr = walk.singular[0]
+    assert abs(cr.theta[1] - math.pi / 12) < 1e-6
+    joints = model.configuration(walk.hits[0].y, theta0).joints
+    # the parallelogram branch: the rod angle equals the motor angle
+    assert abs(joints["free1_rod3"] - joints["mot1_rod2"]) < 1e-9
+    assert model.residual(walk.hits[0].y, theta0) < 1e-12
+
+
+def test_both_predictors_meet_the_same_points():
+    model = shipped("planar_hexa")
+    start = model.inverse_kinematics(SEED_X1)
+    line = Line(start.theta, SEED_THETA0 - start.theta)
+    a, b = (
+        follow(model, line, start.y, 0.0, 1.0, predictor=p, max_hits=1) for p in ("rk4", "cvodes")
+    )
+    assert len(a.hits) == len(b.hits) == 1
+    np.testing.assert_allclose(a.hits[0].y, b.hits[0].y, atol=1e-12)
+    assert [c.kind for c in a.singular] == [c.kind for c in b.singular] == ["fold"]
+    assert abs(a.singular[0].s - b.singular[0].s) < 1e-9
+    np.testing.assert_allclose(a.singular[0].x, b.singular[0].x, atol=1e-8)
+    # the paper's singular configuration and its phi = 0.5754 (printed to 4 digits)
+    assert abs(a.singular[0].x[2] - 0.5754) < 5e-4
+
+
+def test_theta0_on_the_singular_surface_returns_the_singular_solution():
+    model = shipped("planar_hexa")
+    start = model.inverse_kinematics(SEED_X1)
+    fold = sc.solve(model, SEED_THETA0, start=start, branch="divergent").crossings[0]
+    res = sc.solve(model, fold.theta, start=start, branch="convergent")
+    assert res.status == "singular"
+    assert model.residual(res.y, res.theta) <= model.tolerance
+    # the fold's configuration (a double root: Newton converges only to about sqrt(eps))
+    np.testing.assert_allclose(res.x, fold.x, atol=1e-5)
+    ref = reference("planar_hexa")
+    assert np.max(np.abs(ref.closure(ref.coords(res), res.theta))) < 1e-8
+
+
+def test_nearest_singular_configuration_is_singular_and_assembled():
+    ref = reference("stewart_gough")
+    for name in ("planar_3rpr", "five_bar", "hexa", "stewart_gough"):
+        model = shipped(name)
+        sing = nearest_singular(model, model.home)
+        assert sing is not None, name
+        assert model.residual(sing.y, sing.theta) <= model.tolerance
+        y, c = model.chart.to_local(sing.y)
+        sv = np.linalg.svd(np.array(model.kernels.jac(y, sing.theta, c)[0]), compute_uv=False)
+        assert sv[-1] / sv[0] < 1e-9, name
+    # independently: the hexapod's closed-form leg Jacobian is singular there too
+    model = shipped("stewart_gough")
+    sing = nearest_singular(model, model.home)
+    cfg = model.configuration(sing.y, sing.theta)
+    assert abs(ref.det_ratio(ref.coords(cfg), cfg.theta)) < 1e-6
