@@ -58,6 +58,10 @@ STEP_OVER_COS = 0.9
 BIFURCATION_RANK = 1e-3
 #: Largest initial step [model sizes].
 FIRST_STEP = 0.01
+#: Rejected steps after which a walk ends as stalled.
+MAX_REJECTED = 200
+#: Calls of the explicit predictor after a CVODES chunk it had to take over.
+BACKUP_CALLS = 4
 #: The orientation chart is re-centred when a Rodrigues parameter exceeds this (~53 deg).
 RECENTRE = 0.5
 #: Rodrigues parameters of the chart stay below this (127 deg) inside one call.
@@ -369,15 +373,25 @@ def follow(
         rec["det"].append(det)
         rec["arc"].append(0.0)
     skip_level_at_start = True
+    backup_left = 0
     while out.arc < budget and out.steps < max_steps:
+        if out.rejected > MAX_REJECTED:
+            out.stalled = True
+            break
         if time.perf_counter() > deadline:
             out.timed_out = True
             break
-        ch = pred.advance(q, t, h, c, det)
-        if ch.ok == 0 and backup is not None:
-            # CVODES could not integrate this stretch (e.g. next to two crossing branches,
-            # where no smooth field exists): the explicit predictor-corrector takes over here
+        if backup is not None and backup_left > 0:
+            backup_left -= 1
             ch = backup.advance(q, t, h, c, det)
+        else:
+            ch = pred.advance(q, t, h, c, det)
+            if ch.ok == 0 and backup is not None:
+                # CVODES could not integrate this stretch (e.g. next to two crossing branches,
+                # where no smooth field exists): the explicit predictor-corrector takes over
+                # for the next few calls
+                ch = backup.advance(q, t, h, c, det)
+                backup_left = BACKUP_CALLS if ch.ok else 0
         if ch.ok == 0:
             out.rejected += 1
             halvings += 1

@@ -24,7 +24,7 @@ CVODES_OPTIONS = {
     "nonlinear_solver_iteration": "functional",
     "abstol": 1e-11,
     "reltol": 1e-10,
-    "max_num_steps": 1000,
+    "max_num_steps": 500,
     "disable_internal_warnings": True,
 }
 BACKENDS = ("casadi", "compiled")

@@ -25,6 +25,8 @@ from .kernels import follower_kernels
 
 #: Lines aimed at the singular surface before giving up.
 AIMS = 12
+#: Steps of the follower per aimed line.
+AIM_STEPS = 2000
 #: Mirror points tried by Newton: multiples of the distance from the start to the fold, and
 #: fixed distances [model sizes], beyond the fold along the null vector of J_p.
 REFLECTIONS = (1.0, 2.0, 4.0)
@@ -78,7 +80,7 @@ def across(
     *,
     first: np.ndarray | None = None,
     backend: str = "casadi",
-    predictor: str = "cvodes",
+    predictor: str = "rk4",
     record: bool = False,
     paper_only: bool = False,
 ) -> Across | None:
@@ -108,7 +110,8 @@ def across(
     if first is not None and np.any(first):
         line = Line(np.array(start.theta, dtype=float), np.asarray(first, float))
         walk = follow(model, line, start.y, 0.0, sign0, predictor=predictor, backend=backend,
-                      levels=(0.0, 1.0), max_hits=1, record=record)  # fmt: skip
+                      levels=(0.0, 1.0), max_hits=1, record=record,
+                      max_steps=AIM_STEPS)  # fmt: skip
         if walk.hits and walk.hits[0].level == 0.0 and walk.hits[0].crossings:
             hit = walk.hits[0]
             cfg = model.configuration(hit.y, start.theta)
@@ -125,7 +128,8 @@ def across(
         line = Line(np.array(cur.theta, dtype=float), length * d)
         lines.append(line)
         walk = follow(model, line, cur.y, 0.0, _det_sign(model, cur), predictor=predictor,
-                      backend=backend, levels=(0.0, 1.0), max_hits=1)  # fmt: skip
+                      backend=backend, levels=(0.0, 1.0), max_hits=1,
+                      max_steps=AIM_STEPS)  # fmt: skip
         if not walk.hits:
             return None
         hit = walk.hits[0]
@@ -170,7 +174,7 @@ def from_fold(
     sign0: float,
     *,
     backend: str = "casadi",
-    predictor: str = "cvodes",
+    predictor: str = "rk4",
 ) -> tuple[np.ndarray, list[Crossing]] | None:
     """From a fold, on the other sheet, along the line from its ``theta`` to ``theta0``.
 
@@ -319,7 +323,7 @@ def across_fold(
     theta0: np.ndarray,
     *,
     backend: str = "casadi",
-    predictor: str = "cvodes",
+    predictor: str = "rk4",
 ) -> tuple[Configuration, list[Crossing]] | None:
     """The solution at ``theta0`` on the other side of ``fold``, nearest to it.
 

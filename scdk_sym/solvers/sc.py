@@ -282,62 +282,117 @@ def _touching(model, theta0, tr) -> tuple[np.ndarray, int] | None:
 
 
 def _divergent(model, theta0, start, sign, backend, max_arc, record_path) -> SolveResult:
-    """Across the nearest singular surface: locate it, cross, converge to theta0 from the
-    other side; else the paper's straight path in the divergent direction."""
+    """The solution across the nearest singular surface (see :func:`solve`).
+
+    Ways tried in order, the first answer kept that is verified, crossed at least one
+    singular point and differs from the convergent answer (when there is one):
+
+    1. the paper's divergent direction: the line away from ``theta0`` turns within one
+       ``|theta0 - theta1|`` and comes back through the start's ``theta`` on the other sheet,
+       then the convergent path to ``theta0`` (exactly the paper's path where it folds near);
+    2. the nearest singular configuration on the manifold, and the solution at ``theta0`` on
+       its other side nearest to it (:func:`~scdk_sym.follower.singular.across_fold`);
+    3. lines aimed at the singular surface, back on the other sheet, then convergent;
+    4. the paper's straight path in the divergent direction, however far it goes.
+    """
     from ..follower.singular import across, across_fold, nearest_singular
 
-    tried = []
-    res = None
-    other = across(model, start, first=start.theta - theta0, backend=backend, record=record_path,
-                   paper_only=True)  # fmt: skip
-    if other is None:
-        # the nearest singular configuration on the manifold, then from it to theta0 on the
-        # other sheet (theta1 -> theta* -> theta0)
-        fold = nearest_singular(model, start, backend)
-        leg = None if fold is None else across_fold(model, start, fold, theta0, backend=backend)
-        if leg is not None:
-            cfg, met = leg
-            return _result(model, cfg.y, theta0, (_on_path(fold, start, theta0), *met),
-                           "divergent", -sign, start, None)  # fmt: skip
-        tried.append("from the nearest singular configuration: no solution on the other side")
-        other = across(model, start, backend=backend)
-    if other is None:
-        tried.append("no singular surface was reached from the start")
-    if other is not None and res is None:
+    tried: list[str] = []
+    try:
+        conv = solve(model, theta0, start=start, branch="convergent", backend=backend,
+                     max_arc=max_arc, record_path=False)  # fmt: skip
+    except ScdkError:
+        conv = None
+
+    def other_than_convergent(res: SolveResult | None, how: str) -> SolveResult | None:
+        if res is None:
+            return None
+        if not res.crossings:
+            tried.append(f"{how}: no singular point crossed")
+            return None
+        if conv is not None and _same_configuration(model, res, conv):
+            tried.append(f"{how}: came back to the convergent solution")
+            return None
+        return res
+
+    def from_mirror(other, how: str) -> SolveResult | None:
         try:
             res = solve(model, theta0, start=other.start, branch="convergent", backend=backend,
                         max_arc=max_arc, record_path=record_path)  # fmt: skip
         except ScdkError as exc:
-            tried.append(f"from across the nearest singular surface: {exc}")
-        else:
-            if _is_same_side(model, start, res):
-                tried.append("the path from across the nearest singular surface came back")
-                res = None
-    if other is not None and res is not None:
-        d = theta0 - start.theta
-        dd = float(d @ d)
-        cr = other.crossing
-        s_cross = float((cr.theta - start.theta) @ d / dd) if dd else 0.0
-        first = Crossing(s_cross, cr.x, cr.y, cr.theta, kind=cr.kind)
+            tried.append(f"{how}: {exc}")
+            return None
         path = res.path
         if other.path is not None and path is not None:
             path = _joined(other.path, path, -sign)
-        return SolveResult(
+        out = SolveResult(
             x=res.x, y=res.y, theta=res.theta, platform_pose=res.platform_pose,
             joints=res.joints, residual=res.residual,
-            crossings=(first, *res.crossings), status=res.status,
-            branch="divergent", b=-sign, start=start, path=path,
+            crossings=(_on_path(other.crossing, start, theta0), *res.crossings),
+            status=res.status, branch="divergent", b=-sign, start=start, path=path,
         )  # fmt: skip
+        return other_than_convergent(out, how)
+
+    # 1. the paper's direction, where it turns near
+    other = across(model, start, first=start.theta - theta0, backend=backend, record=record_path,
+                   paper_only=True)  # fmt: skip
+    if other is not None:
+        res = from_mirror(other, "along the paper's path")
+        if res is not None:
+            return res
+    # 2. across the nearest singular configuration
+    fold = nearest_singular(model, start, backend)
+    leg = None if fold is None else across_fold(model, start, fold, theta0, backend=backend)
+    if leg is None:
+        tried.append("no solution across the nearest singular configuration")
+    else:
+        cfg, met = leg
+        res = other_than_convergent(
+            _result(
+                model,
+                cfg.y,
+                theta0,
+                (_on_path(fold, start, theta0), *met),
+                "divergent",
+                -sign,
+                start,
+                None,
+            ),  # fmt: skip
+            "across the nearest singular configuration",
+        )
+        if res is not None:
+            return res
+    # 3. aimed at the singular surface
+    other = across(model, start, backend=backend)
+    if other is None:
+        tried.append("no singular surface reached by aiming at it")
+    else:
+        res = from_mirror(other, "from across the surface aimed at")
+        if res is not None:
+            return res
+    # 4. the literal straight path
     if not _same_theta(theta0, start.theta):
         try:
-            return _along_line(model, theta0, start, -sign, "divergent", backend, max_arc,
-                               record_path)  # fmt: skip
+            res = _along_line(model, theta0, start, -sign, "divergent", backend, max_arc,
+                              record_path)  # fmt: skip
         except PathError as exc:
             tried.append(f"along the straight path: {exc}")
+        else:
+            res = other_than_convergent(res, "along the straight path")
+            if res is not None:
+                return res
     raise PathError(
         f"divergent branch at theta0={theta0.tolist()}: no solution across a singular surface "
         f"was reached ({'; '.join(tried)}); every real solution: sc.assembly_modes(model, theta0)"
     )
+
+
+def _same_configuration(model: Model, a, b) -> bool:
+    """Two configurations coincide (chart-free features within 1e-7 model sizes)."""
+    from ..follower.geometry import features
+
+    scale = max(1.0, float(model.length_scale))
+    return float(np.max(np.abs(features(model, a.y) - features(model, b.y)))) <= 1e-7 * scale
 
 
 def _fast_convergent(model, theta0, start, backend) -> SolveResult | None:
