@@ -46,7 +46,7 @@ from .kernels import follower_kernels
 #: the step, its last below NEWTON_TOL model sizes, and the tangent turned by < acos(MIN_COS).
 MAX_PREDICTOR_ERROR = 0.1
 NEWTON_TOL = 1e-7
-MIN_COS = 0.7
+MIN_COS = 0.97
 #: A CVODES chunk is accepted when its end tangent is within acos(CHUNK_COS) of its start's.
 CHUNK_COS = 0.8
 #: Rejections in a row (each halving the step) before stepping over.
@@ -60,6 +60,8 @@ BIFURCATION_RANK = 1e-3
 FIRST_STEP = 0.01
 #: Rejected steps after which a walk ends as stalled.
 MAX_REJECTED = 200
+#: Rejections after which a walk on CVODES continues on the explicit predictor.
+CVODES_REJECTIONS = 16
 #: Calls of the explicit predictor after a CVODES chunk it had to take over.
 BACKUP_CALLS = 4
 #: The orientation chart is re-centred when a Rodrigues parameter exceeds this (~53 deg).
@@ -356,6 +358,8 @@ def follow(
         h = min(ell0 / 16, FIRST_STEP * scale) if step is None else float(step)
         h_max = 2.0 * ell0 / GRID
     h_min = 1e-12 * max(ell0, 1e-6 * scale)
+    h_first = h
+    reject_limit = MAX_REJECTED
     rots = model.chart.rotations
     rot_idx = [i for idx in rots for i in idx]
     per = periodic(model)
@@ -375,12 +379,16 @@ def follow(
     skip_level_at_start = True
     backup_left = 0
     while out.arc < budget and out.steps < max_steps:
-        if out.rejected > MAX_REJECTED:
+        if out.rejected > reject_limit:
             out.stalled = True
             break
         if time.perf_counter() > deadline:
             out.timed_out = True
             break
+        if backup is not None and out.rejected >= CVODES_REJECTIONS:
+            pred, backup = backup, None  # CVODES keeps failing here: explicit steps from now on
+            h, halvings = max(h, h_first), 0
+            reject_limit = out.rejected + CVODES_REJECTIONS
         if backup is not None and backup_left > 0:
             backup_left -= 1
             ch = backup.advance(q, t, h, c, det)
@@ -577,6 +585,8 @@ def follow(
         if refine_at is not None:
             h /= 4
             out.rejected += 1
+            if backup is not None:
+                backup_left = BACKUP_CALLS  # resolve the event with the explicit steps
         elif ch.partial and replaced is None:
             h /= 2
             out.rejected += 1

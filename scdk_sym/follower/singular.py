@@ -27,6 +27,9 @@ from .kernels import follower_kernels
 AIMS = 12
 #: Steps of the follower per aimed line.
 AIM_STEPS = 2000
+#: Steps and arc length [model sizes] of the follower from a singular point to theta0.
+LEG_STEPS = 400
+LEG_ARC = 10.0
 #: Mirror points tried by Newton: multiples of the distance from the start to the fold, and
 #: fixed distances [model sizes], beyond the fold along the null vector of J_p.
 REFLECTIONS = (1.0, 2.0, 4.0)
@@ -175,7 +178,7 @@ def from_fold(
     *,
     backend: str = "casadi",
     predictor: str = "rk4",
-) -> tuple[np.ndarray, list[Crossing]] | None:
+) -> tuple[np.ndarray, list[Crossing]] | list | None:
     """From a fold, on the other sheet, along the line from its ``theta`` to ``theta0``.
 
     At the fold ``(y*, theta*)`` the line ``theta* + s (theta0 - theta*)`` has a curve through
@@ -189,6 +192,9 @@ def from_fold(
         sign0: sign of ``det J_p`` on the start's side.
         backend: kernel backend.
         predictor: predictor of the curve follower.
+
+    Where branches cross at the point (see :func:`_branches_cross`) every branch is
+    followed from it and a list of such pairs is returned.
 
     Returns:
         (canonical unknowns at ``theta0``, singular points met after the fold), or None.
@@ -205,28 +211,42 @@ def from_fold(
     y_loc, c = model.chart.to_local(fold.y)
     q_f = np.append(y_loc, 0.0)
     Jp, Js = (np.array(a) for a in model.kernels.jac(y_loc, theta_f, c))
-    t = np.linalg.svd(np.hstack([Jp, -(Js @ dtheta)[:, None]]))[2][-1]
+    H = np.hstack([Jp, -(Js @ dtheta)[:, None]])
+    _, S, Vt = np.linalg.svd(H)
     w2 = float(dtheta @ dtheta)
-    t = t / math.sqrt(float(t[:m] @ t[:m]) + w2 * t[m] ** 2)
+    if _branches_cross(Jp, Js):
+        # two branches through the point: directions all round the 2-d null space of H
+        N = Vt[-2:]
+        directions = [np.cos(a) * N[0] + np.sin(a) * N[1] for a in np.arange(8) * np.pi / 4]
+        want = None
+    else:
+        directions = [Vt[-1], -Vt[-1]]
+        want = -sign0
     scale = max(1.0, float(model.length_scale))
+    found: list[tuple[np.ndarray, list[Crossing]]] = []
     for length in (1e-4 * scale, 1e-3 * scale, 1e-5 * scale):
-        for sgn in (1.0, -1.0):
-            v = sgn * t
+        for t in directions:
+            v = t / math.sqrt(float(t[:m] @ t[:m]) + w2 * t[m] ** 2)
             q1, res = kern.plane(q_f + length * v, v, p, c)
             q1 = np.array(q1).ravel()
             if not (np.all(np.isfinite(q1)) and float(res) <= 0.1 * tol):
                 continue
             t1, J1 = kern.tangent(q1, v, p, c)
-            if not np.linalg.det(np.array(J1).reshape(m, m, order="F")) * sign0 < 0:
+            det1 = np.linalg.det(np.array(J1).reshape(m, m, order="F"))
+            if want is not None and not det1 * want > 0:
                 continue
             walk = follow(model, line, q1[:m], float(q1[-1]), 1.0, predictor=predictor,
-                          backend=backend, levels=(1.0,), max_hits=1,
-                          tangent=np.array(t1).ravel(), chart=c)  # fmt: skip
-            if not walk.hits:
-                continue
-            hit = walk.hits[0]
-            return hit.y, walk.singular[: hit.crossings]
-    return None
+                          backend=backend, levels=(1.0,), max_hits=1, max_steps=LEG_STEPS,
+                          max_arc=LEG_ARC * scale, tangent=np.array(t1).ravel(),
+                          chart=c)  # fmt: skip
+            if walk.hits:
+                hit = walk.hits[0]
+                found.append((hit.y, walk.singular[: hit.crossings]))
+                if want is not None:
+                    return found[0]
+        if found:
+            break
+    return found or None
 
 
 #: Descent iterations onto the singular surface (:func:`nearest_singular`).
@@ -259,8 +279,9 @@ def nearest_singular(model, start: Configuration, backend: str = "casadi") -> Cr
         backend: kernel backend.
 
     Returns:
-        The singular configuration as a ``Crossing`` (``s = 0``, kind "fold"), or None when the
-        descent stopped at a non-singular point.
+        The singular configuration as a ``Crossing`` (``s = 0``; kind "bifurcation" where
+        branches cross there, else "fold"), or None when the descent stopped at a non-singular
+        point.
     """
     kern = follower_kernels(model, backend)
     m = model.m
@@ -313,7 +334,8 @@ def nearest_singular(model, start: Configuration, backend: str = "casadi") -> Cr
     cfg = model.configuration(z[:m], z[m:], c)
     if not cfg.residual <= tol:
         return None
-    return Crossing(0.0, cfg.x, cfg.y, cfg.theta, kind="fold")
+    kind = "bifurcation" if _branches_cross(Jp, Js) else "fold"
+    return Crossing(0.0, cfg.x, cfg.y, cfg.theta, kind=kind)
 
 
 def across_fold(
@@ -322,10 +344,16 @@ def across_fold(
     fold: Crossing,
     theta0: np.ndarray,
     *,
+    exclude: Configuration | None = None,
     backend: str = "casadi",
     predictor: str = "rk4",
 ) -> tuple[Configuration, list[Crossing]] | None:
     """The solution at ``theta0`` on the other side of ``fold``, nearest to it.
+
+    Where two branches cross at the singular configuration (``[J_p, -J_s dtheta]`` drops rank
+    for every ``dtheta``, e.g. a parallelogram passing flat), ``det J_p`` changes sign along
+    each branch and tells nothing of the side: there the other side is any solution other
+    than ``exclude`` (the convergent answer).
 
     Candidates, each verified (residual) and kept only if ``det J_p`` has the sign opposite to
     the start's: the end of the curve from the fold to ``theta0`` on the other sheet
@@ -353,7 +381,9 @@ def across_fold(
     sign0 = _det_sign(model, start)
     candidates: list[tuple[np.ndarray, list[Crossing]]] = []
     leg = from_fold(model, fold, theta0, sign0, backend=backend, predictor=predictor)
-    if leg is not None:
+    if isinstance(leg, list):
+        candidates.extend(leg)
+    elif leg is not None:
         candidates.append(leg)
     # to first order about the fold the configurations over theta are
     # y_f + J_p^+ J_s (theta - theta_f) + t u (u: null vector of J_p), the two sheets having
@@ -376,14 +406,29 @@ def across_fold(
             if np.all(np.isfinite(y)) and float(np.max(np.abs(y - y_f))) <= 10.0 * scale:
                 candidates.append((model.chart.to_canonical(y, c), []))
     f_fold = features(model, fold.y)[0]
+    crossing = _branches_cross(Jp, Js)
+    f_exclude = None if exclude is None else features(model, exclude.y)[0]
     best = None
     for y, met in candidates:
         if not np.all(np.isfinite(y)):
             continue
         cfg = model.configuration(y, theta0)
-        if not (cfg.residual <= tol and _det_sign(model, cfg) * sign0 < 0):
+        if not cfg.residual <= tol:
+            continue
+        f = features(model, cfg.y)[0]
+        if f_exclude is not None and float(np.max(np.abs(f - f_exclude))) <= 1e-7 * scale:
+            continue
+        if not crossing and _det_sign(model, cfg) * sign0 > 0:
             continue
         dist = float(np.max(np.abs(features(model, cfg.y)[0] - f_fold)))
         if best is None or dist < best[0] - 1e-9:
             best = (dist, cfg, met)
     return None if best is None else (best[1], best[2])
+
+
+def _branches_cross(Jp: np.ndarray, Js: np.ndarray) -> bool:
+    """``[J_p, -J_s d]`` drops rank for every ``d``: a left null vector of ``J_p`` is also one
+    of ``J_s`` (the singularity does not depend on the actuators: branches cross there)."""
+    U, S, _ = np.linalg.svd(Jp)
+    w = U[:, -1]
+    return bool(np.linalg.norm(w @ Js) <= 1e-6 * max(float(np.linalg.norm(Js)), 1e-300))
