@@ -80,5 +80,40 @@ class VerificationError(SolveError):
         super().__init__(message)
 
 
+class TrackError(SolveError):
+    """Tracking failed at a sample: no decision, no solution, or a failed verification.
+
+    Attributes:
+        index: index of the failing sample in ``thetas``.
+        status: the tracker's status code (see :data:`scdk_sym.codegen.library.STATUS`;
+            the same codes for every backend): -9 the readings are too coarse to decide
+            between two candidate solutions, -5 no solution was met, ..., or 0 when the
+            tracker succeeded but the final verification failed.
+        residual: the sample's residual (NaN if none was computed).
+        theta: (k,) the reading at the failing sample (None if unknown).
+        candidates: workspace coordinates (n,) of the candidate solutions the tracker could
+            not decide between, best first (empty unless ``status`` is -9).
+    """
+
+    def __init__(
+        self,
+        message: str,
+        index: int,
+        status: int,
+        residual: float = float("nan"),
+        *,
+        theta=None,
+        candidates=(),
+    ):
+        import numpy as np
+
+        self.index = int(index)
+        self.status = int(status)
+        self.residual = residual
+        self.theta = None if theta is None else np.array(theta, dtype=float)
+        self.candidates = tuple(np.array(x, dtype=float) for x in candidates)
+        super().__init__(message)
+
+
 class BuildError(ScdkError):
     """Building or compiling kernels failed (e.g. no C compiler)."""

@@ -82,9 +82,9 @@ def test_track_json_follows_the_motion_through_the_singularity(tmp_path, capsys)
 
 
 def test_track_human_output_marks_the_crossing(tmp_path, capsys):
-    csv = seed_csv(tmp_path, np.linspace(0.5, 0.65, 4))
+    csv = seed_csv(tmp_path, np.linspace(0.35, 0.65, 4))
     assert (
-        main(["track", str(MODELS / "planar_hexa"), "--thetas", str(csv), "--from-x", "0,0,0.5"])
+        main(["track", str(MODELS / "planar_hexa"), "--thetas", str(csv), "--from-x", "0,0,0.35"])
         == 0
     )
     out = capsys.readouterr().out
@@ -98,7 +98,7 @@ def test_plot_commands_write_pngs(tmp_path, capsys):
     assert (
         main(["plot", model, "--theta", theta, "--from-x", "0,0,0.4", "--out", str(tmp_path)]) == 0
     )
-    csv = seed_csv(tmp_path, np.linspace(0.5, 0.65, 5))
+    csv = seed_csv(tmp_path, np.linspace(0.5, 0.65, 8))
     assert (
         main(["plot", model, "--thetas", str(csv), "--from-x", "0,0,0.5", "--out", str(tmp_path)])
         == 0

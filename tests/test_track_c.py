@@ -153,7 +153,8 @@ def test_a_failure_in_c_names_the_sample(hexapod):
     thetas[6] = 0.05  # legs of 5 cm: no assembly exists
     with pytest.raises(TrackError, match="sample 6") as info:
         track_c(hexapod, thetas, hexapod.home)
-    assert info.value.index == 6 and info.value.status < 0
+    assert info.value.index == 6 and info.value.status == clib.ERR_NO_SOLUTION
+    np.testing.assert_array_equal(info.value.theta, thetas[6])
 
 
 def test_c_boundary_reports_nan_and_sizes(hexapod):
@@ -238,7 +239,9 @@ def test_seed_closed_form_is_the_papers_singular_reading():
                                rtol=0, atol=6e-4)  # fmt: skip
 
 
-@pytest.mark.parametrize("count", [7, 9, 13, 27, 61])
+# (7 samples: the first step, before any motion is known, ends where the mirror solution is
+# only 2.5 times farther than the continuation; the tracker refuses it, see test_track_backends)
+@pytest.mark.parametrize("count", [9, 13, 27, 61])
 def test_seed_robot_coarse_path_follows_the_motion_through_the_fold(count):
     """Few samples across the fold: the mirror solution lies nearer to the prediction's error
     than the step, and the first reading repeats the start (no motion known yet)."""
@@ -293,7 +296,9 @@ def _leg_jacobian_det(A, B, y):
     return float(np.linalg.det(np.hstack([u, np.cross(Rb, u)])))
 
 
-@pytest.mark.parametrize("count", [5, 7, 9, 17, 33])
+# (5 samples: the first step, before any motion is known, ends where the mirror solution is
+# only 2.9 times farther than the continuation; the tracker refuses it)
+@pytest.mark.parametrize("count", [7, 9, 17, 33])
 def test_hexapod_coarse_path_through_its_twist_singularity(count):
     """A 6-6 platform moved straight through its singular manifold (turned about z), coarsely."""
     from factories import hexapod as general_hexapod

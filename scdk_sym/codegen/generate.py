@@ -139,6 +139,8 @@ def generate(model, directory: str | Path, prefix: str = "scdk") -> GeneratedSou
         "HOME_X": _floats(home.x),
         "TOL": repr(float(model.tolerance)),
         "LENGTH_SCALE": repr(float(max(model.length_scale, 1e-300))),
+        **_rule_constants(),
+        "PERIODIC": _periodic(model),
     }
     header = _fill(templates.HEADER, values)
     source = _fill(templates.SOURCE, values)
@@ -152,6 +154,32 @@ def generate(model, directory: str | Path, prefix: str = "scdk") -> GeneratedSou
         tracker_c=out / f"{prefix}_tracker.c",
         tracker_h=out / f"{prefix}_tracker.h",
     )
+
+
+def _periodic(model) -> str:
+    from ..solvers.track import periodic
+
+    mask = np.zeros(model.m, dtype=int)
+    mask[periodic(model)] = 1
+    return ", ".join(str(v) for v in mask)
+
+
+def _rule_constants() -> dict[str, str]:
+    """The constants of the judging rule, shared with :mod:`scdk_sym.solvers.track`."""
+    from ..solvers import track as rule
+
+    return {
+        "ACCEPT": repr(float(rule.ACCEPT)),
+        "MARGIN": repr(float(rule.MARGIN)),
+        "BUDGET": repr(float(rule.BUDGET)),
+        "SMOOTH": repr(float(rule.SMOOTH)),
+        "NEWTON_CALLS": str(int(rule.NEWTON_CALLS)),
+        "PREDICTED_CALLS": str(int(rule.PREDICTED_CALLS)),
+        "PARTNER_ITERATIONS": str(int(rule.PARTNER_ITERATIONS)),
+        "PARTNER_STEP": repr(float(rule.PARTNER_STEP)),
+        "HITS_PER_DIRECTION": str(int(rule.HITS_PER_DIRECTION)),
+        "MAX_STEPS": str(int(rule.MAX_STEPS)),
+    }
 
 
 def _fill(text: str, values: dict[str, str]) -> str:

@@ -36,10 +36,12 @@ STATUS = {
     -6: "the solution failed its residual check",
     -7: "the tracker state is not initialised",
     -8: "an option is out of range",
+    -9: "the readings are too coarse to decide between two candidate solutions",
 }
 OK, OK_PATH, OK_PREDICTED = 0, 1, 2
 ERR_NULL, ERR_SIZE, ERR_NONFINITE, ERR_NOT_ASSEMBLED = -1, -2, -3, -4
 ERR_NO_SOLUTION, ERR_VERIFY, ERR_STATE, ERR_OPTIONS = -5, -6, -7, -8
+ERR_UNDECIDABLE = -9
 
 
 class Options(ctypes.Structure):
@@ -49,10 +51,53 @@ class Options(ctypes.Structure):
         ("tol", ctypes.c_double),
         ("length_scale", ctypes.c_double),
         ("accept", ctypes.c_double),
+        ("margin", ctypes.c_double),
         ("arc_budget", ctypes.c_double),
         ("max_steps", ctypes.c_int),
         ("order", ctypes.c_int),
     ]
+
+
+def refusal_type(m: int, k: int, n: int, nc: int) -> type[ctypes.Structure]:
+    """Mirror of ``<prefix>_refusal`` for a model with m unknowns, k actuators, n workspace
+    coordinates and a chart of nc entries (see the generated header)."""
+
+    class CRefusal(ctypes.Structure):
+        _fields_ = [
+            ("y", (ctypes.c_double * m) * 2),
+            ("c", ctypes.c_double * max(1, nc)),
+            ("x", (ctypes.c_double * n) * 2),
+            ("theta", ctypes.c_double * k),
+            ("miss", ctypes.c_double * 2),
+            ("accuracy", ctypes.c_double),
+            ("step", ctypes.c_double),
+            ("count", ctypes.c_int),
+        ]
+
+    return CRefusal
+
+
+@dataclass(frozen=True)
+class Refusal:
+    """The two candidates of a sample the tracker refused to decide (status -9), best first.
+
+    Attributes:
+        y: (count, m) unknowns in the chart ``c``.
+        c: (nc,) that chart.
+        x: (count, n) workspace coordinates.
+        theta: (k,) the reading.
+        miss: (count,) distance of each from the predicted configuration (max norm).
+        accuracy: accuracy of the prediction (its error at the last sample; 0 if unknown).
+        step: the predicted step (max norm; infinite when no motion was known).
+    """
+
+    y: np.ndarray
+    c: np.ndarray
+    x: np.ndarray
+    theta: np.ndarray
+    miss: np.ndarray
+    accuracy: float
+    step: float
 
 
 _dp = ctypes.POINTER(ctypes.c_double)
@@ -73,6 +118,8 @@ class TrackOutput:
         det: (N,) ``det J_p`` at each sample.
         codes: (N,) status of each sample (0: cheap step, 1: followed the SC curve,
             2: corrected from the predicted motion).
+        refusal: the candidates of the failing sample when ``status`` is -9 (the readings
+            are too coarse to decide between them), else None.
     """
 
     status: int
@@ -82,6 +129,7 @@ class TrackOutput:
     x: np.ndarray
     det: np.ndarray
     codes: np.ndarray
+    refusal: Refusal | None = None
 
 
 class CTracker:
@@ -98,22 +146,25 @@ class CTracker:
         lib = ctypes.CDLL(str(path))
         self._lib = lib
         p = prefix
-        self._track = getattr(lib, f"{p}_tracker_track")
+        self._refusal_type = refusal_type(m, k, n, nc)
+        self._track = getattr(lib, f"{p}_tracker_track_ex")
         self._track.restype = ctypes.c_int
         self._track.argtypes = [
             _dp, ctypes.c_int, _dp, ctypes.c_int, _dp, ctypes.c_int, ctypes.POINTER(Options),
             ctypes.c_long, _dp, _dp, _dp, _dp, _dp, _ip, _lp,
+            ctypes.POINTER(self._refusal_type),
         ]  # fmt: skip
         defaults = getattr(lib, f"{p}_default_options")
         defaults.restype = None
         defaults.argtypes = [ctypes.POINTER(Options)]
-        size = getattr(lib, f"{p}_options_size")
-        size.restype = ctypes.c_int
-        if size() != ctypes.sizeof(Options):
-            raise BuildError(
-                f"{path}: options struct has {size()} bytes, the binding expects "
-                f"{ctypes.sizeof(Options)}"
-            )
+        for name, struct in (("options", Options), ("refusal", self._refusal_type)):
+            size = getattr(lib, f"{p}_{name}_size")
+            size.restype = ctypes.c_int
+            if size() != ctypes.sizeof(struct):
+                raise BuildError(
+                    f"{path}: {name} struct has {size()} bytes, the binding expects "
+                    f"{ctypes.sizeof(struct)}"
+                )
         self._defaults = defaults
 
     def default_options(self) -> Options:
@@ -153,14 +204,27 @@ class CTracker:
         D = np.empty(N)
         codes = np.empty(N, dtype=np.intc)
         failed = ctypes.c_long(-1)
+        ref = self._refusal_type()
         c_arg = _ptr(c0) if c0.size else _ptr(np.zeros(1))
         status = self._track(
             _ptr(y0), y0.size, c_arg, c0.size, _ptr(theta0), theta0.size,
             ctypes.byref(options) if options is not None else None,
             N, _ptr(th), _ptr(Y), _ptr(C) if self.nc else None, _ptr(X), _ptr(D),
-            codes.ctypes.data_as(_ip), ctypes.byref(failed),
+            codes.ctypes.data_as(_ip), ctypes.byref(failed), ctypes.byref(ref),
         )  # fmt: skip
-        return TrackOutput(int(status), int(failed.value), Y, C, X, D, codes)
+        refusal = None
+        if status == ERR_UNDECIDABLE and ref.count > 0:
+            count = int(ref.count)
+            refusal = Refusal(
+                y=np.array(ref.y)[:count].copy(),
+                c=np.array(ref.c)[: self.nc].copy(),
+                x=np.array(ref.x)[:count].copy(),
+                theta=np.array(ref.theta).copy(),
+                miss=np.array(ref.miss)[:count].copy(),
+                accuracy=float(ref.accuracy),
+                step=float(ref.step),
+            )
+        return TrackOutput(int(status), int(failed.value), Y, C, X, D, codes, refusal)
 
 
 def _ptr(a: np.ndarray):

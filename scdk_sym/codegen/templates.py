@@ -22,6 +22,57 @@ HEADER = r"""/* @P@_tracker.h: standalone singularity-consistent direct-kinemati
  *
  * Every entry point checks its pointers, sizes and the finiteness of its inputs and returns a
  * status: >= 0 success, < 0 an error (outputs are then left untouched or set to NaN).
+ *
+ * Judging rule of @P@_tracker_step: the rule of scdk_sym.solvers.track (backend "cvodes"),
+ * with the same constants (the option defaults and the macros of @P@_tracker.c) and kernels;
+ * only the way the curve is followed differs (here Runge-Kutta steps, there CVODES).
+ * Sample k is (y_k, theta_k), every y in the chart centred on y_k; |v| is the max norm over the
+ * coordinates of y, |v|_2 the Euclidean norm, tol = options.tol, det_k = det J_p(y_k, theta_k),
+ * dtheta = theta - theta_k. The motion increments d_j = y_j - y_(j-1) (chart of y_(j-1)) count
+ * from the first sample or the last repeated reading: n of them are known, at most 3.
+ *  R0 Rest: a reading equal to theta_k leaves y_k as it is and sets n = 0. The start is not a
+ *     sample: @P@_tracker_track sets n = 0 after the first sample.
+ *  R1 Prediction: lin = |d_k - d_(k-1)| (n >= 2, else 0), quad = |d_k - 2 d_(k-1) + d_(k-2)|
+ *     (n = 3, else 0); D = 2 d_k - d_(k-1) (quadratic) if n = 3 and quad <= lin, or n = 2 and
+ *     lin <= @SMOOTH@ |d_k|; else D = d_k (linear; always with options.order = 1).
+ *     y_pred = y_k + D, the step L = |D|, the accuracy E = quad or lin (of the one used),
+ *     ell = sqrt(|dtheta|_2^2 + |D|_2^2). Without a known motion (n = 0): y_pred = y_k,
+ *     L = INFINITY, E = 0, ell = 1/|t_s| with t the unit tangent of the curve at (y_k, 0) (metric
+ *     |dy|_2^2 + (|dtheta|_2 ds)^2), clamped to [|dtheta|_2, 1e3 max(1, options.length_scale)].
+ *  R2 Cheap continuation y_c: one RK4 step of dy/ds = J_p^-1 J_s dtheta from s = 0 to 1 and
+ *     Newton (@NEWTON_CALLS@ calls of the 2-iteration kernel, stopping once max|g| <= 1e-3 tol).
+ *     Valid if finite, max|g| <= tol and Newton moved the RK4 point by at most
+ *     0.05 |y_c - y_k| + 10 tol. Taken (@PU@_OK) if valid, sign det J_p(y_c) = sign det_k != 0,
+ *     and: with n >= 1, |y_c - y_pred| <= accept L + 10 tol, sign (2 det_k - det_(k-1)) =
+ *     sign det_k, |det J_p(y_c)| >= |det_k - det J_p(y_c)| and sign det J_p(y_pred) = sign det_k
+ *     (y_c is "regular" if all but the first of these hold); with n = 0, its fold partner (R3),
+ *     polished, is not a solution other than y_c within margin |y_c - y_k| + 10 tol of y_k.
+ *  R3 Candidates (R2 not taken), in this order: y_c if valid; y_pred; the fold partner of each
+ *     of these two that was kept; the first @HITS_PER_DIRECTION@ s = 1 crossings of the SC curve
+ *     from (y_k, 0) in each direction (convergent, s increasing, first) met within arc length
+ *     arc_budget ell. Each is polished (Newton, @PREDICTED_CALLS@ calls, stopping once
+ *     max|g| <= 1e-3 tol), its revolute angles moved by multiples of 2 pi to within pi of y_k,
+ *     and kept if max|g| <= tol and farther than 10 tol from every kept one. The fold partner
+ *     of a root r is the other root of the quadratic normal form of a fold there (near a fold,
+ *     the mirror solution, however close): J = J_p(r), v from @PARTNER_ITERATIONS@ steps
+ *     v <- (J^T J)^-1 v / |.|_2 of inverse iteration from v = (1, ..., 1) / sqrt(NY),
+ *     sigma = |J v|_2, u = J v / sigma, c = u . (J_p(r + h v) - J_p(r - h v)) v / (2 h),
+ *     h = @PARTNER_STEP@ max(1, length_scale): the point r - (2 sigma / c) v. The miss of a
+ *     candidate is e = |y - y_pred|: c1 has the least, e1 (the first of equal ones), c2 the
+ *     least of the others, e2.
+ *  R4 The answer is c1 (@PU@_OK_PREDICTED if it came from y_pred or a fold partner, else
+ *     @PU@_OK_PATH) if either there is no c2 or e2 > margin max(e1, E) + 10 tol, and either
+ *     e1 <= accept L + 10 tol or c1 is y_c and y_c is regular (a poorly predicted motion where
+ *     nothing hints at a singularity). Otherwise the readings are too coarse to decide:
+ *     @PU@_ERR_UNDECIDABLE, the state is unchanged and st->refusal holds c1 and c2. No
+ *     candidate: @PU@_ERR_NO_SOLUTION.
+ *  R5 The answer must have max|g| <= tol (else @PU@_ERR_VERIFY); the chart is re-centred on it.
+ * When the true solution is among the candidates, a choice by R4 is wrong only if it misses
+ * the prediction by more than e2 > margin max(e1, E): margin times more than the best candidate
+ * and than the prediction's own error at the last sample. Near-ties are refused, never broken.
+ * Without a known motion the prediction is "no motion": a first step that crosses a fold so
+ * deeply that the mirror solution lies margin times nearer than the true one cannot be told
+ * from a small step; keep the first samples of a track away from the singular manifold.
  */
 #ifndef @PU@_TRACKER_H
 #define @PU@_TRACKER_H
@@ -58,18 +109,32 @@ extern "C" {
 #define @PU@_ERR_VERIFY (-6)     /* the solution failed its residual check */
 #define @PU@_ERR_STATE (-7)      /* the tracker state is not initialised (or not computed) */
 #define @PU@_ERR_OPTIONS (-8)    /* an option is out of range */
+#define @PU@_ERR_UNDECIDABLE (-9) /* readings too coarse to decide between two candidates (R4) */
 
 /* Tuning of the tracker (@P@_default_options fills the defaults). */
 typedef struct {
     double tol;          /* residual tolerance: max |g| [model length unit] */
     double length_scale; /* model size [model length unit] */
-    double accept;       /* agreement with the prediction: |y - y_pred| <= accept |y - y_prev| */
-    double arc_budget;   /* arc length followed per direction, in predicted step lengths */
-    int max_steps;       /* Runge-Kutta steps per direction of the curve */
-    int order;           /* extrapolation of the motion: 1 linear (last two samples), 2 quadratic
-                          * (last three; linear where the motion's second difference exceeds
-                          * half its step) */
+    double accept;       /* R2, R4: a candidate agrees with the prediction when it misses it
+                          * by at most accept times the predicted step */
+    double margin;       /* R2, R4: the runner-up must miss by more than margin times the best
+                          * miss and the accuracy of the prediction */
+    double arc_budget;   /* R3: arc length followed per direction, in units of ell */
+    int max_steps;       /* Runge-Kutta steps per direction of the curve (a safety limit) */
+    int order;           /* R1: 1 linear extrapolation only, 2 linear or quadratic */
 } @P@_options;
+
+/* The two candidates of a step that returned @PU@_ERR_UNDECIDABLE (R4), best first. */
+typedef struct {
+    double y[2][@PU@_NY];       /* c1, c2 in the chart c (the state's) */
+    double c[@PU@_NC_ALLOC];    /* that chart */
+    double x[2][@PU@_NX];       /* their workspace coordinates */
+    double theta[@PU@_NTHETA];  /* the reading */
+    double miss[2];             /* e1, e2: |y - y_pred| (e2 = INFINITY without c2) */
+    double accuracy;            /* E, the accuracy of the prediction */
+    double step;                /* L, the predicted step */
+    int count;                  /* candidates listed: 1 or 2 (0: the last step was decided) */
+} @P@_refusal;
 
 /* State of a tracker: the last configuration and the last motion (for the prediction). */
 typedef struct {
@@ -84,6 +149,7 @@ typedef struct {
     int has_motion;             /* number of motions known since the start or a rest (0-3) */
     int magic;                  /* set by @P@_tracker_init */
     @P@_options opt;
+    @P@_refusal refusal;        /* candidates of the last step, if it was undecidable */
     const casadi_real *arg[@PU@_SZ_ARG];
     casadi_real *res[@PU@_SZ_RES];
     casadi_int iw[@PU@_SZ_IW];
@@ -99,9 +165,10 @@ extern const double @P@_home_x[@PU@_NX];
 /* Fill the default options. */
 void @P@_default_options(@P@_options *opt);
 
-/* sizeof(@P@_options) and sizeof(@P@_state), for foreign-function callers. */
+/* sizeof(@P@_options), sizeof(@P@_state), sizeof(@P@_refusal), for foreign-function callers. */
 int @P@_options_size(void);
 int @P@_state_size(void);
+int @P@_refusal_size(void);
 
 /* A one-line description of a status code. */
 const char *@P@_status_string(int status);
@@ -110,10 +177,11 @@ const char *@P@_status_string(int status);
 int @P@_tracker_init(@P@_state *st, const double *y, int ny, const double *c, int nc,
                      const double *theta, int ntheta, const @P@_options *opt);
 
-/* Track one new reading theta: the state moves to the configuration continuing the motion.
- * Returns @PU@_OK, @PU@_OK_PATH or @PU@_OK_PREDICTED on success; on an error the state is
- * unchanged. A reading equal to the current one leaves the configuration as it is and
- * restarts the prediction of the motion (the robot stood still). */
+/* Track one new reading theta by the judging rule above: the state moves to the configuration
+ * continuing the motion. Returns @PU@_OK, @PU@_OK_PATH or @PU@_OK_PREDICTED on success; on an
+ * error the state is unchanged (@PU@_ERR_UNDECIDABLE: st->refusal names the two candidates).
+ * A reading equal to the current one leaves the configuration as it is and restarts the
+ * prediction of the motion (the robot stood still). */
 int @P@_tracker_step(@P@_state *st, const double *theta, int ntheta);
 
 /* Read the current configuration: y (chart c), c, and the workspace coordinates x.
@@ -132,6 +200,13 @@ int @P@_tracker_track(const double *y0, int ny, const double *c0, int nc, const 
                       int ntheta, const @P@_options *opt, long n, const double *thetas,
                       double *ys, double *cs, double *xs, double *dets, int *codes,
                       long *failed);
+
+/* The same, and on @PU@_ERR_UNDECIDABLE the two candidates of the failing sample go to
+ * *refusal (its count is 0 otherwise); refusal may be NULL. */
+int @P@_tracker_track_ex(const double *y0, int ny, const double *c0, int nc,
+                         const double *theta0, int ntheta, const @P@_options *opt, long n,
+                         const double *thetas, double *ys, double *cs, double *xs,
+                         double *dets, int *codes, long *failed, @P@_refusal *refusal);
 
 /* Inverse kinematics by Newton on [g; pose error] over (y, theta), from the given values, in
  * the chart c: y and theta are updated in place to place the platform at T (4x4, column-major).
@@ -152,34 +227,13 @@ SOURCE = r"""/* @P@_tracker.c: standalone singularity-consistent direct-kinemati
  * Generated by scdk_sym @VERSION@ for model "@MODEL@" (content hash @HASH@).
  *
  * Every new reading theta is reached from the previous configuration (y_k, theta_k) along
- * the solution curve of g(y, theta_k + s (theta - theta_k)) = 0 in q = (y, s). The motion is
- * predicted by extrapolating the last samples (options.order: linear, or quadratic while the
- * motion is smooth at the sampling rate); a repeated reading means the robot stood still,
- * and the next step has no prediction.
- *
- * 1. cheap step: one Runge-Kutta step of dy/ds = J_p^-1 J_s dtheta from s = 0 to 1
- *    (@P@_predict) and a Newton polish (@P@_newton). It stays in the compartment of y_k, so
- *    it is accepted only when the polish stayed local, det J_p kept its sign, the result
- *    agrees with the prediction, and no crossing of det J_p = 0 lies between the samples or
- *    within the next step (det J_p extrapolated from the last two samples, and at the
- *    predicted configuration, keeps its sign, and changed by less than is left of it).
- * 2. otherwise candidates are collected: the cheap step's solution, the Newton corrector from
- *    the predicted configuration, and the s = 1 crossings met along the singularity-consistent
- *    curve (followed with Runge-Kutta steps in arc length, @P@_rk4, regular on the singular
- *    manifold) in both directions, up to two per direction: near a fold the continuing
- *    solution is the first crossing on one side or the second of the convergent direction
- *    (s overshoots 1, turns on the singular manifold and comes back), and where the straight
- *    path in theta does not join the two branches (it depends on the curvature of the fold)
- *    the corrector from the prediction supplies it. The candidate nearest to the prediction
- *    is returned; candidates whose distances differ by less than the accuracy of the
- *    prediction (its error at the last sample) tie, and a tie goes to the one farthest along
- *    the predicted velocity (code @PU@_OK_PATH, or @PU@_OK_PREDICTED for the corrector's).
- *    Without a prediction (first sample, or after a rest): the first crossing of the
- *    convergent direction (the start's compartment).
- *
- * Ambiguity: where a sample falls closer to the singular manifold than the prediction error,
- * both solutions are that close to each other and either may be returned; the next sample
- * is chosen afresh by the prediction.
+ * the solution curve of g(y, theta_k + s (theta - theta_k)) = 0 in q = (y, s), judged by the
+ * rule stated in @P@_tracker.h (R0-R5): the cheap continuation when nothing hints at a
+ * singularity, else the candidate nearest to the predicted motion, or a refusal
+ * (@PU@_ERR_UNDECIDABLE) when the readings are too coarse to tell two candidates apart. The
+ * curve is followed with Runge-Kutta steps of the SC field in arc length (@P@_rk4, regular on
+ * the singular manifold), the step shortened where it turns or where a turning point of s
+ * could hide two crossings of s = 1.
  */
 #include "@P@_tracker.h"
 
@@ -195,6 +249,16 @@ SOURCE = r"""/* @P@_tracker.c: standalone singularity-consistent direct-kinemati
 #define NP (2 * NT + NY + 3)
 #define MAGIC 0x5cd4
 #define MAX_HITS 8
+/* constants of the judging rule (R1-R3; see the header) */
+#define SMOOTH @SMOOTH@
+#define NEWTON_CALLS @NEWTON_CALLS@
+#define PREDICTED_CALLS @PREDICTED_CALLS@
+#define PARTNER_ITERATIONS @PARTNER_ITERATIONS@
+#define PARTNER_STEP @PARTNER_STEP@
+#define TWO_PI 6.283185307179586
+/* 1 for the unknowns that are revolute angles (2 pi apart is one configuration) */
+static const int periodic[NY] = {@PERIODIC@};
+#define HITS_PER_DIRECTION @HITS_PER_DIRECTION@
 /* stabilisation gain of the field per Runge-Kutta step (RK4 is stable for K h < 2.78) */
 #define GAIN 1.0
 
@@ -207,14 +271,16 @@ void @P@_default_options(@P@_options *opt) {
     if (!opt) return;
     opt->tol = @TOL@;
     opt->length_scale = @LENGTH_SCALE@;
-    opt->accept = 0.5;
-    opt->arc_budget = 40.0;
-    opt->max_steps = 400;
+    opt->accept = @ACCEPT@;
+    opt->margin = @MARGIN@;
+    opt->arc_budget = @BUDGET@;
+    opt->max_steps = @MAX_STEPS@;
     opt->order = 2;
 }
 
 int @P@_options_size(void) { return (int)sizeof(@P@_options); }
 int @P@_state_size(void) { return (int)sizeof(@P@_state); }
+int @P@_refusal_size(void) { return (int)sizeof(@P@_refusal); }
 
 const char *@P@_status_string(int status) {
     switch (status) {
@@ -229,6 +295,8 @@ const char *@P@_status_string(int status) {
     case @PU@_ERR_VERIFY: return "the solution failed its residual check";
     case @PU@_ERR_STATE: return "the tracker state is not initialised";
     case @PU@_ERR_OPTIONS: return "an option is out of range";
+    case @PU@_ERR_UNDECIDABLE:
+        return "the readings are too coarse to decide between two candidate solutions";
     default: return "unknown status";
     }
 }
@@ -318,6 +386,63 @@ static double k_g(@P@_state *st, const double *y, const double *theta, const dou
     return r;
 }
 
+/* LU factorisation with partial pivoting, in place (column-major); returns 0 if singular */
+static int lu_factor(double *A, int *piv, int n) {
+    int i, j, k;
+    for (k = 0; k < n; ++k) {
+        int p = k;
+        double best = fabs(A[k + k * n]);
+        for (i = k + 1; i < n; ++i)
+            if (fabs(A[i + k * n]) > best) {
+                best = fabs(A[i + k * n]);
+                p = i;
+            }
+        piv[k] = p;
+        if (!(best > 0.0)) return 0;
+        if (p != k)
+            for (j = 0; j < n; ++j) {
+                double t = A[k + j * n];
+                A[k + j * n] = A[p + j * n];
+                A[p + j * n] = t;
+            }
+        for (i = k + 1; i < n; ++i) {
+            A[i + k * n] /= A[k + k * n];
+            for (j = k + 1; j < n; ++j) A[i + j * n] -= A[i + k * n] * A[k + j * n];
+        }
+    }
+    return 1;
+}
+
+/* solve A x = b (transposed: A^T x = b) in place with the factors of lu_factor */
+static void lu_solve(const double *LU, const int *piv, double *b, int n, int transposed) {
+    int j, k;
+    if (!transposed) {
+        for (k = 0; k < n; ++k) {
+            double t = b[k];
+            b[k] = b[piv[k]];
+            b[piv[k]] = t;
+        }
+        for (k = 0; k < n; ++k)
+            for (j = k + 1; j < n; ++j) b[j] -= LU[j + k * n] * b[k];
+        for (k = n - 1; k >= 0; --k) {
+            for (j = k + 1; j < n; ++j) b[k] -= LU[k + j * n] * b[j];
+            b[k] /= LU[k + k * n];
+        }
+    } else {
+        for (k = 0; k < n; ++k) {
+            for (j = 0; j < k; ++j) b[k] -= LU[j + k * n] * b[j];
+            b[k] /= LU[k + k * n];
+        }
+        for (k = n - 1; k >= 0; --k)
+            for (j = k + 1; j < n; ++j) b[k] -= LU[j + k * n] * b[j];
+        for (k = n - 1; k >= 0; --k) {
+            double t = b[k];
+            b[k] = b[piv[k]];
+            b[piv[k]] = t;
+        }
+    }
+}
+
 static void k_predict(@P@_state *st, const double *y, const double *theta1,
                       const double *dtheta, const double *c, double *y1) {
     st->arg[0] = y;
@@ -391,16 +516,21 @@ typedef struct {
     const double *theta1; /* theta_k */
     const double *theta;  /* the new reading */
     double dtheta[NT];
-    double w;             /* |dtheta|: weight of s in the arc-length metric */
-    double ypred[NY];     /* predicted configuration (if has_pred) */
-    int has_pred;
-    double tie;           /* accuracy of the prediction: misses closer than this tie */
-    double ell;           /* predicted arc length of the step */
-    double hits[MAX_HITS][NY];
-    double err[MAX_HITS]; /* distance of each hit to the prediction */
+    double w;             /* |dtheta|_2: weight of s in the arc-length metric */
+    int has_pred;         /* n >= 1 (R1) */
+    double ypred[NY];     /* y_pred */
+    double step;          /* L = |D| */
+    double acc;           /* E */
+    double ell;           /* arc-length scale of the step */
+    double budget;        /* arc length followed per direction */
+    double hits[MAX_HITS][NY]; /* candidates (R3), polished, distinct */
+    double err[MAX_HITS]; /* their misses */
+    int code[MAX_HITS];   /* the status each would return */
     int nhits;
-    double ycheap[NY];    /* result of the cheap step */
-    int cheap_valid;      /* it converged and the polish stayed local */
+    double ycheap[NY];    /* y_c (R2) */
+    int cheap_valid;
+    int cheap_regular;    /* y_c is regular (R2) */
+    int cheap_idx;        /* its index among the candidates (-1: not one) */
     double det;           /* det J_p at the accepted solution (0: not computed) */
 } step_ctx;
 
@@ -419,37 +549,40 @@ static double norm_inf(const double *a, int n) {
     return r;
 }
 
-static int agrees(const @P@_state *st, double err, double dist) {
-    return err <= st->opt.accept * dist + 10.0 * st->opt.tol;
-}
+static int partner(@P@_state *st, step_ctx *cx, const double *r, double *y);
+static int polish(@P@_state *st, step_ctx *cx, double *y);
 
-/* the cheap step; returns 1 and fills y if accepted */
+/* R2: the cheap continuation; returns 1 and fills y if taken (y_c kept in cx if valid) */
 static int cheap_step(@P@_state *st, step_ctx *cx, double *y) {
-    double moved, res, dist, d1;
+    double moved, res, d1;
+    int s0 = sign_of(st->det);
     cx->cheap_valid = 0;
+    cx->cheap_regular = 0;
     k_predict(st, st->y, cx->theta1, cx->dtheta, st->c, y);
     if (!all_finite(y, NY)) return 0;
-    res = newton(st, y, cx->theta, st->c, &moved);
+    res = newton_n(st, y, cx->theta, st->c, &moved, NEWTON_CALLS);
     if (!(res <= st->opt.tol)) return 0;
-    dist = norm_inf_diff(y, st->y, NY);
-    if (!(moved <= 0.05 * dist + 10.0 * st->opt.tol)) return 0; /* the polish jumped */
+    if (!(moved <= 0.05 * norm_inf_diff(y, st->y, NY) + 10.0 * st->opt.tol)) return 0;
     memcpy(cx->ycheap, y, sizeof cx->ycheap);
     cx->cheap_valid = 1;
     d1 = det_jp(st, y, cx->theta, st->c);
-    /* the cheap step stays in the compartment of y_k: refused where det J_p changed sign */
-    if (sign_of(d1) == 0 || sign_of(d1) != sign_of(st->det)) return 0;
+    if (sign_of(d1) == 0 || sign_of(d1) != s0) return 0;
+    if (!cx->has_pred) { /* no fold partner about as near to y_k */
+        double yp[NY];
+        if (partner(st, cx, y, yp) && polish(st, cx, yp) &&
+            norm_inf_diff(yp, y, NY) > 10.0 * st->opt.tol &&
+            !(norm_inf_diff(yp, st->y, NY) >
+              st->opt.margin * norm_inf_diff(y, st->y, NY) + 10.0 * st->opt.tol))
+            return 0;
+    }
     if (cx->has_pred) {
-        double dp;
-        if (!agrees(st, norm_inf_diff(y, cx->ypred, NY), dist)) return 0;
-        /* the motion may cross det J_p = 0 (a crossing lies between the samples or within
-         * the next step, where the mirror solution is as near as the prediction's error):
-         * det J_p extrapolated from the last two samples changes sign, det J_p changed by
-         * more during the step than is left of it, or it has the other sign at the predicted
-         * configuration */
-        if (sign_of(2.0 * st->det - st->det_prev) != sign_of(st->det)) return 0;
+        int agree =
+            norm_inf_diff(y, cx->ypred, NY) <= st->opt.accept * cx->step + 10.0 * st->opt.tol;
+        if (sign_of(2.0 * st->det - st->det_prev) != s0) return 0;
         if (fabs(d1) < fabs(st->det - d1)) return 0;
-        dp = det_jp(st, cx->ypred, cx->theta, st->c);
-        if (sign_of(dp) != sign_of(st->det)) return 0;
+        if (sign_of(det_jp(st, cx->ypred, cx->theta, st->c)) != s0) return 0;
+        cx->cheap_regular = 1; /* nothing hints at a singularity */
+        if (!agree) return 0;
     }
     cx->det = d1;
     return 1;
@@ -480,12 +613,71 @@ static int finish(@P@_state *st, step_ctx *cx, const double *qa, const double *q
     return 0;
 }
 
-static void add_hit(step_ctx *cx, const double *y) {
-    int j = cx->nhits;
+/* R3: polish a candidate in place; returns 1 if it solves g (revolute angles then moved by
+ * multiples of 2 pi to within pi of y_k) */
+static int polish(@P@_state *st, step_ctx *cx, double *y) {
+    int i;
+    if (!(newton_n(st, y, cx->theta, st->c, NULL, PREDICTED_CALLS) <= st->opt.tol)) return 0;
+    for (i = 0; i < NY; ++i) /* revolute angles: the copy nearest to y_k */
+        if (periodic[i]) y[i] -= TWO_PI * floor((y[i] - st->y[i]) / TWO_PI + 0.5);
+    return 1;
+}
+
+/* R3: a polished candidate, kept unless within 10 tol of a kept one */
+static void add_hit(@P@_state *st, step_ctx *cx, const double *y0, int code) {
+    double y[NY];
+    int i, j = cx->nhits;
     if (j >= MAX_HITS) return;
-    memcpy(cx->hits[j], y, sizeof(double) * NY);
-    cx->err[j] = cx->has_pred ? norm_inf_diff(y, cx->ypred, NY) : 0.0;
+    memcpy(y, y0, sizeof y);
+    if (!polish(st, cx, y)) return;
+    for (i = 0; i < j; ++i)
+        if (norm_inf_diff(y, cx->hits[i], NY) <= 10.0 * st->opt.tol) return;
+    memcpy(cx->hits[j], y, sizeof y);
+    cx->err[j] = norm_inf_diff(y, cx->ypred, NY);
+    cx->code[j] = code;
     cx->nhits = j + 1;
+}
+
+/* R3: the fold partner of the root r (the other root of the quadratic normal form of a fold
+ * there); returns 1 and fills y, 0 if J_p is singular at r */
+static int partner(@P@_state *st, step_ctx *cx, const double *r, double *y) {
+    double J[NY * NY], LU[NY * NY], Jp[NY * NY], Jm[NY * NY], Js[NY * NT];
+    double v[NY], Jv[NY], d[NY], yp[NY], ym[NY], sigma = 0.0, nrm, curv = 0.0;
+    double h = PARTNER_STEP * fmax(1.0, st->opt.length_scale);
+    int piv[NY], i, j, it;
+    k_jac(st, r, cx->theta, st->c, J, Js);
+    if (!all_finite(J, NY * NY)) return 0;
+    memcpy(LU, J, sizeof LU);
+    if (!lu_factor(LU, piv, NY)) return 0;
+    for (i = 0; i < NY; ++i) v[i] = 1.0 / sqrt((double)NY);
+    for (it = 0; it < PARTNER_ITERATIONS; ++it) { /* inverse iteration: v <- (J^T J)^-1 v */
+        lu_solve(LU, piv, v, NY, 1);
+        lu_solve(LU, piv, v, NY, 0);
+        nrm = 0.0;
+        for (i = 0; i < NY; ++i) nrm += v[i] * v[i];
+        nrm = sqrt(nrm);
+        for (i = 0; i < NY; ++i) v[i] /= nrm;
+    }
+    for (i = 0; i < NY; ++i) {
+        Jv[i] = 0.0;
+        for (j = 0; j < NY; ++j) Jv[i] += J[i + j * NY] * v[j];
+        sigma += Jv[i] * Jv[i];
+    }
+    sigma = sqrt(sigma);
+    for (i = 0; i < NY; ++i) {
+        yp[i] = r[i] + h * v[i];
+        ym[i] = r[i] - h * v[i];
+    }
+    k_jac(st, yp, cx->theta, st->c, Jp, Js);
+    k_jac(st, ym, cx->theta, st->c, Jm, Js);
+    for (i = 0; i < NY; ++i) {
+        d[i] = 0.0;
+        for (j = 0; j < NY; ++j) d[i] += (Jp[i + j * NY] - Jm[i + j * NY]) * v[j];
+        curv += Jv[i] / sigma * d[i];
+    }
+    curv /= 2.0 * h;
+    for (i = 0; i < NY; ++i) y[i] = r[i] - 2.0 * sigma / curv * v[i];
+    return all_finite(y, NY);
 }
 
 /* largest excursion of s past 1 inside a step where s' changes sign (cubic Hermite) */
@@ -501,18 +693,25 @@ static int double_crossing(double sa, double sb, double ta, double tb, double h)
     return 0;
 }
 
-/* follow the curve from (y_k, 0) along t0 (unit, oriented); collect up to max_hits hits */
+/* a turning point of s inside a step that could reach s = 1 (its rise beyond the nearer end is
+ * at most about h |s'| / 2): refine the step until that is decided */
+static int unresolved_turn(double sa, double sb, double ta, double tb, double h) {
+    if (ta * tb >= 0.0 || (sa - 1.0) * (sb - 1.0) <= 0.0) return 0;
+    return fmin(fabs(sa - 1.0), fabs(sb - 1.0)) <= h * fmax(fabs(ta), fabs(tb));
+}
+
+/* follow the curve from (y_k, 0) along t0 (unit, oriented) within cx->budget; the first
+ * max_hits crossings of s = 1 become candidates */
 static void follow(@P@_state *st, step_ctx *cx, const double *t0, int max_hits) {
     double q[NQ], t[NQ], qn[NQ], tn[NQ], p[NP], y[NY];
-    double h = 0.25 * cx->ell, arc = 0.0, hmin = 1e-10 * cx->ell;
-    double budget = st->opt.arc_budget * cx->ell;
+    double h = 0.25 * cx->ell, arc = 0.0, hmin = 1e-10 * cx->ell, hturn = 1e-6 * cx->ell;
     int steps = 0, found = 0, i;
     memcpy(q, st->y, sizeof(double) * NY);
     q[NY] = 0.0;
     memcpy(t, t0, sizeof t);
     memcpy(p, cx->theta1, sizeof(double) * NT);
     memcpy(p + NT, cx->dtheta, sizeof(double) * NT);
-    while (arc < budget && steps < st->opt.max_steps && found < max_hits) {
+    while (arc < cx->budget && steps < st->opt.max_steps && found < max_hits) {
         double cosine;
         ++steps;
         memcpy(p + 2 * NT, t, sizeof t);
@@ -520,7 +719,8 @@ static void follow(@P@_state *st, step_ctx *cx, const double *t0, int max_hits) 
         p[2 * NT + NQ + 1] = GAIN;
         k_rk4(st, q, p, st->c, qn, tn);
         cosine = all_finite(qn, NQ) && all_finite(tn, NQ) ? wdot(t, tn, cx->w) : -1.0;
-        if (cosine < 0.8 || double_crossing(q[NY], qn[NY], t[NY], tn[NY], h)) {
+        if (cosine < 0.8 || double_crossing(q[NY], qn[NY], t[NY], tn[NY], h) ||
+            (h > hturn && unresolved_turn(q[NY], qn[NY], t[NY], tn[NY], h))) {
             h *= 0.25;
             if (h < hmin) return;
             continue;
@@ -531,21 +731,11 @@ static void follow(@P@_state *st, step_ctx *cx, const double *t0, int max_hits) 
                 if (h < hmin) return;
                 continue;
             }
-            add_hit(cx, y);
+            add_hit(st, cx, y, @PU@_OK_PATH);
             ++found;
-        } else if (t[NY] * tn[NY] < 0.0 &&
-                   (fabs(q[NY] - 1.0) < 0.05 || fabs(qn[NY] - 1.0) < 0.05)) {
-            /* the curve turns just short of (or just past) s = 1: the two solutions there
-             * are nearly merged and s is ill-determined; polish the nearer end at theta */
-            const double *qe = fabs(q[NY] - 1.0) < fabs(qn[NY] - 1.0) ? q : qn;
-            memcpy(y, qe, sizeof(double) * NY);
-            if (newton(st, y, cx->theta, st->c, NULL) <= st->opt.tol &&
-                norm_inf_diff(y, qe, NY) <= 3.0 * norm_inf_diff(q, qn, NQ) + 10.0 * st->opt.tol)
-                add_hit(cx, y);
         }
         memcpy(q, qn, sizeof q);
-        /* re-normalise the tangent against drift */
-        {
+        { /* re-normalise the tangent against drift */
             double nrm = sqrt(wdot(tn, tn, cx->w));
             for (i = 0; i < NQ; ++i) t[i] = tn[i] / nrm;
         }
@@ -554,45 +744,23 @@ static void follow(@P@_state *st, step_ctx *cx, const double *t0, int max_hits) 
     }
 }
 
-/* the hit that continues the motion: the nearest to the prediction; hits whose distances to
- * it differ by less than the accuracy of the prediction (its error at the last sample) tie,
- * and a tie goes to the hit farthest along the predicted velocity: a reading so close to the
- * singular manifold that its two solutions are nearer to each other than the extrapolation
- * is accurate is taken on the side the robot heads to */
-static int choose(const @P@_state *st, const step_ctx *cx) {
-    double least = INFINITY, adv_best = -INFINITY;
-    int i, j, best = -1;
-    for (i = 0; i < cx->nhits; ++i) least = fmin(least, cx->err[i]);
-    for (i = 0; i < cx->nhits; ++i) {
-        double adv = 0.0;
-        if (!(cx->err[i] <= least + cx->tie)) continue;
-        for (j = 0; j < NY; ++j) adv += (cx->hits[i][j] - st->y[j]) * (cx->ypred[j] - st->y[j]);
-        if (best < 0 || adv > adv_best) {
-            best = i;
-            adv_best = adv;
-        }
-    }
-    return best;
-}
-
+/* R3 and R4 */
 static int path_step(@P@_state *st, step_ctx *cx, double *y) {
-    double q[NQ], v[NQ], t0[NQ], tneg[NQ], yp[NY];
-    int i, best, attempt, pred_idx = -1;
-    /* candidates besides the curve: the cheap step's solution and the Newton corrector from
-     * the predicted configuration (near a fold the straight path in theta need not join the
-     * two branches, and the corrector supplies the continuing one) */
-    if (cx->has_pred) {
-        if (cx->cheap_valid) add_hit(cx, cx->ycheap);
-        memcpy(yp, cx->ypred, sizeof yp);
-        if (newton_n(st, yp, cx->theta, st->c, NULL, 8) <= st->opt.tol) {
-            pred_idx = cx->nhits;
-            add_hit(cx, yp);
-        }
+    double q[NQ], v[NQ], t0[NQ], tneg[NQ], yd[NY], floor = 10.0 * st->opt.tol;
+    int i, attempt, kept, c1 = -1, c2 = -1;
+    cx->cheap_idx = -1;
+    if (cx->cheap_valid) {
+        add_hit(st, cx, cx->ycheap, @PU@_OK_PATH);
+        if (cx->nhits == 1) cx->cheap_idx = 0;
     }
+    add_hit(st, cx, cx->ypred, @PU@_OK_PREDICTED);
+    kept = cx->nhits; /* the other solution of a fold next to them, if any */
+    for (i = 0; i < kept; ++i)
+        if (partner(st, cx, cx->hits[i], yd)) add_hit(st, cx, yd, @PU@_OK_PREDICTED);
     memcpy(q, st->y, sizeof(double) * NY);
     q[NY] = 0.0;
     /* orientation of the convergent direction: s increases (v = e_s); if J_p is singular
-     * at the start, orient by the last motion or by a coordinate axis */
+     * at the start, orient by the predicted motion or by a coordinate axis */
     for (attempt = 0; attempt <= NY + 1; ++attempt) {
         memset(v, 0, sizeof v);
         if (attempt == 0) v[NY] = 1.0;
@@ -603,35 +771,61 @@ static int path_step(@P@_state *st, step_ctx *cx, double *y) {
         k_tangent(st, q, cx->theta1, cx->dtheta, v, st->c, t0);
         if (all_finite(t0, NQ) && wdot(t0, t0, cx->w) > 0.5) break;
     }
-    if (attempt > NY + 1) {
-        if (cx->nhits == 0) return @PU@_ERR_NO_SOLUTION;
-    } else {
+    if (attempt <= NY + 1) {
         if (!cx->has_pred) { /* arc length per unit s along the start tangent */
             double ell = 1.0 / fmax(fabs(t0[NY]), 1e-12);
             double cap = 1e3 * fmax(1.0, st->opt.length_scale);
             cx->ell = fmax(fmin(ell, cap), cx->w);
         }
+        cx->budget = st->opt.arc_budget * cx->ell;
         for (i = 0; i < NQ; ++i) tneg[i] = -t0[i];
-        /* both directions, up to two crossings each: near a fold the continuing solution is
-         * the first crossing on one side or the second of the convergent direction (s
-         * overshoots 1, turns on the singular manifold and comes back) */
-        follow(st, cx, t0, 2);
-        if (cx->has_pred || cx->nhits == 0) follow(st, cx, tneg, cx->has_pred ? 2 : 1);
+        follow(st, cx, t0, HITS_PER_DIRECTION);
+        follow(st, cx, tneg, HITS_PER_DIRECTION);
     }
     if (cx->nhits == 0) return @PU@_ERR_NO_SOLUTION;
-    /* without a prediction (first sample): the first crossing of the convergent direction */
-    best = cx->has_pred ? choose(st, cx) : 0;
-    memcpy(y, cx->hits[best], sizeof(double) * NY);
-    { /* next to the singular manifold a crossing finished to the tolerance may still be off
-       * by the residual over the small singular value of J_p: polish it fully, in place */
-        double yf[NY], moved, before = k_g(st, y, cx->theta, st->c);
-        memcpy(yf, y, sizeof yf);
-        if (before > 1e-3 * st->opt.tol &&
-            newton_n(st, yf, cx->theta, st->c, &moved, 8) < before &&
-            moved <= 0.05 * norm_inf_diff(y, st->y, NY) + 10.0 * st->opt.tol)
-            memcpy(y, yf, sizeof yf);
+    for (i = 0; i < cx->nhits; ++i) { /* R4: the two least misses (the first of equal ones) */
+        if (c1 < 0 || cx->err[i] < cx->err[c1]) {
+            c2 = c1;
+            c1 = i;
+        } else if (c2 < 0 || cx->err[i] < cx->err[c2]) {
+            c2 = i;
+        }
     }
-    return best == pred_idx ? @PU@_OK_PREDICTED : @PU@_OK_PATH;
+    if ((cx->err[c1] <= st->opt.accept * cx->step + floor ||
+         (c1 == cx->cheap_idx && cx->cheap_regular)) &&
+        (c2 < 0 || cx->err[c2] > st->opt.margin * fmax(cx->err[c1], cx->acc) + floor)) {
+        memcpy(y, cx->hits[c1], sizeof(double) * NY);
+        return cx->code[c1];
+    }
+    { /* too coarse to decide: keep both candidates for the caller */
+        @P@_refusal *r = &st->refusal;
+        int k;
+        r->count = c2 < 0 ? 1 : 2;
+        for (k = 0; k < r->count; ++k) {
+            int j = k == 0 ? c1 : c2;
+            memcpy(r->y[k], cx->hits[j], sizeof(double) * NY);
+            r->miss[k] = cx->err[j];
+            st->arg[0] = cx->hits[j];
+            st->arg[1] = cx->theta;
+            st->arg[2] = st->c;
+            {
+                double T[16];
+                st->res[0] = T;
+                st->res[1] = r->x[k];
+                @P@_pose(st->arg, st->res, st->iw, st->w, 0);
+            }
+        }
+        if (r->count < 2) {
+            for (i = 0; i < NY; ++i) r->y[1][i] = NAN;
+            for (i = 0; i < NX; ++i) r->x[1][i] = NAN;
+            r->miss[1] = INFINITY;
+        }
+        memcpy(r->c, st->c, sizeof r->c);
+        memcpy(r->theta, cx->theta, sizeof r->theta);
+        r->accuracy = cx->acc;
+        r->step = cx->step;
+    }
+    return @PU@_ERR_UNDECIDABLE;
 }
 
 /* move the state to (y, theta); det: det J_p there if known (its sign does not depend on the
@@ -663,6 +857,7 @@ int @P@_tracker_step(@P@_state *st, const double *theta, int ntheta) {
     if (st->magic != MAGIC) return @PU@_ERR_STATE;
     if (ntheta != NT) return @PU@_ERR_SIZE;
     if (!all_finite(theta, NT)) return @PU@_ERR_NONFINITE;
+    st->refusal.count = 0;
     cx.theta1 = st->theta;
     cx.theta = theta;
     cx.w = 0.0;
@@ -671,7 +866,7 @@ int @P@_tracker_step(@P@_state *st, const double *theta, int ntheta) {
         cx.w += cx.dtheta[i] * cx.dtheta[i];
     }
     cx.w = sqrt(cx.w);
-    if (cx.w == 0.0) { /* a repeated reading: the robot stands still, its motion starts anew */
+    if (cx.w == 0.0) { /* R0: a repeated reading, the robot stands still */
         st->has_motion = 0;
         return @PU@_OK;
     }
@@ -679,25 +874,33 @@ int @P@_tracker_step(@P@_state *st, const double *theta, int ntheta) {
     cx.nhits = 0;
     cx.det = 0.0;
     cx.ell = cx.w;
-    cx.tie = 0.0;
-    if (cx.has_pred) { /* extrapolated motion (rotations: increments in the moving chart) */
-        double n2 = cx.w * cx.w, step = norm_inf(st->dy, NY);
-        /* quadratic only while the motion is smooth at the sampling rate (its second
-         * difference small against the step), else linear */
-        int quad = st->has_motion > 1 && st->opt.order > 1 &&
-                   norm_inf_diff(st->dy, st->dy_prev, NY) <= 0.5 * step;
+    cx.budget = 0.0;
+    cx.step = INFINITY; /* without a prediction: y_pred = y_k, and L is unknown */
+    cx.acc = 0.0;
+    memcpy(cx.ypred, st->y, sizeof cx.ypred);
+    if (cx.has_pred) { /* R1 (rotations: increments in the moving chart) */
+        int n = st->has_motion, quad;
+        double lin = n >= 2 ? norm_inf_diff(st->dy, st->dy_prev, NY) : 0.0, qua = 0.0;
+        double n2 = cx.w * cx.w;
+        if (n >= 3) { /* the extrapolation that did better at the last sample */
+            for (i = 0; i < NY; ++i) {
+                double e = fabs(st->dy[i] - 2.0 * st->dy_prev[i] + st->dy_prev2[i]);
+                if (!(e <= qua)) qua = e;
+            }
+            quad = qua <= lin;
+        } else {
+            quad = n == 2 && lin <= SMOOTH * norm_inf(st->dy, NY);
+        }
+        if (st->opt.order < 2) quad = 0;
+        cx.step = 0.0;
         for (i = 0; i < NY; ++i) {
             double d = quad ? 2.0 * st->dy[i] - st->dy_prev[i] : st->dy[i];
             cx.ypred[i] = st->y[i] + d;
             n2 += d * d;
+            if (!(fabs(d) <= cx.step)) cx.step = fabs(d);
         }
+        cx.acc = quad ? qua : lin;
         cx.ell = sqrt(n2);
-        /* accuracy of that extrapolation: its error at the last sample (the next difference
-         * of the motion), 0 while the motion is too short to tell */
-        if (!quad && st->has_motion > 1) cx.tie = norm_inf_diff(st->dy, st->dy_prev, NY);
-        if (quad && st->has_motion > 2)
-            for (i = 0; i < NY; ++i)
-                cx.tie = fmax(cx.tie, fabs(st->dy[i] - 2.0 * st->dy_prev[i] + st->dy_prev2[i]));
     }
     if (!cheap_step(st, &cx, y)) {
         cx.det = 0.0;
@@ -719,9 +922,10 @@ int @P@_tracker_init(@P@_state *st, const double *y, int ny, const double *c, in
         return @PU@_ERR_NONFINITE;
     if (opt) {
         if (!(opt->tol > 0.0) || !(opt->length_scale > 0.0) || !(opt->accept > 0.0) ||
-            !(opt->arc_budget > 0.0) || opt->max_steps < 1 || opt->order < 1 ||
-            opt->order > 2 || !isfinite(opt->tol) || !isfinite(opt->length_scale) ||
-            !isfinite(opt->accept) || !isfinite(opt->arc_budget))
+            !(opt->margin >= 1.0) || !(opt->arc_budget > 0.0) || opt->max_steps < 1 ||
+            opt->order < 1 || opt->order > 2 || !isfinite(opt->tol) ||
+            !isfinite(opt->length_scale) || !isfinite(opt->accept) || !isfinite(opt->margin) ||
+            !isfinite(opt->arc_budget))
             return @PU@_ERR_OPTIONS;
         st->opt = *opt;
     } else {
@@ -744,6 +948,7 @@ int @P@_tracker_init(@P@_state *st, const double *y, int ny, const double *c, in
     memset(st->dy_prev2, 0, sizeof st->dy_prev2);
     st->det_prev = st->det;
     st->has_motion = 0;
+    memset(&st->refusal, 0, sizeof st->refusal);
     st->magic = MAGIC;
     return @PU@_OK;
 }
@@ -777,14 +982,15 @@ static void fill_nan(double *a, long from, long n, int width) {
     for (i = from * width; i < n * width; ++i) a[i] = NAN;
 }
 
-int @P@_tracker_track(const double *y0, int ny, const double *c0, int nc, const double *theta0,
-                      int ntheta, const @P@_options *opt, long n, const double *thetas,
-                      double *ys, double *cs, double *xs, double *dets, int *codes,
-                      long *failed) {
+int @P@_tracker_track_ex(const double *y0, int ny, const double *c0, int nc,
+                         const double *theta0, int ntheta, const @P@_options *opt, long n,
+                         const double *thetas, double *ys, double *cs, double *xs,
+                         double *dets, int *codes, long *failed, @P@_refusal *refusal) {
     @P@_state st;
     long i, j;
     int status;
     if (failed) *failed = -1;
+    if (refusal) refusal->count = 0;
     if (!thetas || !ys) return @PU@_ERR_NULL;
     if (n < 0) return @PU@_ERR_SIZE;
     status = @P@_tracker_init(&st, y0, ny, c0, nc, theta0, ntheta, opt);
@@ -793,6 +999,7 @@ int @P@_tracker_track(const double *y0, int ny, const double *c0, int nc, const 
         if (codes) codes[i] = code;
         if (code < 0) {
             status = code;
+            if (refusal && code == @PU@_ERR_UNDECIDABLE) *refusal = st.refusal;
             break;
         }
         @P@_tracker_get(&st, ys + i * NY, NY, cs ? cs + i * NC : NULL, NC,
@@ -811,6 +1018,14 @@ int @P@_tracker_track(const double *y0, int ny, const double *c0, int nc, const 
         return status;
     }
     return @PU@_OK;
+}
+
+int @P@_tracker_track(const double *y0, int ny, const double *c0, int nc, const double *theta0,
+                      int ntheta, const @P@_options *opt, long n, const double *thetas,
+                      double *ys, double *cs, double *xs, double *dets, int *codes,
+                      long *failed) {
+    return @P@_tracker_track_ex(y0, ny, c0, nc, theta0, ntheta, opt, n, thetas, ys, cs, xs,
+                                dets, codes, failed, NULL);
 }
 
 int @P@_ik_solve(double *y, int ny, double *theta, int ntheta, const double *c, int nc,

@@ -3,51 +3,140 @@
 A controller reads the actuated joints ``theta_0, theta_1, ...`` and needs the platform pose
 at each. Warm-started Newton converges to the solution nearest to the previous one; through
 a direct-kinematic singularity (a fold: two solutions meet and leave) that is the mirror
-solution, and the tracked pose turns back while the robot goes on. The paper's remedy: the
-sign of ``b`` picks the solution reached by the motion. Near a fold both candidate solutions
-lie ahead of the previous one along the singularity-consistent solution curve, the
-physically continuous one often as the SECOND crossing of ``s = 1`` (``s`` overshoots, turns on
-the singular manifold and comes back).
+solution, and the tracked pose turns back while the robot goes on. Near a fold both
+solutions lie ahead of the previous one along the singularity-consistent (SC) solution curve,
+the continuing one often as the SECOND crossing of ``s = 1`` (``s`` overshoots, turns on the
+singular manifold and comes back), so :func:`track` collects the candidate solutions and
+judges them against the predicted motion, and refuses to guess when the readings are too
+coarse to tell them apart.
 
-So :func:`track`, at each reading, predicts the motion by extrapolating the last two
-solutions (readings at a steady rate) and
+The judging rule
+----------------
+Both backends apply this rule with the same constants (the module constants below, which
+:mod:`scdk_sym.codegen.generate` writes into the generated tracker) and the same kernels:
+``backend="cvodes"`` (this module) follows the SC curve with CVODES
+(:func:`~scdk_sym.solvers.sc.trace`), ``backend="c"`` with the Runge-Kutta steps of the
+generated C tracker (:mod:`scdk_sym.codegen.templates`, whose header states the same rule).
+Only the way the curve is followed differs; the prediction, the cheap step, the Newton
+correctors, the choice and the refusal are the same computation.
 
-1. takes the continuation of the previous solution (an Euler step in ``s`` and Newton) when
-   it stays in the same compartment (``det J_p`` keeps its sign) and agrees with the
-   prediction: the regular case, one Newton solve;
-2. otherwise follows the SC solution curve from the previous solution in both directions
-   with CVODES (:func:`~scdk_sym.solvers.sc.trace`) within an arc-length budget (doubled
-   until a crossing agrees with the prediction), collects up to two ``s = 1`` crossings per
-   direction and keeps the verified one nearest to the prediction;
-3. when nothing agrees (a reading on, or within rounding of, the singular manifold, where
-   the two solutions nearly coincide and the curve only grazes ``s = 1``), searches again
-   with the small-step predictor-corrector of :mod:`~scdk_sym.solvers.modes`, which refines
-   turning points of ``s``, and with Newton from the prediction.
+*Notation.* Sample ``k`` is ``(y_k, theta_k)``; every ``y`` is written in the local chart
+centred on ``y_k`` (floating joints: Rodrigues parameters relative to the rotation of ``y_k``,
+see :mod:`scdk_sym.model.chart`; other coordinates as they are). ``|v|`` is the max norm over
+the coordinates of ``y`` [model length unit, rad], ``|v|_2`` the Euclidean norm; ``tol`` the
+model's residual tolerance; ``det_k = det J_p(y_k, theta_k)``; ``dtheta = theta - theta_k``
+for the new reading ``theta``. The motion increments ``d_j = y_j - y_(j-1)`` (each in the
+chart of ``y_(j-1)``) count from the first sample or the last repeated reading: ``n`` of
+them are known, at most 3.
+
+R0. *Rest.* A reading equal to ``theta_k`` (every component) gives ``y_(k+1) = y_k`` and sets
+    ``n = 0`` (the robot stood still; its motion starts anew). The start configuration is not
+    a sample: ``n = 0`` after the first sample.
+R1. *Prediction.* With ``lin = |d_k - d_(k-1)|`` (``n >= 2``, else 0) and ``quad = |d_k - 2
+    d_(k-1) + d_(k-2)|`` (``n = 3``, else 0), the extrapolation is quadratic, ``D = 2 d_k -
+    d_(k-1)``, if ``n = 3`` and ``quad <= lin`` (it did better at the last sample) or ``n = 2``
+    and ``lin <= SMOOTH |d_k|``; else linear, ``D = d_k``. Then ``y_pred = y_k + D``, the
+    predicted step ``L = |D|``, the accuracy ``E`` = ``quad`` or ``lin`` (of the extrapolation
+    used: its error at the last sample; 0 if unknown) and the arc-length scale ``ell =
+    sqrt(|dtheta|_2^2 + |D|_2^2)``. Without a known motion (``n = 0``): ``y_pred = y_k``, ``L``
+    unknown (infinite), ``E = 0``, and ``ell = 1 / |t_s|`` with ``t`` the unit tangent of the
+    curve at ``(y_k, 0)`` in the metric ``|dy|_2^2 + (|dtheta|_2 ds)^2``, clamped to
+    ``[|dtheta|_2, 1e3 max(1, length scale)]``.
+R2. *Cheap continuation* ``y_c``: one RK4 step of ``dy/ds = J_p^-1 J_s dtheta`` from ``s = 0``
+    to 1, then Newton (``NEWTON_CALLS`` calls of the 2-iteration kernel, stopping once
+    ``max|g| <= 1e-3 tol``). *Valid* if finite, ``max|g| <= tol`` and Newton moved the RK4
+    point by at most ``0.05 |y_c - y_k| + 10 tol``. It is the answer, without any other
+    candidate, if valid and ``det J_p(y_c, theta)`` has the non-zero sign of ``det_k``, and:
+    with ``n >= 1``, ``|y_c - y_pred| <= ACCEPT L + 10 tol``, ``2 det_k - det_(k-1)`` has that
+    sign, ``|det J_p(y_c)| >= |det_k - det J_p(y_c)|`` and ``det J_p(y_pred, theta)`` has that
+    sign (nothing hints at a crossing of ``det J_p = 0`` between the samples or within the
+    next step; ``y_c`` is *regular* if all but the first of these hold); with ``n = 0``, its
+    fold partner (see R3), polished, is not a solution other than ``y_c`` within ``MARGIN
+    |y_c - y_k| + 10 tol`` of ``y_k``.
+R3. *Candidates* (R2 not taken), in this order: ``y_c`` if valid; Newton from ``y_pred``; the
+    *fold partner* of each of these two that was kept; the first ``HITS_PER_DIRECTION``
+    crossings of ``s = 1`` of the SC curve from ``(y_k, 0)`` in each direction (convergent,
+    ``s`` increasing, first) met within arc length ``BUDGET ell``. Each is polished (Newton,
+    ``PREDICTED_CALLS`` calls, stopping once ``max|g| <= 1e-3 tol``), its revolute angles moved
+    by multiples of ``2 pi`` to within ``pi`` of ``y_k``, and kept if ``max|g| <= tol`` and it
+    lies farther than ``10 tol`` from every kept one. The fold partner of a root ``r`` is the
+    other root of the quadratic normal form of a fold there (near a fold, the mirror
+    solution, however close): with ``J = J_p(r, theta)``, ``v`` from ``PARTNER_ITERATIONS``
+    steps ``v <- (J^T J)^-1 v / |.|_2`` of inverse iteration from ``v = (1, ..., 1) /
+    sqrt(m)``, ``sigma = |J v|_2``, ``u = J v / sigma`` and the curvature ``c = u . (J_p(r + h
+    v) - J_p(r - h v)) v / (2 h)``, ``h = PARTNER_STEP max(1, length scale)``, it is ``r - (2
+    sigma / c) v``. The *miss* of a candidate is ``e = |y - y_pred|``: ``c1`` has the least,
+    ``e1`` (the first of equal ones), ``c2`` the least of the others, ``e2``.
+R4. *Choice and decidability.* The answer is ``c1`` if either there is no ``c2`` or ``e2 >
+    MARGIN max(e1, E) + 10 tol`` (the runner-up is clearly less consistent with the
+    prediction, given its accuracy), and either ``e1 <= ACCEPT L + 10 tol`` (``c1`` agrees with
+    the predicted motion) or ``c1`` is ``y_c`` and ``y_c`` is regular (a poorly predicted
+    motion where nothing hints at a singularity). Otherwise the readings are too coarse to
+    decide: status ``ERR_UNDECIDABLE``, raised as :class:`~scdk_sym.errors.TrackError` naming
+    the sample, ``theta`` and the workspace ``x`` of ``c1`` and ``c2``. No candidate:
+    ``ERR_NO_SOLUTION``.
+R5. The answer must have ``max|g| <= tol`` (else ``ERR_VERIFY``); the chart is re-centred on
+    it. The finished track is verified again, sample by sample, on every closure row.
+
+When the true solution is among the candidates, a choice by R4 is wrong only if it misses the
+prediction by more than ``e2 > MARGIN max(e1, E)``: ``MARGIN`` times more than the best
+candidate and than the prediction's own error at the last sample. Near-ties are refused,
+never broken. Without a known motion (the first two samples, and the first after a rest) the
+prediction is "no motion": the solution nearest to the previous sample is taken only if the
+next one is ``MARGIN`` times farther, and a step that crosses a fold so deeply that the mirror
+solution lies that much nearer than the true one cannot be told from a small step; keep the
+first samples of a track away from the singular manifold.
+
+*Crossings* (:func:`crossings`, both backends, after the track): wherever ``det J_p`` has
+opposite signs at consecutive samples (the start and the first sample included: ``index =
+-1``), the sign change is bisected along the motion between them (see :func:`locate`); ``s``
+is the fraction of the way from sample ``index`` to ``index + 1``, and the kind is "fold".
+A motion that crosses the singular manifold and comes back between two readings does not
+count.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError, PathError
+from ..errors import InputError, PathError, TrackError
+from ..kernels.fastcall import Buffered
 from ..model.model import Model
 from ..results import Configuration, Crossing, TrackResult
-from .modes import curve_kernels, difference, follow_curve
-from .sc import engine, solve, trace, validate_start
+from .sc import null_direction, trace, validate_start
 
 BACKENDS = ("c", "cvodes")
-#: Arc-length budget of each direction, in multiples of the predicted arc of the step.
-BUDGET_FACTOR = 8.0
-#: Budgets tried (each twice the previous) before settling for the best candidate met.
-ATTEMPTS = 4
-#: Crossings of s = 1 collected per direction.
+#: R2, R4: the best candidate must miss the prediction by at most this fraction of the step.
+ACCEPT = 0.5
+#: R2, R4: the runner-up must miss the prediction by more than this many times the best miss
+#: and the prediction's accuracy.
+MARGIN = 3.0
+#: R1: with two increments known, the extrapolation is quadratic if the motion's second
+#: difference is at most this fraction of its step.
+SMOOTH = 0.5
+#: R3: arc length followed along the curve in each direction, in units of ``ell``.
+BUDGET = 40.0
+#: R2: Newton calls of the cheap continuation.
+NEWTON_CALLS = 3
+#: R3: Newton calls from the prediction and of the polish of each candidate.
+PREDICTED_CALLS = 8
+#: R3: inverse-iteration steps for the smallest singular pair of J_p (fold partners).
+PARTNER_ITERATIONS = 3
+#: R3: finite-difference step of the fold's curvature, relative to max(1, length scale).
+PARTNER_STEP = 1e-7
+#: R3: crossings of s = 1 collected per direction.
 HITS_PER_DIRECTION = 2
-#: The convergent continuation is taken without tracing when it misses the predicted motion
-#: by less than this fraction of the predicted step.
-AGREEMENT = 0.25
+#: Runge-Kutta steps per direction of the C tracker's curve follower (a safety limit: the arc
+#: budget ends the search first).
+MAX_STEPS = 2000
+
+#: Status codes shared with the C tracker (:data:`scdk_sym.codegen.library.STATUS`).
+OK, OK_PATH, OK_PREDICTED = 0, 1, 2
+ERR_NO_SOLUTION, ERR_VERIFY, ERR_UNDECIDABLE = -5, -6, -9
 
 
 def _thetas(model: Model, thetas) -> np.ndarray:
@@ -74,31 +163,31 @@ def track(
 ) -> TrackResult:
     """Direct kinematics along joint readings, following the motion through singularities.
 
-    The first sample is solved from ``start`` on the convergent branch (the solution in the
-    start's compartment). At each following one, when the convergent continuation from the
-    previous solution stays in its compartment and agrees with the predicted motion, it is
-    the answer; otherwise (near a singularity) the answer is the ``s = 1`` crossing, met along the
-    singularity-consistent solution curve from the previous solution in either direction
-    (up to two per direction, within ``BUDGET_FACTOR`` times the predicted arc length), that
-    is nearest to the extrapolation of the last two solutions (readings at a steady rate).
+    Every reading is judged by the rule of this module's docstring (the same in both
+    backends): the first sample is reached from ``start`` on the convergent branch, and each
+    following one is the candidate solution that continues the predicted motion (an
+    extrapolation of the last samples, readings at a steady rate), provided no other candidate
+    is about as consistent with the prediction; otherwise :class:`~scdk_sym.errors.TrackError`
+    is raised instead of a guess.
 
     Args:
         model: the model.
         thetas: (N, k) actuated joint readings [rad or model length unit], in time order.
         start: assembled configuration the robot starts from (default ``model.home``).
-        backend: "cvodes" (CVODES via CasADi) or "c" (the generated-C tracker).
+        backend: "cvodes" (curves followed with CVODES via CasADi) or "c" (the generated-C
+            tracker, one call for the whole sequence).
 
     Returns:
         A :class:`~scdk_sym.results.TrackResult`: ``x`` (N, n), ``y`` (N, m), ``residual``
-        (N,), and every singular-manifold crossing, with ``index = i`` when it occurs between
-        samples ``i`` and ``i + 1`` (``det J_p`` changes sign between them; a solution curve
-        that crosses the manifold and comes back between two readings does not count).
+        (N,), and the singular-manifold crossings of :func:`crossings`.
 
     Raises:
         InputError: bad shapes, non-finite readings or an unknown backend.
         NotAssembledError: ``start`` is not assembled.
-        PathError: no solution was met from a sample towards the next one (the readings
-            jump out of the reachable set, or too far for the budget).
+        TrackError: at a sample the readings are too coarse to decide between two candidate
+            solutions (``status = ERR_UNDECIDABLE``, ``candidates`` their workspace x), no
+            solution was met (``ERR_NO_SOLUTION``: the readings leave the reachable set or
+            jump too far), or a sample failed its verification.
     """
     if backend == "c":
         from .track_c import track_c
@@ -108,212 +197,515 @@ def track(
         raise InputError(f"unknown backend {backend!r}; backends: {', '.join(BACKENDS)}")
     thetas = _thetas(model, thetas)
     start = validate_start(model, start)
-    configs: list[Configuration] = []
-    crossings: list[Crossing] = []
-    theta_first = thetas[0]
-    if np.allclose(theta_first, start.theta, rtol=0.0, atol=1e-14 * max(1.0, model.length_scale)):
-        configs.append(model.configuration(start.y, theta_first))
-    else:
-        configs.append(solve(model, theta_first, start=start, record_path=False).configuration)
-    for i in range(1, len(thetas)):
-        configs.append(_next(model, configs, thetas, i, crossings))
+    tracker = _Tracker(model, start)
+    ys, dets = [], []
+    for i, theta in enumerate(thetas):
+        tracker.step(theta, i)
+        if i == 0:
+            tracker.n = 0  # the start is not a sample: the motion is extrapolated from here on
+        ys.append(tracker.canonical())
+        dets.append(tracker.det)
+    y_can = np.array(ys)
+    configs = [model.configuration(y, th) for y, th in zip(y_can, thetas, strict=True)]
+    residual = np.array([c.residual for c in configs])
+    bad = np.flatnonzero(~(residual <= model.tolerance))
+    if bad.size:
+        i = int(bad[0])
+        raise TrackError(
+            f"sample {i} failed verification: residual {residual[i]:.3g} > "
+            f"{model.tolerance:.1e} (theta={thetas[i].tolist()})",
+            i, 0, float(residual[i]), theta=thetas[i],
+        )  # fmt: skip
     return TrackResult(
         x=np.array([c.x for c in configs]),
-        y=np.array([c.y for c in configs]),
+        y=y_can,
         theta=thetas,
-        residual=np.array([c.residual for c in configs]),
-        crossings=tuple(crossings),
+        residual=residual,
+        crossings=crossings(model, start, y_can, thetas, np.array(dets)),
         status="converged",
         backend="cvodes",
     )
 
 
-def _next(
-    model: Model,
-    configs: list[Configuration],
-    thetas: np.ndarray,
-    i: int,
-    crossings: list[Crossing],
-) -> Configuration:
-    prev = configs[-1]
-    theta = thetas[i]
-    step = theta - prev.theta
-    size = float(np.linalg.norm(step))
-    if size == 0.0:
-        return prev
-    # samples are taken at a steady rate: the motion goes on as in the last step (not scaled
-    # by the joint steps, which shrink to nothing at a fold while the platform moves on)
-    recent = configs[-3:][::-1]
-    steps = [difference(model, a.y, b.y) for a, b in zip(recent[:-1], recent[1:], strict=True)]
-    predicted = steps[0] if steps else np.zeros(model.m)
-    # accuracy of that extrapolation: the last second difference of the motion
-    accuracy = float(np.linalg.norm(steps[0] - steps[1])) if len(steps) == 2 else 0.0
-    # regular case: the continuation from the previous solution (an Euler step in s and
-    # Newton) stays in its compartment and agrees with the predicted motion
-    fast = _continuation(model, prev, theta)
-    if fast is not None:
-        miss = float(np.linalg.norm(difference(model, fast.y, prev.y) - predicted))
-        if len(configs) < 2 or miss <= AGREEMENT * float(np.linalg.norm(predicted)):
-            return fast
-    expected = math.hypot(float(np.linalg.norm(predicted)), size)
-    judge = _Judge(model, prev, theta, predicted if len(configs) >= 2 else None, accuracy)
-    best = None
-    for attempt in range(ATTEMPTS):
-        # budget doubled until a candidate agrees with the predicted motion (or the last try)
-        budget = BUDGET_FACTOR * expected * 2**attempt + 1e-9 * max(1.0, model.length_scale)
-        candidates = []
-        for direction in (1.0, -1.0):
-            try:
-                tr = trace(model, theta, prev, direction, max_hits=HITS_PER_DIRECTION,
-                           max_arc=budget)  # fmt: skip
-            except PathError:
-                continue  # the integration failed on this side: the refined search may not
-            for hit in tr.hits:
-                judge.add(candidates, hit.y, hit.arc, tr.crossings[: hit.crossings])
-        best = judge.best(candidates)
-        if best is not None and (best[0] <= judge.agree or judge.predicted is None):
-            break
-    if best is None or (judge.predicted is not None and best[0] > judge.agree):
-        # nothing agrees with the motion: search again with small steps (a start or a
-        # reading next to the singular manifold)
-        best = judge.best([*candidates, *_refined(model, prev, theta, expected, judge)])
-    if best is None:
-        raise PathError(
-            f"sample {i}: no solution at theta={theta.tolist()} was met from sample {i - 1} "
-            "along the solution curve (the readings leave the reachable set or jump too far)"
-        )
-    *_, cfg, met = best
-    change = _det(model, cfg) * _det(model, prev)
-    if change > 0 and len(met) % 2 == 0:
-        met = []  # the curve crossed the singular manifold and came back: not the motion
-    elif change < 0 and not met:
-        # det J_p changed sign, but the path started or ended on the singular manifold
-        # (within rounding), where no sign change was seen: the crossing is at that end
-        on = min((prev, cfg), key=lambda c: abs(_det(model, c)))
-        met = [Crossing(0.0 if on is prev else 1.0, on.x, on.y, on.theta)]
-    for cr in met:
-        crossings.append(Crossing(cr.s, cr.x, cr.y, cr.theta, index=i - 1))
-    return cfg
+# ---------------------------------------------------------------------------- the rule
 
 
-def _det(model: Model, cfg: Configuration) -> float:
-    y_loc, c = model.chart.to_local(cfg.y)
-    return float(np.linalg.det(np.array(model.kernels.jac(y_loc, cfg.theta, c)[0])))
+@dataclass(frozen=True)
+class _Kernels:
+    """The C tracker's kernels (the same SX Functions it is generated from), zero-copy."""
+
+    predict: Buffered
+    newton: Buffered
+    jac: Buffered
+    recentre: Buffered
 
 
-class _Judge:
-    """Verifies candidate solutions at ``theta`` and ranks them against the predicted motion.
+def _kernels(model: Model) -> _Kernels:
+    store = model.__dict__
+    if "_track_kernels" not in store:
+        from ..codegen.kernels import build_tracker_kernels
 
-    A candidate is (miss, -advance, arc, configuration, crossings): ``miss`` is the distance
-    of its displacement from the predicted one, ``advance`` the projection of its
-    displacement on the predicted one. Misses closer than the accuracy of the extrapolation
-    (the last second difference of the motion) tie; a tie goes to the candidate farther along
-    the motion: a reading so close to the singular manifold that its two solutions are nearer
-    to each other than the extrapolation is accurate is taken on the side the robot heads to.
-    """
-
-    def __init__(self, model: Model, prev: Configuration, theta, predicted, accuracy=0.0):
-        self.model, self.prev, self.theta, self.predicted = model, prev, theta, predicted
-        self.agree = AGREEMENT * float(np.linalg.norm(predicted)) if predicted is not None else 0
-        self.tie = float(accuracy)
-
-    def add(self, candidates: list, y: np.ndarray, arc: float, met) -> None:
-        model = self.model
-        cfg = model.configuration(y, self.theta)
-        if not cfg.residual <= model.tolerance:
-            return  # not verified: never returned
-        d = difference(model, cfg.y, self.prev.y)
-        p = self.predicted if self.predicted is not None else np.zeros(model.m)
-        advance = float(d @ p) / max(float(np.linalg.norm(p)), 1e-300)
-        candidates.append((float(np.linalg.norm(d - p)), -advance, arc, cfg, list(met)))
-
-    def best(self, candidates: list):
-        if not candidates:
-            return None
-        least = min(c[0] for c in candidates)
-        tied = [c for c in candidates if c[0] <= least + self.tie]
-        return min(tied, key=lambda c: (c[1], c[0], c[2]))
+        kern = build_tracker_kernels(model.symbolic, model.chart.rotations, "scdk")
+        store["_track_kernels"] = _Kernels(
+            Buffered(kern.predict), Buffered(kern.newton), Buffered(kern.jac),
+            Buffered(kern.recentre),
+        )  # fmt: skip
+    return store["_track_kernels"]
 
 
-def _predicted_local(model: Model, prev: Configuration, predicted: np.ndarray):
-    """The predicted configuration ``prev + predicted`` in the chart centred on ``prev``."""
-    y_loc, c = model.chart.to_local(prev.y)
-    y = y_loc + predicted
-    for idx in model.chart.rotations:  # rotation vector -> Rodrigues parameters
-        w = predicted[list(idx)]
-        angle = float(np.linalg.norm(w))
-        y[list(idx)] = w * (math.tan(angle / 2) / angle if 1e-12 < angle < 3.0 else 0.5)
-    return y, c
+TWO_PI = 2.0 * math.pi
 
 
-def _refined(model: Model, prev: Configuration, theta: np.ndarray, expected: float, judge):
-    """Candidates by a search with small steps and turning-point refinement.
+def periodic(model: Model) -> np.ndarray:
+    """Indices of the unknowns that are revolute joint angles (their values 2 pi apart are one
+    configuration)."""
+    types = {j.name: j.type for j in model.tree.joints}
+    return np.array(
+        [i for i, u in enumerate(model.unknowns) if types.get(u) in ("revolute", "continuous")],
+        dtype=int,
+    )
 
-    For a reading on (or within rounding of) the singular manifold, the two solutions nearly
-    coincide and the curve only grazes ``s = 1``: the predictor-corrector follower of
-    :mod:`~scdk_sym.solvers.modes`, started with steps a sixteenth of the predicted arc,
-    refines the step where a turning point of ``s`` could hide two crossings. Failing that
-    (a double root), Newton from the predicted configuration and from the turning points of
-    ``s`` next to ``s = 1``.
-    """
-    dtheta = theta - prev.theta
-    budget = BUDGET_FACTOR * expected * 2**ATTEMPTS
-    candidates: list = []
-    turns = []
-    for direction in (1.0, -1.0):
-        curve = follow_curve(model, prev.theta, dtheta, prev.y, 0.0, direction,
-                             max_arc=budget, max_hits=2, step=expected / 16)  # fmt: skip
-        turns += [(y_t, s_t) for _, y_t, s_t in curve.turns]
-        for y, arc in zip(curve.hits, curve.hit_arcs, strict=True):
-            met = []
-            for arc_t, y_t, s_t in curve.turns:
-                if arc_t < arc:
-                    cfg = model.configuration(y_t, prev.theta + s_t * dtheta)
-                    met.append(Crossing(s_t, cfg.x, cfg.y, cfg.theta))
-            judge.add(candidates, y, arc, met)
-    if candidates:
-        return candidates
-    kern = curve_kernels(model)
-    y_pred, c = _predicted_local(model, prev, judge.predicted if judge.predicted is not None
-                                 else np.zeros(model.m))  # fmt: skip
-    guesses = [(y_pred, c)] + [
-        model.chart.to_local(y_t) for y_t, s_t in turns if abs(s_t - 1) < 0.1
-    ]
-    for y, cg in guesses:
-        for _ in range(6):  # Newton converges only linearly to a double root
-            y, res = kern.polish(y, theta, cg)
-            y = np.array(y).ravel()
-            if not np.all(np.isfinite(y)) or float(res) <= 1e-3 * model.tolerance:
+
+def _sign(v: float) -> int:
+    return (v > 0) - (v < 0)
+
+
+def _inf(v: np.ndarray) -> float:
+    return float(np.max(np.abs(v))) if v.size else 0.0
+
+
+class _Tracker:
+    """State of the rule: the last sample in its own chart and the motion that led to it."""
+
+    def __init__(self, model: Model, start: Configuration):
+        self.model = model
+        self.K = _kernels(model)
+        self.m = model.m
+        self.tol = float(model.tolerance)
+        self.per = periodic(model)
+        self.scale = max(1.0, float(model.length_scale))
+        y, c = model.chart.to_local(start.y)
+        self.y, self.c = self._recentre(y, c)
+        self.theta = np.array(start.theta, dtype=float)
+        self.det = self._det(self.y, self.theta)
+        self.det_prev = self.det
+        self.d: list[np.ndarray] = []  # motion increments, most recent first
+        self.n = 0
+
+    # -- kernels
+    def _det(self, y, theta) -> float:
+        Jp = self.K.jac(y, theta, self.c)[0]
+        if not np.all(np.isfinite(Jp)):
+            return math.nan
+        return float(np.linalg.det(Jp.reshape(self.m, self.m, order="F")))
+
+    def _recentre(self, y, c):
+        if not self.model.chart.rotations:
+            return np.array(y, dtype=float), np.array(c, dtype=float)
+        y0, c0 = self.K.recentre(y, c)
+        return y0.copy(), c0.copy()
+
+    def _newton(self, y, theta, calls: int) -> tuple[np.ndarray | None, float, float]:
+        """Newton from y: (y, max|g|, how far it moved); y None if it diverged."""
+        y0 = np.array(y, dtype=float)
+        y = y0
+        res = math.nan
+        for _ in range(calls):
+            yn, r, _ = self.K.newton(y, theta, self.c)
+            if not (np.all(np.isfinite(yn)) and math.isfinite(r[0])):
+                return None, math.nan, math.nan
+            y, res = yn.copy(), float(r[0])
+            if res <= 1e-3 * self.tol:
                 break
-        if np.all(np.isfinite(y)):
-            judge.add(candidates, model.chart.to_canonical(y, cg), 0.0, [])
-    return candidates
+        return y, res, _inf(y - y0)
+
+    def _polish(self, y, theta) -> np.ndarray | None:
+        """R3: a candidate polished, its revolute angles within pi of y_k (None: not a
+        solution)."""
+        y, res, _ = self._newton(y, theta, PREDICTED_CALLS)
+        if y is None or not res <= self.tol:
+            return None
+        per = self.per
+        y[per] -= TWO_PI * np.floor((y[per] - self.y[per]) / TWO_PI + 0.5)
+        return y
+
+    def _partner(self, r, theta) -> np.ndarray | None:
+        """R3: the other root of the fold's quadratic normal form at the root r (None if J_p
+        is singular there)."""
+        m = self.m
+        K, c = self.K, self.c
+
+        def jac(y):
+            return K.jac(y, theta, c)[0].reshape(m, m, order="F").copy()
+
+        with np.errstate(all="ignore"):
+            J = jac(r)
+            if not np.all(np.isfinite(J)):
+                return None
+            v = np.full(m, 1.0 / math.sqrt(m))
+            try:
+                for _ in range(PARTNER_ITERATIONS):  # inverse iteration: smallest singular pair
+                    x = np.linalg.solve(J, np.linalg.solve(J.T, v))
+                    v = x / float(np.linalg.norm(x))
+            except np.linalg.LinAlgError:
+                return None
+            Jv = J @ v
+            sigma = float(np.linalg.norm(Jv))
+            h = PARTNER_STEP * self.scale
+            curv = float((Jv / sigma) @ ((jac(r + h * v) - jac(r - h * v)) @ v)) / (2.0 * h)
+            y = r - (2.0 * sigma / curv) * v
+        return y if np.all(np.isfinite(y)) else None
+
+    def canonical(self) -> np.ndarray:
+        return self.model.chart.to_canonical(self.y, self.c)
+
+    def local(self, y_can: np.ndarray) -> np.ndarray:
+        """Canonical unknowns -> coordinates in the chart of the current sample."""
+        y = np.array(y_can, dtype=float)
+        for i, idx in enumerate(self.model.chart.rotations):
+            ii = list(idx)
+            R_ref = self.c[9 * i : 9 * i + 9].reshape(3, 3, order="F")
+            M = R_ref.T @ _rot_exp(y[ii])
+            y[ii] = np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]]) / (
+                1.0 + np.trace(M)
+            )
+        return y
+
+    # -- one reading
+    def step(self, theta: np.ndarray, index: int) -> int:
+        dtheta = theta - self.theta
+        w = float(np.linalg.norm(dtheta))
+        if w == 0.0:  # R0
+            self.n = 0
+            return OK
+        pred = self._prediction(w)
+        y, det, code = self._cheap(theta, pred)
+        if y is None:
+            y, code = self._path(theta, dtheta, w, pred, index)
+            det = 0.0
+        self._commit(y, theta, det)
+        return code
+
+    def _prediction(self, w: float):
+        if self.n == 0:
+            return None
+        d = self.d
+        lin = _inf(d[0] - d[1]) if self.n >= 2 else 0.0  # what linear missed at the last sample
+        if self.n >= 3:  # the extrapolation that did better at the last sample
+            qua = _inf(d[0] - 2.0 * d[1] + d[2])
+            quad = qua <= lin
+        else:
+            qua, quad = 0.0, self.n == 2 and lin <= SMOOTH * _inf(d[0])
+        D = 2.0 * d[0] - d[1] if quad else d[0]
+        E = qua if quad else lin
+        ell = math.sqrt(w * w + float(D @ D))
+        return _Prediction(self.y + D, _inf(D), E, ell)
+
+    def _cheap(self, theta, pred):
+        """R2: (y_c, det J_p there, OK) if taken, else (None, 0, 0); keeps a valid y_c."""
+        self.y_cheap, self.cheap_regular = None, False
+        y1 = self.K.predict(self.y, self.theta, theta - self.theta, self.c)[0].copy()
+        if not np.all(np.isfinite(y1)):
+            return None, 0.0, 0
+        y, res, moved = self._newton(y1, theta, NEWTON_CALLS)
+        if y is None or not res <= self.tol:
+            return None, 0.0, 0
+        if not moved <= 0.05 * _inf(y - self.y) + 10.0 * self.tol:
+            return None, 0.0, 0
+        self.y_cheap = y
+        d1 = self._det(y, theta)
+        s0 = _sign(self.det)
+        if _sign(d1) == 0 or _sign(d1) != s0:
+            return None, 0.0, 0
+        if pred is None:  # no fold partner about as near to y_k
+            yp = self._partner(y, theta)
+            yp = self._polish(yp, theta) if yp is not None else None
+            if (
+                yp is not None
+                and _inf(yp - y) > 10.0 * self.tol
+                and not _inf(yp - self.y) > MARGIN * _inf(y - self.y) + 10.0 * self.tol
+            ):
+                return None, 0.0, 0
+        else:
+            agree = _inf(y - pred.y) <= ACCEPT * pred.step + 10.0 * self.tol
+            if _sign(2.0 * self.det - self.det_prev) != s0:
+                return None, 0.0, 0
+            if abs(d1) < abs(self.det - d1):
+                return None, 0.0, 0
+            if _sign(self._det(pred.y, theta)) != s0:
+                return None, 0.0, 0
+            self.cheap_regular = True  # nothing hints at a singularity
+            if not agree:
+                return None, 0.0, 0
+        return y, d1, OK
+
+    def _ell0(self, theta, w: float) -> tuple[float, float]:
+        """(arc length per unit s at y_k, clamped; the convergent direction relative to nu)."""
+        Jp, Js = self.K.jac(self.y, self.theta, self.c)
+        m = self.m
+        Jp = Jp.reshape(m, m, order="F")
+        Js = Js.reshape(m, self.model.k, order="F")
+        nu = null_direction(Jp, Js @ (theta - self.theta))
+        t_s = abs(nu[-1]) / math.sqrt(float(nu[:-1] @ nu[:-1]) + (w * nu[-1]) ** 2)
+        ell = 1.0 / max(t_s, 1e-12)
+        ell = max(min(ell, 1e3 * self.scale), w)
+        return ell, (1.0 if nu[-1] > 0 else -1.0)
+
+    def _hits(self, theta, direction: float, max_hits: int, budget: float) -> list[np.ndarray]:
+        prev = self.model.configuration(self.canonical(), self.theta)
+        try:
+            tr = trace(self.model, theta, prev, direction, max_hits=max_hits, max_arc=budget)
+        except PathError:
+            return []
+        return [self.local(h.y) for h in tr.hits[:max_hits] if h.arc < budget]
+
+    def _path(self, theta, dtheta, w, pred, index):
+        ell0, conv = self._ell0(theta, w)
+        if pred is None:  # no motion known: y_pred = y_k, the step unknown
+            pred = _Prediction(self.y.copy(), math.inf, 0.0, ell0)
+        budget = BUDGET * pred.ell
+        cands: list[tuple[np.ndarray, int]] = []
+
+        def add(y, code):
+            y = self._polish(y, theta)
+            if y is None:
+                return
+            if any(_inf(y - yc) <= 10.0 * self.tol for yc, _ in cands):
+                return
+            cands.append((y, code))
+
+        cheap_idx = -1
+        if self.y_cheap is not None:
+            add(self.y_cheap, OK_PATH)
+            cheap_idx = 0 if cands else -1
+        add(pred.y, OK_PREDICTED)
+        for yc, _ in list(cands):  # the other solution of a fold next to them, if any
+            y = self._partner(yc, theta)
+            if y is not None:
+                add(y, OK_PREDICTED)
+        for direction in (conv, -conv):
+            for y in self._hits(theta, direction, HITS_PER_DIRECTION, budget):
+                add(y, OK_PATH)
+        if not cands:
+            raise self._no_solution(theta, index)
+        miss = [_inf(y - pred.y) for y, _ in cands]
+        order = sorted(range(len(cands)), key=lambda i: miss[i])
+        e1 = miss[order[0]]
+        e2 = miss[order[1]] if len(order) > 1 else math.inf
+        agrees = e1 <= ACCEPT * pred.step + 10.0 * self.tol or (
+            order[0] == cheap_idx and self.cheap_regular
+        )
+        if agrees and e2 > MARGIN * max(e1, pred.accuracy) + 10.0 * self.tol:
+            return cands[order[0]]
+        shown = [cands[i][0] for i in order[:2]]
+        raise self._undecidable(theta, index, shown, miss, order, pred)
+
+    def _x(self, y, theta) -> np.ndarray:
+        return self.model.configuration(y, theta, self.c).x
+
+    def _no_solution(self, theta, index) -> TrackError:
+        return no_solution_error(index, theta)
+
+    def _undecidable(self, theta, index, shown, miss, order, pred) -> TrackError:
+        xs = [self._x(y, theta) for y in shown]
+        return undecidable_error(index, theta, xs, [miss[i] for i in order[:2]], pred.accuracy,
+                                 pred.step)  # fmt: skip
+
+    def _commit(self, y, theta, det) -> None:
+        self.d = [y - self.y, *self.d[:2]]
+        self.n = min(self.n + 1, 3)
+        self.theta = np.array(theta, dtype=float)
+        self.y, self.c = self._recentre(y, self.c)
+        self.det_prev = self.det
+        self.det = det if det != 0.0 else self._det(self.y, self.theta)
 
 
-def _continuation(model: Model, prev: Configuration, theta: np.ndarray) -> Configuration | None:
-    """The solution at ``theta`` continuing ``prev`` in its compartment, or None.
+@dataclass(frozen=True)
+class _Prediction:
+    y: np.ndarray  # predicted configuration (chart of the current sample)
+    step: float  # L = |D|
+    accuracy: float  # E
+    ell: float  # arc-length scale of the step
 
-    One zero-copy call of the warm kernel (an RK4 step in ``s`` from ``prev`` and Newton at
-    ``theta``, with the residuals and ``J_p`` at both ends); accepted when Newton converged,
-    moved the prediction by less than a tenth of the step and ``det J_p`` kept its sign (no
-    singular manifold in between, as far as this cheap test can tell).
-    """
-    y_loc, c = model.chart.to_local(prev.y)
-    y, corr, _, res, J1, J0, T, x = engine(model).warm(y_loc, prev.theta, theta, c)
-    if not (np.all(np.isfinite(y)) and res[0] <= 0.1 * model.tolerance):
-        return None
-    step = float(np.max(np.abs(y - y_loc)))
-    if step > max(1.0, model.length_scale) or corr[0] > 0.1 * step + 1e-12:
-        return None
-    m = model.m
-    if (
-        not np.linalg.det(J1.reshape(m, m, order="F")) * np.linalg.det(J0.reshape(m, m, order="F"))
-        > 0
-    ):
-        return None
-    y_can = model.chart.to_canonical(y, c)
-    theta = np.array(theta, dtype=float)
-    return Configuration(
-        theta, y_can, x.copy(), T.reshape(4, 4, order="F").copy(),
-        model.joint_values(y_can, theta), float(res[0]),
+
+def no_solution_error(index: int, theta: np.ndarray) -> TrackError:
+    """The :class:`TrackError` of a sample where no solution was met (status -5)."""
+    return TrackError(
+        f"sample {index}: no solution at theta={np.asarray(theta).tolist()} was met from the "
+        "previous sample along the solution curve (the readings leave the reachable set or jump "
+        "too far)",
+        index, ERR_NO_SOLUTION, theta=theta,
     )  # fmt: skip
+
+
+def undecidable_error(index: int, theta, xs, miss, accuracy: float, step: float) -> TrackError:
+    """The :class:`TrackError` of a sample the rule refuses to decide (status -9, rule R4).
+
+    Args:
+        index: the sample.
+        theta: (k,) its reading.
+        xs: workspace coordinates of the best candidate and the runner-up (if any).
+        miss: their misses of the predicted configuration (max norm).
+        accuracy: the accuracy of the prediction ``E``.
+        step: the predicted step ``L``.
+    """
+    e1 = float(miss[0])
+    if not math.isfinite(step):
+        why = (
+            f"no motion is known to predict from, and their distances {e1:.3g} and "
+            f"{float(miss[1]):.3g} from the previous sample are within a factor {MARGIN:g}"
+        )
+    elif len(xs) < 2 or e1 > ACCEPT * step:
+        why = f"the best misses the predicted motion by {e1:.3g} > {ACCEPT:g} x step {step:.3g}"
+    else:
+        why = (
+            f"their misses {e1:.3g} and {float(miss[1]):.3g} of the predicted motion (accuracy "
+            f"{accuracy:.3g}) are within a factor {MARGIN:g}"
+        )
+    listed = " and ".join(str(np.round(np.asarray(x, float), 6).tolist()) for x in xs)
+    return TrackError(
+        f"sample {index}: the readings are too coarse to decide between candidate solutions "
+        f"x = {listed} at theta={np.asarray(theta).tolist()}: {why}",
+        index, ERR_UNDECIDABLE, theta=theta, candidates=xs,
+    )  # fmt: skip
+
+
+def _rot_exp(w: np.ndarray) -> np.ndarray:
+    from ..model.chart import rot_exp
+
+    return rot_exp(w)
+
+
+# ---------------------------------------------------------------------------- crossings
+
+
+def crossings(
+    model: Model, start: Configuration, y: np.ndarray, thetas: np.ndarray, dets: np.ndarray
+) -> tuple[Crossing, ...]:
+    """Singular-manifold crossings of a finished track (the same for every backend).
+
+    Args:
+        model: the model.
+        start: the configuration the track started from.
+        y: (N, m) canonical unknowns of the samples.
+        thetas: (N, k) readings.
+        dets: (N,) ``det J_p`` at the samples (any chart: only the sign is used).
+
+    Returns:
+        One "fold" :class:`~scdk_sym.results.Crossing` wherever ``det J_p`` has opposite signs
+        at consecutive samples (the start and the first sample included): ``index`` the
+        sample before it (-1: between the start and sample 0), ``s`` the fraction of the way
+        to the next sample, located by :func:`locate`.
+    """
+    dets = np.asarray(dets, dtype=float)
+    if dets.size == 0:
+        return ()
+    y_loc0, c0 = model.chart.to_local(start.y)
+    det0 = float(np.linalg.det(np.array(model.kernels.jac(y_loc0, start.theta, c0)[0])))
+    dd = np.concatenate([[det0], dets])
+    ys = np.vstack([start.y, y])
+    ths = np.vstack([start.theta, thetas])
+    out = []
+    for j in np.flatnonzero(np.sign(dd[:-1]) * np.sign(dd[1:]) < 0):
+        out.append(locate(model, ys[j], ys[j + 1], ths[j], ths[j + 1], float(dd[j]), j - 1))
+    return tuple(out)
+
+
+#: Workspace coordinates that are angles (interpolated the short way round).
+ANGLES = ("phi", "roll", "pitch", "yaw")
+
+
+def locate(model: Model, ya, yb, tha, thb, da: float, index: int) -> Crossing:
+    """The crossing between two samples: where ``det J_p`` vanishes between them.
+
+    With as many workspace coordinates as actuators, the motion between the samples is
+    interpolated linearly in the workspace coordinates ``x`` (angles the short way round)
+    and each interpolated pose solved by inverse-kinematics Newton over ``(y, theta)`` (regular
+    at direct-kinematic singularities) from the chord between the samples; otherwise the
+    chord in ``(y, theta)`` is projected onto the closure manifold ``g = 0`` (minimum-norm
+    Gauss-Newton over ``(y, theta)``). The sign change of ``det J_p`` along that path is
+    bisected; ``s`` is the fraction of the way from the first sample.
+
+    Args:
+        model: the model.
+        ya: (m,) canonical unknowns of the first sample.
+        yb: (m,) those of the second.
+        tha: (k,) the first reading.
+        thb: (k,) the second.
+        da: ``det J_p`` at the first sample (its sign).
+        index: the first sample's index, kept in the record.
+    """
+    m = model.m
+    kern = model.kernels
+    ya_loc, c = model.chart.to_local(ya)
+    yb_loc = np.array(yb, dtype=float)
+    for i, idx in enumerate(model.chart.rotations):
+        idx = list(idx)
+        R_ref = c[9 * i : 9 * i + 9].reshape(3, 3, order="F")
+        M = R_ref.T @ _rot_exp(np.asarray(yb)[idx])
+        yb_loc[idx] = np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]]) / (
+            1 + np.trace(M)
+        )
+    za = np.concatenate([ya_loc, tha])
+    zb = np.concatenate([yb_loc, thb])
+    tol = 1e-3 * model.tolerance
+
+    def det_at(z) -> float:
+        return float(np.linalg.det(np.array(kern.jac(z[:m], z[m:], c)[0])))
+
+    def chord(alpha):
+        z = za + alpha * (zb - za)
+        for _ in range(30):
+            g = np.array(kern.g(z[:m], z[m:], c)).ravel()
+            if np.max(np.abs(g)) <= tol:
+                return z
+            Jp, Js = (np.array(a) for a in kern.jac(z[:m], z[m:], c))
+            G = np.hstack([Jp, -Js])
+            z = z - G.T @ np.linalg.solve(G @ G.T, g)
+        return z
+
+    path = chord
+    if len(model.workspace) == model.k:
+        xa = np.array(kern.pose(ya_loc, tha, c)[1]).ravel()
+        dx = np.array(kern.pose(yb_loc, thb, c)[1]).ravel() - xa
+        for i, name in enumerate(model.workspace):
+            if name in ANGLES:
+                dx[i] = (dx[i] + math.pi) % TWO_PI - math.pi
+
+        def motion(alpha):
+            T = model.target_pose(xa + alpha * dx)
+            z = za + alpha * (zb - za)
+            for _ in range(30):
+                zn, res = kern.ik_step(z, T, c)
+                z = np.array(zn).ravel()
+                if not np.all(np.isfinite(z)):
+                    break
+                if float(res) <= tol:
+                    return z
+            raise np.linalg.LinAlgError("inverse kinematics did not converge")
+
+        path = motion
+    sign_lo = np.sign(da)
+    for attempt in (path, chord):
+        lo, hi = 0.0, 1.0
+        z = za
+        try:
+            with np.errstate(all="ignore"):
+                for _ in range(60):
+                    mid = 0.5 * (lo + hi)
+                    z = attempt(mid)
+                    if np.sign(det_at(z)) == sign_lo:
+                        lo = mid
+                    else:
+                        hi = mid
+                    if hi - lo < 1e-13:
+                        break
+        except np.linalg.LinAlgError:
+            continue
+        if np.all(np.isfinite(z)):
+            break
+    else:  # fall back on the chord (accurate to the sample spacing)
+        lo = hi = 0.5
+        z = za + 0.5 * (zb - za)
+    cfg = model.configuration(z[:m], z[m:], c)
+    return Crossing(0.5 * (lo + hi), cfg.x, cfg.y, cfg.theta, index, "fold")

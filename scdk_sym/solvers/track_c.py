@@ -4,7 +4,10 @@
 :mod:`scdk_sym.codegen`, runs the whole sequence of readings in one ``ctypes`` call, and then
 verifies every returned sample in Python with the CasADi kernels (independently of the C
 code): a sample that fails its residual check, or a failure status of the C tracker, raises
-a :class:`TrackError` naming the sample.
+a :class:`~scdk_sym.errors.TrackError` naming the sample (re-exported here). The C tracker
+judges every reading by the rule of :mod:`scdk_sym.solvers.track` (the same as
+``track(backend="cvodes")``), and the crossings are computed from the finished track by the
+same function, :func:`scdk_sym.solvers.track.crossings`.
 """
 
 from __future__ import annotations
@@ -14,28 +17,15 @@ from collections.abc import Sequence
 import casadi as ca
 import numpy as np
 
-from ..errors import InputError, SolveError
+from ..errors import InputError, TrackError
 from ..model.chart import rot_log
 from ..model.model import Model
-from ..results import Configuration, Crossing, TrackResult
+from ..results import Configuration, TrackResult
 from .sc import validate_start
+from .track import crossings as track_crossings
+from .track import no_solution_error, undecidable_error
 
-
-class TrackError(SolveError):
-    """The C tracker failed at a sample, or a sample failed its verification.
-
-    Attributes:
-        index: index of the failing sample in ``thetas``.
-        status: the C status code (see :data:`scdk_sym.codegen.library.STATUS`), or 0 when the
-            C tracker succeeded but the Python verification failed.
-        residual: the sample's residual (NaN if none was computed).
-    """
-
-    def __init__(self, message: str, index: int, status: int, residual: float = float("nan")):
-        self.index = index
-        self.status = status
-        self.residual = residual
-        super().__init__(message)
+__all__ = ["TrackError", "track_c"]
 
 
 def track_c(
@@ -47,20 +37,20 @@ def track_c(
 ) -> TrackResult:
     """Track a sequence of actuated readings with the generated C tracker.
 
-    Each reading is reached from the previous configuration along the singularity-consistent
-    solution curve; where several solutions are met (near a fold of the direct kinematics)
-    the one continuing the motion is kept: the nearest to the extrapolation of the last
-    samples, and among those nearer to each other than the extrapolation is accurate, the
-    one farthest along the predicted motion. The start is not a sample: the first reading is
-    reached from it on the convergent branch, and the motion is extrapolated from the samples
-    on.
+    Each reading is judged by the rule of :mod:`scdk_sym.solvers.track`: the cheap
+    continuation where nothing hints at a singularity, else the candidate solution (met along
+    the singularity-consistent curve, or corrected from the predicted motion) that continues
+    the extrapolation of the last samples, provided no other candidate is about as consistent
+    with it; otherwise the tracker refuses to guess. The start is not a sample: the first
+    reading is reached from it on the convergent branch, and the motion is extrapolated from
+    the samples on.
 
     Args:
         model: the model.
         thetas: (N, k) actuated readings [rad or model length unit], in order.
         start: assembled configuration before the first reading (default ``model.home``).
         options: :class:`scdk_sym.codegen.library.Options` of the tracker (default: the
-            generated defaults; the tolerance is the model's).
+            generated defaults, the rule's constants; the tolerance is the model's).
 
     Returns:
         A verified :class:`~scdk_sym.results.TrackResult` (``backend="c"``): ``y`` canonical,
@@ -72,10 +62,12 @@ def track_c(
     Raises:
         InputError: ``thetas`` has the wrong shape or non-finite values.
         NotAssembledError: ``start`` violates the closures.
-        TrackError: the C tracker failed at a sample, or a sample failed verification.
+        TrackError: the readings are too coarse to decide between two candidates at a sample
+            (status -9, ``candidates`` their workspace x), no solution was met (-5), another
+            failure of the C tracker, or a sample failed verification (status 0).
         BuildError: no C compiler (the library is compiled on first use).
     """
-    from ..codegen.library import STATUS, tracker_library
+    from ..codegen.library import ERR_NO_SOLUTION, ERR_UNDECIDABLE, STATUS, tracker_library
 
     th = _readings(thetas, model.k)
     start = validate_start(model, start)
@@ -84,13 +76,18 @@ def track_c(
     out = lib.track(y0, c0, start.theta, th, options)
     if out.status < 0:
         i = max(out.failed, 0)
+        theta_i = th[i] if len(th) else np.zeros(model.k)
+        if out.status == ERR_UNDECIDABLE and out.refusal is not None:
+            r = out.refusal
+            raise undecidable_error(i, theta_i, list(r.x), list(r.miss), r.accuracy, r.step)
+        if out.status == ERR_NO_SOLUTION:
+            raise no_solution_error(i, theta_i)
         why = STATUS.get(out.status, f"status {out.status}")
         raise TrackError(
-            f"C tracker failed at sample {i} (theta={th[i].tolist() if len(th) else []}): "
-            f"{why} (status {out.status})",
-            i,
-            out.status,
-        )
+            f"C tracker failed at sample {i} (theta={theta_i.tolist()}): {why} "
+            f"(status {out.status})",
+            i, out.status, theta=theta_i,
+        )  # fmt: skip
     N = th.shape[0]
     y_can = _canonical(model, out.y, out.c)
     residual = _residuals(model, y_can, th)
@@ -100,11 +97,9 @@ def track_c(
         raise TrackError(
             f"sample {i} failed verification: residual {residual[i]:.3g} > "
             f"{model.tolerance:.1e} (theta={th[i].tolist()})",
-            i,
-            0,
-            float(residual[i]),
-        )
-    crossings = _crossings(model, start, y_can, th, out.det)
+            i, 0, float(residual[i]), theta=th[i],
+        )  # fmt: skip
+    crossings = track_crossings(model, start, y_can, th, out.det)
     return TrackResult(
         x=out.x.reshape(N, len(model.workspace)),
         y=y_can,
@@ -212,78 +207,3 @@ def _residuals(model: Model, y_can: np.ndarray, th: np.ndarray) -> np.ndarray:
     res = np.max(np.abs(rows), axis=0)
     res[~np.all(np.isfinite(y_can), axis=1)] = np.nan
     return res
-
-
-# ---------------------------------------------------------------------------- crossings
-
-
-def _crossings(model, start, y_can, th, det) -> tuple[Crossing, ...]:
-    """Singular-manifold crossings: det J_p changes sign between consecutive samples."""
-    if det.size == 0:
-        return ()
-    y_loc0, c0 = model.chart.to_local(start.y)
-    det0 = float(np.linalg.det(np.array(model.kernels.jac(y_loc0, start.theta, c0)[0])))
-    dets = np.concatenate([[det0], det])
-    ys = np.vstack([start.y, y_can])
-    ths = np.vstack([start.theta, th])
-    out = []
-    for j in np.flatnonzero(np.sign(dets[:-1]) * np.sign(dets[1:]) < 0):
-        out.append(
-            _locate(model, ys[j], ys[j + 1], ths[j], ths[j + 1], dets[j], dets[j + 1], j - 1)
-        )
-    return tuple(out)
-
-
-def _locate(model, ya, yb, tha, thb, da, db, index) -> Crossing:
-    """The crossing between two samples: where ``det J_p`` vanishes between them.
-
-    The chord between the samples in ``(y, theta)`` is projected onto the closure manifold
-    ``g = 0`` (minimum-norm Gauss-Newton over ``(y, theta)``, regular at direct-kinematic
-    singularities where ``[J_p, -J_s]`` keeps full rank), and the sign change of ``det J_p``
-    along it is bisected. ``s`` is the fraction of the way from the first sample.
-    """
-    m = model.m
-    kern = model.kernels
-    ya_loc, c = model.chart.to_local(ya)
-    yb_loc = np.array(yb, dtype=float)
-    for i, idx in enumerate(model.chart.rotations):
-        idx = list(idx)
-        R_ref = c[9 * i : 9 * i + 9].reshape(3, 3, order="F")
-        M = R_ref.T @ _rot_exp(np.asarray(yb)[idx][None, :])[0]
-        yb_loc[idx] = np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]]) / (
-            1 + np.trace(M)
-        )
-    za = np.concatenate([ya_loc, tha])
-    zb = np.concatenate([yb_loc, thb])
-
-    def project(alpha):
-        z = za + alpha * (zb - za)
-        for _ in range(30):
-            g = np.array(kern.g(z[:m], z[m:], c)).ravel()
-            if np.max(np.abs(g)) <= 1e-3 * model.tolerance:
-                break
-            Jp, Js = (np.array(a) for a in kern.jac(z[:m], z[m:], c))
-            G = np.hstack([Jp, -Js])
-            z = z - G.T @ np.linalg.solve(G @ G.T, g)
-        return z, float(np.linalg.det(np.array(kern.jac(z[:m], z[m:], c)[0])))
-
-    lo, hi = 0.0, 1.0
-    sign_lo = np.sign(da)
-    z = za
-    try:
-        for _ in range(60):
-            mid = 0.5 * (lo + hi)
-            z, det = project(mid)
-            if np.sign(det) == sign_lo:
-                lo = mid
-            else:
-                hi = mid
-            if hi - lo < 1e-13:
-                break
-    except np.linalg.LinAlgError:
-        pass
-    if not np.all(np.isfinite(z)):  # fall back on the chord (accurate to the sample spacing)
-        alpha = da / (da - db)
-        z = za + alpha * (zb - za)
-    cfg = model.configuration(z[:m], z[m:], c)
-    return Crossing(0.5 * (lo + hi), cfg.x, cfg.y, cfg.theta, index)
