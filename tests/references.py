@@ -806,6 +806,14 @@ class Scenario:
             return model.configuration(*self.start_yt)
         return model.home
 
+    def known(self) -> str:
+        """The generating solution (pose x, or the Gepetto unknowns by name)."""
+        if self.name in SHIPPED:
+            return f"known solution x = {_list(self.target)}"
+        ref = reference(self.name)
+        pairs = ", ".join(f"{n}={float(self.target[ref.index[n]])!r}" for n in ref.unknowns)
+        return f"known solution {pairs}"
+
     def reproducer(self, branch: str, backend: str = "casadi") -> str:
         back = "" if backend == "casadi" else f", backend={backend!r}"
         return (
@@ -1045,7 +1053,12 @@ def classify(ref: Reference, scen: Scenario, start, res) -> Outcome:
     else:
         out.parity = "disagree"
         out.status = "wrong_parity"
-        out.detail = f"{len(res.crossings)} crossings, det signs start {s0} result {s1}"
+        where = ", ".join(f"{c.kind} at s={c.s:.4g}" for c in res.crossings) or "none"
+        past = any(c.s > 1 for c in res.crossings)
+        out.detail = (
+            f"{len(res.crossings)} crossings ({where}), det signs start {s0} result {s1}"
+            + ("; a reported crossing lies past s = 1" if past else "")
+        )
     return out
 
 
@@ -1348,9 +1361,7 @@ class Report:
                 kind is None or o.scenario.kind == kind
             ):
                 by.setdefault(id(o.scenario), []).append(o)
-        return sum(
-            len(v) == 2 and all(o.status == "refused" for o in v) for v in by.values()
-        )
+        return sum(len(v) == 2 and all(o.status == "refused" for o in v) for v in by.values())
 
     def failures(self, statuses=("wrong_residual", "wrong_parity", "crash")) -> list[Outcome]:
         return [o for o in self.solves if o.status in statuses]

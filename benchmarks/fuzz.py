@@ -1,0 +1,140 @@
+"""Fuzz of the direct-kinematics solver and tracker against independent references.
+
+Every model (the shipped ones and the Gepetto fixtures) gets the same number of seeded
+scenarios: a start (home, the package's inverse kinematics of a pose near home, or an
+assembled configuration) and a target ``theta0`` with a known solution (closed-form inverse
+kinematics of a drawn pose; Gepetto fixtures: a configuration walked on the closure manifold),
+in four kinds: small steps in the start's assembly mode, large steps, targets just across a
+singular surface and targets just before one. Each is solved on both branches and classified
+by tests/references.py (closure from the geometry or Pinocchio, never the package's residual;
+crossing parity against finite-difference det signs): ok, silently wrong, refused (ScdkError
+although a solution exists), crash (any other exception), timeout. Then commanded motions
+(smooth, and through a singular surface) are tracked with ``backend="cvodes"`` and ``"c"``
+and each sample is compared with the commanded pose.
+
+    python benchmarks/fuzz.py [--count 100000] [--seed 0] [--models NAME ...]
+        [--backend casadi|compiled] [--tracks 20] [--workers 1] [--limit 60]
+
+``--count`` is the total number of solves (two per scenario, split evenly over the models).
+Prints progress every ``--every`` solves, then a table per model and branch, the refusals
+per scenario kind, the track figures and one reproducer per class of non-ok outcome.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from references import (  # noqa: E402  (references shared with the tests)
+    NAMES,
+    Report,
+    draw_scenarios,
+    draw_tracks,
+    run_solves,
+    run_tracks,
+)
+
+#: Scenarios per work unit (one seeded draw + solve in one process).
+CHUNK = 50
+
+
+def solve_chunk(name: str, chunk: int, size: int, seed: int, backend: str, limit: float):
+    scen = draw_scenarios(name, size, seed * 100003 + chunk)
+    return run_solves(scen, backend=backend, limit=limit)
+
+
+def track_chunk(name: str, count: int, seed: int, samples: int, limit: float):
+    return run_tracks(draw_tracks(name, count, seed, samples), limit=limit)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--count", type=int, default=100_000, help="total solves")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--models", nargs="+", default=list(NAMES), choices=NAMES)
+    parser.add_argument("--backend", default="casadi", choices=("casadi", "compiled"))
+    parser.add_argument("--tracks", type=int, default=20, help="commanded motions per model")
+    parser.add_argument("--samples", type=int, default=100, help="samples per motion")
+    parser.add_argument("--workers", type=int, default=1, help="processes")
+    parser.add_argument("--limit", type=float, default=60.0, help="time limit per solve [s]")
+    parser.add_argument("--every", type=int, default=2000, help="progress every N solves")
+    args = parser.parse_args(argv)
+
+    per_model = max(1, math.ceil(args.count / (2 * len(args.models))))
+    units = []
+    for name in args.models:
+        for chunk in range(math.ceil(per_model / CHUNK)):
+            size = min(CHUNK, per_model - chunk * CHUNK)
+            units.append((name, chunk, size))
+    total = 2 * per_model * len(args.models)
+    print(
+        f"{total} solves ({per_model} scenarios x 2 branches x {len(args.models)} models), "
+        f"backend {args.backend}, seed {args.seed}, {args.workers} worker(s), "
+        f"limit {args.limit:g} s per solve",
+        flush=True,
+    )
+    report = Report()
+    t0 = time.perf_counter()
+    done, shown = 0, 0
+    with ProcessPoolExecutor(args.workers) as pool:
+        futures = [
+            pool.submit(solve_chunk, name, chunk, size, args.seed, args.backend, args.limit)
+            for name, chunk, size in units
+        ]
+        for fut in as_completed(futures):
+            outs = fut.result()
+            report.solves += outs
+            done += len(outs)
+            if done - shown >= args.every or done == total:
+                shown = done
+                el = time.perf_counter() - t0
+                bad, left = len(report.failures()), el / done * (total - done)
+                print(
+                    f"  {done}/{total} solves, {el:.0f} s elapsed, ~{left:.0f} s to go; "
+                    f"silently wrong or crashed so far: {bad}",
+                    flush=True,
+                )
+        solve_time = time.perf_counter() - t0
+        if args.tracks:
+            t1 = time.perf_counter()
+            futures = [
+                pool.submit(track_chunk, name, args.tracks, args.seed, args.samples, args.limit)
+                for name in args.models
+            ]
+            for fut in as_completed(futures):
+                report.tracks += fut.result()
+            track_time = time.perf_counter() - t1
+    print(f"\nsolves: {len(report.solves)} in {solve_time:.0f} s wall\n")
+    print(report.table())
+    print()
+    print(report.kind_table())
+    if args.tracks:
+        skipped = [n for n in args.models if not any(o.track.name == n for o in report.tracks)]
+        print(
+            f"\ntracks: {len(report.tracks)} ({args.samples} samples each) in {track_time:.0f} s"
+            f" wall{'; no motion drawn for ' + ', '.join(skipped) if skipped else ''}\n"
+        )
+        print(report.track_table())
+    classes = report.classes()
+    if classes:
+        print("\nnon-ok classes (count, status, model, branch, kind, message) and a reproducer:")
+        for (status, name, branch, kind, text), (n, o) in classes.items():
+            print(f"{n:>6} {status} {name} {branch} {kind}: {text}")
+            print(f"       {o.scenario.reproducer(o.branch, args.backend)}")
+            print(f"       ({o.scenario.known()})")
+    bad_tracks = [o for o in report.tracks if o.status != "ok"]
+    if bad_tracks:
+        print("\ntracks not ok:")
+        for o in bad_tracks:
+            print(f"  {o.status} {o.track.name} {o.track.kind} {o.backend}: {o.detail[:200]}")
+            print(f"       {o.track.reproducer(o.backend)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

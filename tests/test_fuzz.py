@@ -1,0 +1,174 @@
+"""Seeded fuzz of ``solve`` and ``track`` on every model, checked by independent references.
+
+Every target ``theta0`` is the closed-form inverse kinematics of a drawn pose (Gepetto
+fixtures: a configuration walked on the closure manifold with Pinocchio), so a solution is
+known to exist. Each answer is checked by tests/references.py, never by the package's own
+residual: the closure computed from the geometry (<= 1e-7), the agreement of x, the placement
+and the joints, and the parity of the reported singular crossings against the signs of
+``det d(closure)/dx`` (finite differences) at the start and at the answer. Asserted: no
+silently wrong answer, no crash, and no refusal of a small convergent step in the start's
+assembly mode; the other refusals are printed (``pytest -s``), they are figures, not failures.
+The full-size run is ``python benchmarks/fuzz.py``.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+
+import numpy as np
+import pytest
+from references import (
+    BOX,
+    GEPETTO_NAMES,
+    KINDS,
+    NAMES,
+    SHIPPED,
+    Report,
+    _crossing,
+    draw_scenarios,
+    draw_tracks,
+    load,
+    reference,
+    run_solves,
+    run_tracks,
+    wrap,
+)
+
+SEED = 20240601
+#: Scenarios per kind solved on both branches.
+PER_KIND = 1
+#: Extra small steps in the start's assembly mode, convergent branch only (cheap).
+SMALL = 10
+#: Commanded motions per model (one smooth, one through a singular surface) and samples.
+TRACKS, SAMPLES = 2, 60
+#: Wall-time limits per solve and per track [s] (outcome "timeout", printed).
+LIMIT, TRACK_LIMIT = 5.0, 10.0
+
+
+@cache
+def solves(name: str) -> Report:
+    rep = Report()
+    for i, kind in enumerate(KINDS):
+        scen = draw_scenarios(name, PER_KIND, SEED + i, kinds={kind: 1.0})
+        rep.solves += run_solves(scen, limit=LIMIT)
+    small = draw_scenarios(name, SMALL, SEED + 10, kinds={"small": 1.0})
+    rep.solves += run_solves(small, branches=("convergent",), limit=LIMIT)
+    return rep
+
+
+def _lines(outcomes) -> str:
+    return "\n".join(
+        f"{o.status} ({o.scenario.kind}, {o.branch}): {o.detail[:160]}\n    "
+        + o.scenario.reproducer(o.branch)
+        + f"\n    ({o.scenario.known()})"
+        for o in outcomes
+    )
+
+
+# ---------------------------------------------------------------------------- references
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_reference_agrees_with_the_package_inverse_kinematics(name: str) -> None:
+    ref, model = reference(name), load(name)
+    np.testing.assert_allclose(ref.home_x, model.home.x, rtol=0, atol=1e-12)
+    assert np.abs(ref.closure(ref.home_x, model.home.theta)).max() <= 1e-12
+    rng = np.random.default_rng(SEED)
+    box = np.asarray(BOX[name])
+    for _ in range(5):
+        x = ref.home_x + rng.uniform(-0.5, 0.5, len(box)) * box
+        cfg = model.inverse_kinematics(x)
+        theta = ref.ik(x)
+        assert theta is not None
+        assert np.abs(ref.closure(x, theta)).max() <= 1e-12
+        assert np.abs(wrap(theta - cfg.theta)).max() <= 1e-9
+        assert ref.distance(cfg.x, x) <= 1e-9
+        assert np.abs(ref.closure(cfg.x, cfg.theta)).max() <= 1e-12
+        assert ref.consistency(cfg) <= 1e-12
+
+
+@pytest.mark.parametrize(
+    ("name", "xa", "xb", "where", "value"),
+    [
+        # the paper's singular configuration of the seed robot: x = y = 0, phi = 0.5754
+        ("planar_hexa", [0, 0, 0.4], [0, 0, 0.9], 2, 0.5754),
+        ("planar_hexa_reduced", [0, 0, 0.4], [0, 0, 0.9], 2, 0.5754),
+        # the hexapod's singular orientation (README): yaw = pi / 2
+        ("stewart_gough", [0, 0, 0.55, 0, 0, 1.4], [0, 0, 0.55, 0, 0, 1.75], 5, np.pi / 2),
+    ],
+)
+def test_det_sign_changes_at_the_published_singular_configurations(
+    name: str, xa, xb, where: int, value: float
+) -> None:
+    ref = reference(name)
+    xa, xb = np.array(xa, dtype=float), np.array(xb, dtype=float)
+    lam = _crossing(ref, xa, xb)
+    assert lam is not None
+    tol = 1e-4 if name.startswith("planar_hexa") else 1e-6  # the paper prints 4 decimals
+    assert abs(xa[where] + lam * (xb[where] - xa[where]) - value) <= tol
+    assert ref.det_sign(xa, ref.ik(xa)) == -ref.det_sign(xb, ref.ik(xb)) != 0
+
+
+@pytest.mark.parametrize("name", GEPETTO_NAMES)
+def test_gepetto_reference_walks_on_the_closure_manifold(name: str) -> None:
+    ref, model = reference(name), load(name)
+    assert np.abs(ref.closure(ref.home_q, ref.home_theta)).max() <= 1e-12
+    assert ref.consistency(model.home) <= 1e-12
+    rng = np.random.default_rng(SEED)
+    path = ref.walk(ref.home_q, ref.tangent(ref.home_q).T @ rng.normal(size=ref.k), 10, 0.02)
+    assert path is not None
+    steps = np.linalg.norm(np.diff(np.array(path)[:, ref.free + ref.motors], axis=0), axis=1)
+    np.testing.assert_allclose(steps, 0.02, rtol=1e-2)
+    for q in path:
+        assert np.abs(ref.residual_q(q)).max() <= 1e-12
+    # the package solves the walked configuration's motors to the walked configuration
+    import scdk_sym as sc
+
+    res = sc.solve(model, path[-1][ref.motors], record_path=False)
+    assert ref.distance(ref.coords(res), path[-1]) <= 1e-9
+
+
+# ---------------------------------------------------------------------------- fuzz
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_fuzz_solves(name: str) -> None:
+    rep = solves(name)
+    print(f"\n{rep.table()}\n{rep.kind_table()}")
+    refused = [o for o in rep.solves if o.status in ("refused", "timeout")]
+    if refused:
+        print("refusals:\n" + _lines(refused))
+    assert len(rep.solves) == 2 * PER_KIND * len(KINDS) + SMALL
+    wrong = rep.failures()
+    assert not wrong, "silently wrong or crashed:\n" + _lines(wrong)
+    must = [
+        o
+        for o in rep.solves
+        if o.scenario.kind == "small"
+        and o.branch == "convergent"
+        and o.status in ("refused", "timeout")
+    ]
+    assert not must, "refused a small convergent step:\n" + _lines(must)
+
+
+@cache
+def tracks(name: str):
+    return run_tracks(draw_tracks(name, TRACKS, SEED, SAMPLES), limit=TRACK_LIMIT)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_fuzz_tracks(name: str) -> None:
+    outs = tracks(name)
+    rep = Report(tracks=outs)
+    print(f"\n{rep.track_table()}")
+    assert {o.track.kind for o in outs} == {"smooth", "singular"}
+    bad = [o for o in outs if o.status in ("deviation", "crash")]
+    lines = "\n".join(
+        f"{o.status} ({o.track.kind}, {o.backend}): {o.detail[:160]}\n    "
+        + o.track.reproducer(o.backend)
+        for o in bad
+    )
+    assert not bad, "tracks off the commanded motion or crashed:\n" + lines
+    for o in outs:
+        if o.status == "ok":
+            assert o.error <= 1e-6
