@@ -239,6 +239,9 @@ def _along_line(model, theta0, start, direction, name, backend, max_arc, record_
     solution where the curve only touches ``s = 1``)."""
     tr = trace(model, theta0, start, direction, max_arc=max_arc, backend=backend,
                record_path=record_path)  # fmt: skip
+    if not tr.hits and tr.stalled:  # CVODES stalled: the explicit predictor-corrector
+        tr = trace(model, theta0, start, direction, max_arc=max_arc, backend=backend,
+                   record_path=record_path, predictor="rk4")  # fmt: skip
     if tr.hits:
         hit = tr.hits[0]
         crossings = tuple(tr.crossings[: hit.crossings])
@@ -342,7 +345,10 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path) -> Sol
             return res
     # 2. across the nearest singular configuration
     fold = nearest_singular(model, start, backend)
-    leg = None if fold is None else across_fold(model, start, fold, theta0, backend=backend)
+    leg = None
+    if fold is not None:
+        leg = across_fold(model, start, fold, theta0, backend=backend,
+                          exclude=None if conv is None else conv.configuration)  # fmt: skip
     if leg is None:
         tried.append("no solution across the nearest singular configuration")
     else:
