@@ -173,8 +173,9 @@ class _Chunk:
 class _RK4:
     """Explicit predictor-corrector steps (:class:`~scdk_sym.follower.kernels.FollowerKernels`)."""
 
-    def __init__(self, model, kern, p, weight, scale):
+    def __init__(self, model, kern, p, weight, scale, min_cos=MIN_COS):
         self.model, self.kern, self.p, self.scale = model, kern, p, scale
+        self.min_cos = min_cos
         self.m = model.m
         self.rot_idx = [i for idx in model.chart.rotations for i in idx]
 
@@ -185,7 +186,7 @@ class _RK4:
             np.all(np.isfinite(X), axis=0)
             & (info[0] <= MAX_PREDICTOR_ERROR * h)
             & (info[1] <= NEWTON_TOL * self.scale)
-            & (info[2] >= MIN_COS)
+            & (info[2] >= self.min_cos)
         )
         if self.rot_idx:
             good &= np.max(np.abs(X[self.rot_idx]), axis=0) <= CHART_LIMIT
@@ -281,6 +282,7 @@ def follow(
     tangent: np.ndarray | None = None,
     chart: np.ndarray | None = None,
     locate: bool = True,
+    min_cos: float = MIN_COS,
 ) -> Walk:
     """Follow the solution curve of ``g(y, line.at(s)) = 0`` from ``(y_start, s_start)``.
 
@@ -309,6 +311,9 @@ def follow(
         chart: chart of ``y_start`` when it is given in local coordinates.
         locate: locate folds by Newton (else: interpolated between the samples, their ``x``
             not computed, for searches that only count them).
+        min_cos: an explicit step is accepted only if the tangent turned by less than
+            ``acos(min_cos)`` (small turns keep two nearby crossing branches apart; a search
+            that only collects solutions may take larger ones).
 
     Returns:
         A :class:`Walk`.
@@ -346,7 +351,7 @@ def follow(
     ell0 = max(ell0, 1e-9 * scale)
     budget = 60.0 * ell0 + 20.0 * scale if max_arc is None else float(max_arc)
     if predictor == "rk4":
-        pred = _RK4(model, kern, p, weight, scale)
+        pred = _RK4(model, kern, p, weight, scale, min_cos)
         backup = None
         h = min(ell0 / 16, FIRST_STEP * scale) if step is None else float(step)
         h_max = 0.5 * scale
@@ -354,7 +359,7 @@ def follow(
         from .cvodes import GRID, engine
 
         pred = _Cvodes(model, engine(model, backend), line, w)
-        backup = _RK4(model, kern, p, weight, scale)
+        backup = _RK4(model, kern, p, weight, scale, min_cos)
         h = min(ell0 / 16, FIRST_STEP * scale) if step is None else float(step)
         h_max = 2.0 * ell0 / GRID
     h_min = 1e-12 * max(ell0, 1e-6 * scale)

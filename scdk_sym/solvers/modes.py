@@ -52,6 +52,9 @@ from ..results import Configuration
 from .sc import validate_start
 
 BACKENDS = ("casadi", "compiled")
+#: The search accepts explicit steps whose tangent turned by up to acos(0.7) (it collects
+#: solutions; a jump between nearby branches only changes the curve it explores).
+SEARCH_MIN_COS = 0.7
 #: Random starts: coordinates other than angles within this many model sizes of home.
 RANDOM_SPREAD = 1.5
 
@@ -145,7 +148,8 @@ def follow_curve(
     h = 0.02 * _scale(model) if step is None else float(step)
     walk = follow(model, line, y_start, s_start, direction, predictor="rk4", backend=backend,
                   max_hits=max_hits, max_arc=max_arc, max_steps=max_steps, deadline=deadline,
-                  step=h, record=record, locate=False)  # fmt: skip
+                  step=h, record=record, locate=False,
+                  min_cos=SEARCH_MIN_COS)  # fmt: skip
     out = Curve(
         hits=[hit.y for hit in walk.hits],
         hit_arcs=[hit.arc for hit in walk.hits],

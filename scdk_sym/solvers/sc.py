@@ -301,11 +301,16 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path) -> Sol
     from ..follower.singular import across, across_fold, nearest_singular
 
     tried: list[str] = []
-    try:
-        conv = solve(model, theta0, start=start, branch="convergent", backend=backend,
-                     max_arc=max_arc, record_path=False)  # fmt: skip
-    except ScdkError:
-        conv = None
+    memo: list[SolveResult | None] = []
+
+    def convergent() -> SolveResult | None:
+        if not memo:
+            try:
+                memo.append(solve(model, theta0, start=start, branch="convergent",
+                                  backend=backend, max_arc=max_arc, record_path=False))  # fmt: skip
+            except ScdkError:
+                memo.append(None)
+        return memo[0]
 
     def other_than_convergent(res: SolveResult | None, how: str) -> SolveResult | None:
         if res is None:
@@ -313,6 +318,13 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path) -> Sol
         if not res.crossings:
             tried.append(f"{how}: no singular point crossed")
             return None
+        # through folds only, det J_p has the start's sign at the convergent answer (an even
+        # number of turns) and the other one here (odd): they differ; across crossing
+        # branches, compare with the convergent answer itself
+        folds_only = all(c.kind == "fold" for c in res.crossings) and len(res.crossings) % 2
+        if folds_only and not _is_same_side(model, start, res):
+            return res
+        conv = convergent()
         if conv is not None and _same_configuration(model, res, conv):
             tried.append(f"{how}: came back to the convergent solution")
             return None
@@ -347,6 +359,7 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path) -> Sol
     fold = nearest_singular(model, start, backend)
     leg = None
     if fold is not None:
+        conv = convergent() if fold.kind == "bifurcation" else None
         leg = across_fold(model, start, fold, theta0, backend=backend,
                           exclude=None if conv is None else conv.configuration)  # fmt: skip
     if leg is None:
