@@ -24,21 +24,22 @@ from references import (
     NAMES,
     SHIPPED,
     Report,
-    _crossing,
     draw_scenarios,
     draw_tracks,
     load,
     reference,
     run_solves,
     run_tracks,
+    singular_point,
     wrap,
 )
 
 SEED = 20240601
 #: Scenarios per kind solved on both branches.
 PER_KIND = 1
-#: Extra small steps in the start's assembly mode, convergent branch only (cheap).
-SMALL = 10
+#: Extra small steps in the start's assembly mode and targets just before a singular surface,
+#: convergent branch only (cheap).
+SMALL, NEAR = 10, 5
 #: Commanded motions per model (one smooth, one through a singular surface) and samples.
 TRACKS, SAMPLES = 2, 60
 #: Wall-time limits per solve and per track [s] (outcome "timeout", printed).
@@ -52,7 +53,8 @@ def solves(name: str) -> Report:
         scen = draw_scenarios(name, PER_KIND, SEED + i, kinds={kind: 1.0})
         rep.solves += run_solves(scen, limit=LIMIT)
     small = draw_scenarios(name, SMALL, SEED + 10, kinds={"small": 1.0})
-    rep.solves += run_solves(small, branches=("convergent",), limit=LIMIT)
+    near = draw_scenarios(name, NEAR, SEED + 11, kinds={"near_singular": 1.0})
+    rep.solves += run_solves(small + near, branches=("convergent",), limit=LIMIT)
     return rep
 
 
@@ -102,7 +104,7 @@ def test_det_sign_changes_at_the_published_singular_configurations(
 ) -> None:
     ref = reference(name)
     xa, xb = np.array(xa, dtype=float), np.array(xb, dtype=float)
-    lam = _crossing(ref, xa, xb)
+    lam = singular_point(ref, xa, xb)
     assert lam is not None
     tol = 1e-4 if name.startswith("planar_hexa") else 1e-6  # the paper prints 4 decimals
     assert abs(xa[where] + lam * (xb[where] - xa[where]) - value) <= tol
@@ -138,7 +140,7 @@ def test_fuzz_solves(name: str) -> None:
     refused = [o for o in rep.solves if o.status in ("refused", "timeout")]
     if refused:
         print("refusals:\n" + _lines(refused))
-    assert len(rep.solves) == 2 * PER_KIND * len(KINDS) + SMALL
+    assert len(rep.solves) == 2 * PER_KIND * len(KINDS) + SMALL + NEAR
     wrong = rep.failures()
     assert not wrong, "silently wrong or crashed:\n" + _lines(wrong)
     must = [

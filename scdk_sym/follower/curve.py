@@ -436,6 +436,7 @@ def follow(
         last = n
         for j in range(n):
             seg = Q[:, j + 1] - Q[:, j]
+            before_segment = len(out.singular)
             turn = T[-1, j] * T[-1, j + 1] < 0
             flip = D[j] * D[j + 1] < 0
             crossing_levels = [
@@ -525,7 +526,7 @@ def follow(
                         y_can,
                         float(L),
                         out.arc + h * (j + 0.5),
-                        len(out.singular),
+                        _met_before(out.singular, before_segment, float(Q[-1, j]), float(L)),
                         1.0 if Q[-1, j + 1] > Q[-1, j] else -1.0,
                     )
                 )
@@ -749,3 +750,13 @@ def _rank_ratio(model, cr: Crossing, dtheta: np.ndarray) -> float:
     js = Js @ dtheta / max(float(np.linalg.norm(dtheta)), 1e-300)
     S = np.linalg.svd(np.hstack([Jp, -js[:, None]]), compute_uv=False)
     return float(S[-1] / S[0])
+
+
+def _met_before(singular: list[Crossing], first: int, s_a: float, level: float) -> int:
+    """Singular points met before a level crossing in a segment starting at ``s = s_a``: all
+    of the earlier segments, and of this one those between ``s_a`` and the level."""
+    n = first
+    for cr in singular[first:]:
+        if (cr.s - s_a) * (level - cr.s) >= 0:
+            n += 1
+    return n
