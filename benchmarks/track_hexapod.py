@@ -37,7 +37,7 @@ from scdk_sym.solvers.track_c import track_c
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
-from stewart import anchors, leg_lengths  # noqa: E402  (references shared with the tests)
+from stewart import anchors, fold_path, leg_lengths  # noqa: E402  (shared with the tests)
 
 MODEL = ROOT / "models" / "stewart_gough"
 
@@ -49,17 +49,6 @@ def smooth_path(home: np.ndarray, n: int) -> np.ndarray:
     freq = np.array([1.0, 2.0, 1.5, 1.0, 2.5, 0.5])
     phase = np.array([0.0, 0.5, 1.0, 1.5, 2.0, 2.5])
     return home + amp * (np.sin(2 * np.pi * freq * t + phase) - np.sin(phase))
-
-
-def fold_path(home: np.ndarray, n: int) -> np.ndarray:
-    """(n, 6) poses turning the platform through yaw = 90 deg (a direct-kinematic singularity)."""
-    t = np.linspace(0.0, 1.0, n)
-    X = np.tile(home, (n, 1))
-    X[:, 5] = 1.40 + 0.35 * t
-    X[:, 0] += 0.02 * np.sin(np.pi * t)
-    X[:, 2] += 0.02 * t
-    X[:, 3] += 0.05 * t
-    return X
 
 
 def rpy(R: np.ndarray) -> np.ndarray:

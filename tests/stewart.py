@@ -48,6 +48,18 @@ def rotations(w: np.ndarray) -> np.ndarray:
     return np.eye(3) + a * K + b * K @ K
 
 
+def fold_path(home: np.ndarray, n: int) -> np.ndarray:
+    """(n, 6) poses turning the platform through yaw = 90 deg (a direct-kinematic singularity of
+    models/stewart_gough), with some translation and roll: yaw 1.40 -> 1.75 rad."""
+    t = np.linspace(0.0, 1.0, n)
+    X = np.tile(home, (n, 1))
+    X[:, 5] = 1.40 + 0.35 * t
+    X[:, 0] += 0.02 * np.sin(np.pi * t)
+    X[:, 2] += 0.02 * t
+    X[:, 3] += 0.05 * t
+    return X
+
+
 def stewart_reference(A, B, lengths, starts: int, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
     """Real poses (p, R) of a 6-6 platform: |p + R B_i - A_i| = L_i, by random-start LM.
 

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 import stewart
 from factories import MODELS, shipped
+from stewart import fold_path
 
 from scdk_sym.codegen import library as clib
 from scdk_sym.errors import TrackError
@@ -80,17 +81,6 @@ def hexapod_singularity(x) -> float:
 
 
 # ---------------------------------------------------------------- paths
-
-
-def fold_path(home, n):
-    """benchmarks/track_hexapod.py: yaw 1.40 -> 1.75 rad through the singular orientation."""
-    t = np.linspace(0.0, 1.0, n)
-    X = np.tile(home, (n, 1))
-    X[:, 5] = 1.40 + 0.35 * t
-    X[:, 0] += 0.02 * np.sin(np.pi * t)
-    X[:, 2] += 0.02 * t
-    X[:, 3] += 0.05 * t
-    return X
 
 
 def seed_line(n):

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import stewart
 from factories import MODELS, shipped
+from stewart import fold_path
 
 import scdk_sym as sc
 from scdk_sym.codegen import library as clib
@@ -72,17 +73,6 @@ def test_matches_the_cvodes_reference(hexapod, smooth):
         ref.append(r.x)
         prev = r.configuration
     np.testing.assert_allclose(res.x[:150], np.array(ref), rtol=0, atol=1e-8)
-
-
-def fold_path(home, n):
-    """Yaw through the singular orientation (~90 deg) with some translation and roll."""
-    t = np.linspace(0.0, 1.0, n)
-    X = np.tile(home, (n, 1))
-    X[:, 5] = 1.40 + 0.35 * t
-    X[:, 0] += 0.02 * np.sin(np.pi * t)
-    X[:, 2] += 0.02 * t
-    X[:, 3] += 0.05 * t
-    return X
 
 
 def test_follows_the_motion_across_a_singularity(hexapod):
