@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -27,7 +26,7 @@ from ..errors import (
     SolveError,
     VerificationError,
 )
-from ..follower.curve import Hit, Line, follow, null_direction  # noqa: F401
+from ..follower.curve import Hit, Line, Walk, follow, null_direction  # noqa: F401
 from ..follower.cvodes import BACKENDS, GRID, Engine, engine  # noqa: F401
 from ..model.model import Model, as_vector
 from ..results import Configuration, Crossing, PathSamples, SolveResult
@@ -56,36 +55,6 @@ def validate_start(
     return start
 
 
-@dataclass
-class Trace:
-    """What :func:`trace` met along the solution curve through the start.
-
-    Attributes:
-        hits: ``s = 1`` crossings (:class:`~scdk_sym.follower.curve.Hit`), in order of arc
-            length.
-        crossings: singular points (folds and bifurcations), in order.
-        crossing_arcs: arc length of each crossing.
-        direction: +1 / -1, the sign of b relative to nu.
-        det0: ``det J_p`` at the start.
-        arc: arc length travelled.
-        closed: the curve came back to its start (it was followed entirely).
-        stalled: the curve could not be followed further.
-        path: sampled curve (when recorded).
-        s_range: (min, max) of ``s`` met.
-    """
-
-    hits: list[Hit] = field(default_factory=list)
-    crossings: list[Crossing] = field(default_factory=list)
-    crossing_arcs: list[float] = field(default_factory=list)
-    direction: float = 1.0
-    det0: float = 0.0
-    arc: float = 0.0
-    closed: bool = False
-    stalled: bool = False
-    path: PathSamples | None = None
-    s_range: tuple[float, float] = (0.0, 0.0)
-
-
 def start_direction(
     model: Model, theta0: np.ndarray, start: Configuration, backend: str = "casadi"
 ):
@@ -106,7 +75,7 @@ def trace(
     backend: str = "casadi",
     record_path: bool = False,
     predictor: str = "cvodes",
-) -> Trace:
+) -> Walk:
     """Follow the SC solution curve from ``start`` towards ``theta0`` and collect what it meets.
 
     The curve follower (:func:`scdk_sym.follower.curve.follow`) on the line from
@@ -123,23 +92,15 @@ def trace(
         backend: kernel backend.
         record_path: keep the sampled curve.
         predictor: "cvodes" or "rk4" (see :mod:`scdk_sym.follower.curve`).
+
+    Returns:
+        The :class:`~scdk_sym.follower.curve.Walk`: ``hits`` (``s = 1`` crossings),
+        ``singular`` (folds and bifurcations), ``stalled``, ``closed``, ``s_range``, ``path``.
     """
     theta1 = np.array(start.theta, dtype=float)
     line = Line(theta1, np.asarray(theta0, float) - theta1)
-    walk = follow(model, line, start.y, 0.0, direction, predictor=predictor, backend=backend,
+    return follow(model, line, start.y, 0.0, direction, predictor=predictor, backend=backend,
                   max_hits=max_hits, max_arc=max_arc, record=record_path)  # fmt: skip
-    return Trace(
-        hits=walk.hits,
-        crossings=walk.singular,
-        crossing_arcs=walk.singular_arcs,
-        direction=direction,
-        det0=walk.det0,
-        arc=walk.arc,
-        closed=walk.closed,
-        stalled=walk.stalled,
-        path=walk.path,
-        s_range=walk.s_range,
-    )
 
 
 def solve(
@@ -244,12 +205,12 @@ def _along_line(model, theta0, start, direction, name, backend, max_arc, record_
                    record_path=record_path, predictor="rk4")  # fmt: skip
     if tr.hits:
         hit = tr.hits[0]
-        crossings = tuple(tr.crossings[: hit.crossings])
+        crossings = tuple(tr.singular[: hit.crossings])
         return _result(model, hit.y, theta0, crossings, name, direction, start, tr.path)
     touch = _touching(model, theta0, tr)
     if touch is not None:
         y, n = touch
-        crossings = tuple(tr.crossings[:n])
+        crossings = tuple(tr.singular[:n])
         return _result(model, y, theta0, crossings, name, direction, start, tr.path)
     if tr.stalled:
         why = "the curve could not be followed further"
@@ -270,7 +231,7 @@ def _touching(model, theta0, tr) -> tuple[np.ndarray, int] | None:
     from ..follower.kernels import follower_kernels
 
     polish = follower_kernels(model).polish
-    for i, cr in enumerate(tr.crossings):
+    for i, cr in enumerate(tr.singular):
         if cr.kind != "fold" or abs(cr.s - 1.0) > 1e-6:
             continue
         y, c = model.chart.to_local(cr.y)

@@ -208,14 +208,7 @@ def track(
     y_can = np.array(ys)
     configs = [model.configuration(y, th) for y, th in zip(y_can, thetas, strict=True)]
     residual = np.array([c.residual for c in configs])
-    bad = np.flatnonzero(~(residual <= model.tolerance))
-    if bad.size:
-        i = int(bad[0])
-        raise TrackError(
-            f"sample {i} failed verification: residual {residual[i]:.3g} > "
-            f"{model.tolerance:.1e} (theta={thetas[i].tolist()})",
-            i, 0, float(residual[i]), theta=thetas[i],
-        )  # fmt: skip
+    verify_samples(model, residual, thetas)
     return TrackResult(
         x=np.array([c.x for c in configs]),
         y=y_can,
@@ -709,3 +702,21 @@ def locate(model: Model, ya, yb, tha, thb, da: float, index: int) -> Crossing:
         z = za + 0.5 * (zb - za)
     cfg = model.configuration(z[:m], z[m:], c)
     return Crossing(0.5 * (lo + hi), cfg.x, cfg.y, cfg.theta, index, "fold")
+
+
+def verify_samples(model: Model, residual: np.ndarray, thetas: np.ndarray) -> None:
+    """Raise TrackError at the first sample whose residual exceeds the model's tolerance.
+
+    Args:
+        model: the model.
+        residual: (N,) max |closure row| per sample [model length unit].
+        thetas: (N, k) the readings.
+    """
+    bad = np.flatnonzero(~(residual <= model.tolerance))
+    if bad.size:
+        i = int(bad[0])
+        raise TrackError(
+            f"sample {i} failed verification: residual {residual[i]:.3g} > "
+            f"{model.tolerance:.1e} (theta={thetas[i].tolist()})",
+            i, 0, float(residual[i]), theta=thetas[i],
+        )  # fmt: skip

@@ -23,7 +23,7 @@ from ..model.model import Model
 from ..results import Configuration, TrackResult
 from .sc import validate_start
 from .track import crossings as track_crossings
-from .track import no_solution_error, undecidable_error
+from .track import no_solution_error, undecidable_error, verify_samples
 
 __all__ = ["TrackError", "track_c"]
 
@@ -91,14 +91,7 @@ def track_c(
     N = th.shape[0]
     y_can = _canonical(model, out.y, out.c)
     residual = _residuals(model, y_can, th)
-    bad = np.flatnonzero(~(residual <= model.tolerance))
-    if bad.size:
-        i = int(bad[0])
-        raise TrackError(
-            f"sample {i} failed verification: residual {residual[i]:.3g} > "
-            f"{model.tolerance:.1e} (theta={th[i].tolist()})",
-            i, 0, float(residual[i]), theta=th[i],
-        )  # fmt: skip
+    verify_samples(model, residual, th)
     crossings = track_crossings(model, start, y_can, th, out.det)
     return TrackResult(
         x=out.x.reshape(N, len(model.workspace)),
