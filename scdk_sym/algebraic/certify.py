@@ -1,0 +1,458 @@
+"""Interval (Krawczyk) certificates of real solutions of square systems ``f(x, p) = 0``.
+
+For a box ``X`` with centre ``m``, a floating-point ``Y ~ J(m)^-1`` and the interval Jacobian
+``J(X)`` (``casadi.jacobian`` of ``f`` replayed in ball arithmetic,
+:mod:`scdk_sym.algebraic.interval`), the Krawczyk operator is
+
+    K(X) = m - Y f(m) + (I - Y J(X)) (X - m).
+
+If ``K(X)`` lies in the interior of ``X``, then ``X`` holds exactly one zero of ``f(., p)``
+(for every ``p`` of the parameter box) and the zero lies in ``K(X)`` (Krawczyk 1969; Moore
+1977; Rump 1983). Every operation rounds outward, so the statement is a proof about the
+Function's expression graph with its binary64 constants.
+
+The box is chosen adaptively: its radius starts at twice the Newton correction ``|Y f(m)|``
+at the given point (plus the rounding floor of the interval Newton point), and where
+``K(X)`` is not inside ``X`` the next box is ``K(X)`` inflated by half its radius around
+``m`` (epsilon-inflation), for a few tries.
+
+:func:`certify_all` certifies a list of solutions and checks that their boxes are pairwise
+disjoint: each proven box then holds a different zero. :func:`closure_function` and
+:func:`certify_solution` apply the test to the closure system ``g(y, theta) = 0`` of a loaded
+model (unknowns ``y`` in the local chart of the floating joints; ``theta`` and the chart as
+exact parameters).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import casadi as ca
+import numpy as np
+from flint import arb, arb_mat
+
+from ..errors import InputError
+from ..kernels.fastcall import Buffered
+from .interval import FunctionCache, IntervalFunction, as_sx_function, interval_function
+
+if TYPE_CHECKING:
+    from ..model.model import Model
+
+#: Boxes tried by :func:`krawczyk` before giving up.
+TRIES = 6
+#: Radius factor of the epsilon-inflation: the next radius is ``INFLATION * rad K(X)``.
+INFLATION = 1.5
+#: Condition number of ``J(m)`` above which no certificate is attempted.
+MAX_CONDITION = 1e14
+#: Smallest box radius tried (absolute).
+TINY = 1e-300
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """The outcome of a Krawczyk test around one approximate solution.
+
+    Attributes:
+        proven: ``K(X)`` lies in the interior of ``X``: ``domain`` holds exactly one zero of
+            ``f(., p)`` (for every ``p`` in the parameter box), and it lies in ``box``.
+        box: (n, 2) ``[lo, hi]`` per unknown, rounded outward to binary64: the enclosure
+            ``K(X)`` of the zero when proven; the last box ``X`` tried otherwise (NaN when
+            none was built).
+        domain: (n, 2) the box ``X`` rounded inward: no other zero lies in it (NaN when not
+            proven).
+        radius: largest half-width of ``box`` (in the units of ``x``; inf when unbounded).
+        reason: one line: what was proven, or why not.
+        x: (n,) the centre ``m`` of the boxes (the point given).
+        tries: boxes ``X`` tried.
+    """
+
+    proven: bool
+    box: np.ndarray
+    domain: np.ndarray
+    radius: float
+    reason: str
+    x: np.ndarray
+    tries: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("box", "domain", "x"):
+            object.__setattr__(self, name, _frozen(getattr(self, name)))
+
+    def contains(self, point: Sequence[float]) -> bool:
+        """Whether ``point`` (n,) lies in ``box``."""
+        q = np.asarray(point, dtype=float)
+        return bool(np.all((self.box[:, 0] <= q) & (q <= self.box[:, 1])))
+
+
+@dataclass(frozen=True)
+class CertificateSet:
+    """Certificates of several solutions of one system, and whether they are distinct.
+
+    Attributes:
+        certificates: one per solution given, in order.
+        overlaps: pairs ``(i, j)``, ``i < j``, of proven certificates whose boxes intersect:
+            possibly one zero counted twice.
+        duplicates: the overlapping pairs proven to be one zero (one box lies in the other's
+            ``domain``, where the zero is unique).
+        count: distinct real zeros proven: the connected components of the overlap graph of
+            the proven boxes (exact when every overlap is a duplicate, a lower bound else).
+        reason: one-line summary.
+    """
+
+    certificates: tuple[Certificate, ...]
+    overlaps: tuple[tuple[int, int], ...]
+    duplicates: tuple[tuple[int, int], ...]
+    count: int
+    reason: str
+
+    @property
+    def proven(self) -> bool:
+        """Every solution proven and every pair of boxes disjoint: ``count`` distinct zeros."""
+        return all(c.proven for c in self.certificates) and not self.overlaps
+
+
+@dataclass(frozen=True)
+class _Square:
+    """The replays a Krawczyk test needs for one square system."""
+
+    n: int
+    n_params: int
+    value: IntervalFunction  # (x, p) -> f, (n,)
+    jacobian_t: IntervalFunction  # (x, p) -> J^T, dense column-major = J row-major
+    numeric: Buffered  # (x, p) -> (f, J column-major) in binary64
+    identity: arb_mat
+
+
+def _build_square(f: ca.Function) -> _Square:
+    f = as_sx_function(f)
+    name = f.name()
+    if f.n_in() not in (1, 2) or f.n_out() < 1:
+        raise InputError(
+            f"{name}: a system f(x) or f(x, p) has 1 or 2 inputs and an output, got "
+            f"{f.n_in()} inputs, {f.n_out()} outputs; fix the other arguments first"
+        )
+    n = f.numel_in(0)
+    n_params = f.numel_in(1) if f.n_in() == 2 else 0
+    x = ca.SX.sym("x", n)
+    p = ca.SX.sym("p", n_params)
+    args = [ca.reshape(x, f.size_in(0))]
+    if f.n_in() == 2:
+        args.append(ca.reshape(p, f.size_in(1)))
+    g = ca.densify(ca.vec(f.call(args)[0]))
+    if g.numel() != n:
+        raise InputError(
+            f"{name}: not square: {g.numel()} rows (output 0) for {n} unknowns (input 0); "
+            f"select as many rows as unknowns"
+        )
+    J = ca.jacobian(g, x)
+    return _Square(
+        n=n,
+        n_params=n_params,
+        value=interval_function(ca.Function(f"{name}_value", [x, p], [g])),
+        jacobian_t=interval_function(ca.Function(f"{name}_jacobian", [x, p], [J.T])),
+        numeric=Buffered(ca.Function(f"{name}_newton", [x, p], [g, ca.densify(J)])),
+        identity=arb_mat(n, n, [1.0 if i == j else 0.0 for i in range(n) for j in range(n)]),
+    )
+
+
+_SQUARES = FunctionCache(_build_square)
+
+
+def _vector(value, size: int, what: str) -> np.ndarray:
+    v = np.asarray(value, dtype=float).ravel()
+    if v.size != size or not np.all(np.isfinite(v)):
+        raise InputError(
+            f"{what} must be {size} finite numbers, got shape {np.shape(value)}"
+            f"{'' if v.size != size else ' with non-finite entries'}; pass a ({size},) array"
+        )
+    return v
+
+
+def _parameters(p, size: int) -> tuple[list[arb], np.ndarray]:
+    """Parameter balls and their binary64 midpoints from (k,) exact values or (k, 2) bounds."""
+    a = np.asarray(p, dtype=float)
+    if a.ndim == 2 and a.shape == (size, 2):
+        if not np.all(np.isfinite(a)) or np.any(a[:, 0] > a[:, 1]):
+            raise InputError(
+                "parameter bounds must be finite with lo <= hi per row; pass (k, 2) [lo, hi]"
+            )
+        balls = [arb(lo).union(arb(hi)) for lo, hi in a]
+        return balls, a.mean(axis=1)
+    v = _vector(a, size, "parameters p")
+    return [arb(float(t)) for t in v], v
+
+
+def _down(a: arb) -> float:
+    """Largest binary64 <= every point of ``a`` (``-inf`` if unbounded or NaN)."""
+    if not a.is_finite():
+        return -math.inf
+    lo = a.lower()
+    f = float(lo)
+    return math.nextafter(f, -math.inf) if arb(f) > lo else f
+
+
+def _up(a: arb) -> float:
+    """Smallest binary64 >= every point of ``a`` (``inf`` if unbounded or NaN)."""
+    if not a.is_finite():
+        return math.inf
+    hi = a.upper()
+    f = float(hi)
+    return math.nextafter(f, math.inf) if arb(f) < hi else f
+
+
+def _inward(a: arb) -> tuple[float, float]:
+    """A binary64 interval inside the ball ``a``."""
+    lo, hi = a.lower(), a.upper()
+    flo, fhi = float(lo), float(hi)
+    if arb(flo) < lo:
+        flo = math.nextafter(flo, math.inf)
+    if arb(fhi) > hi:
+        fhi = math.nextafter(fhi, -math.inf)
+    return flo, fhi
+
+
+def _outward(balls: Sequence[arb]) -> np.ndarray:
+    return np.array([[_down(b), _up(b)] for b in balls])
+
+
+def _result(
+    proven: bool, box: np.ndarray, m: np.ndarray, reason: str, tries: int, domain=None
+) -> Certificate:
+    n = m.size
+    radius = float(np.max((box[:, 1] - box[:, 0]) / 2)) if n else 0.0
+    return Certificate(
+        proven=proven,
+        box=box,
+        domain=np.full((n, 2), np.nan) if domain is None else domain,
+        radius=radius if math.isfinite(radius) else math.inf,
+        reason=reason,
+        x=m,
+        tries=tries,
+    )
+
+
+def krawczyk(f: ca.Function, x: Sequence[float], p=(), *, tries: int = TRIES) -> Certificate:
+    """Prove (or fail to prove) that one zero of ``f(., p)`` lies in a small box around ``x``.
+
+    Args:
+        f: square system, a CasADi SX Function ``(x[n]) -> f[n]`` or ``(x[n], p[k]) -> f[n]``
+            (output 0; an MX Function is expanded).
+        x: (n,) approximate zero: the centre of every box tried.
+        p: (k,) parameter values, exact; or (k, 2) ``[lo, hi]`` bounds (the statement then
+            holds for every ``p`` in the box).
+        tries: boxes tried (the first from the Newton correction at ``x``, then inflated).
+
+    Returns:
+        The :class:`Certificate` (``proven`` False with a ``reason`` where the test fails: a
+        singular Jacobian at ``x``, or ``K(X)`` not inside ``X`` for every box tried).
+
+    Raises:
+        InputError: ``f`` is not a square system, or ``x``/``p`` have the wrong size.
+        IntervalError: ``f`` uses an operation without an interval counterpart.
+    """
+    sq: _Square = _SQUARES(f)
+    n = sq.n
+    m = _vector(x, n, "x")
+    P, p_mid = _parameters(p, sq.n_params)
+    nan_box = np.full((n, 2), np.nan)
+    F, J = sq.numeric(m, p_mid)
+    F, J = F.copy(), J.reshape(n, n, order="F").copy()
+    if not (np.all(np.isfinite(F)) and np.all(np.isfinite(J))):
+        return _result(False, nan_box, m, "f or its Jacobian is not finite at x", 0)
+    try:
+        Y = np.linalg.inv(J)
+        cond = float(np.linalg.norm(J, np.inf) * np.linalg.norm(Y, np.inf))
+    except np.linalg.LinAlgError:
+        cond = math.inf
+    if not cond < MAX_CONDITION:
+        return _result(
+            False,
+            nan_box,
+            m,
+            f"the Jacobian is singular at x (condition number {cond:.1e}): a multiple zero or "
+            f"a singular configuration, which Krawczyk's test cannot isolate",
+            0,
+        )
+    delta = Y @ F
+    mid = [arb(float(t)) for t in m]
+    fm = sq.value(mid, P)[0]
+    Ya = arb_mat(n, n, Y.ravel().tolist())
+    newton = arb_mat(n, 1, mid) - Ya * arb_mat(n, 1, fm)  # m - Y f(m), rounding included
+    floor = np.array([4 * _up(newton[i, 0].rad()) for i in range(n)])
+    r = np.maximum(2 * np.max(np.abs(delta)) + floor, TINY)
+    for t in range(1, tries + 1):
+        X = [arb(m[i], r[i]) for i in range(n)]
+        D = arb_mat(n, 1, [arb(0, r[i]) for i in range(n)])
+        JX = arb_mat(n, n, sq.jacobian_t(X, P)[0])
+        C = sq.identity - Ya * JX
+        K = newton + C * D
+        Kb = [K[i, 0] for i in range(n)]
+        if all(X[i].contains_interior(Kb[i]) for i in range(n)):
+            domain = np.array([_inward(b) for b in X])
+            return _result(
+                True,
+                _outward(Kb),
+                m,
+                f"K(X) lies in the interior of X (radius {float(np.max(r)):.1e}): "
+                f"exactly one zero in X",
+                t,
+                domain,
+            )
+        rho = np.array([_up(abs(Kb[i] - X[i].mid())) for i in range(n)])
+        tried = np.array([[m[i] - r[i], m[i] + r[i]] for i in range(n)])
+        if not np.all(np.isfinite(rho)):
+            reason = "f or its interval Jacobian is unbounded on X (e.g. a division by 0)"
+            return _result(False, tried, m, reason, t)
+        contraction = max(sum(_up(abs(C[i, j])) for j in range(n)) for i in range(n))
+        if contraction >= 1:
+            return _result(
+                False,
+                tried,
+                m,
+                f"I - Y J(X) does not contract (norm <= {contraction:.2g}, radius "
+                f"{float(np.max(r)):.1e}): J is singular or varies too much over X "
+                f"(a multiple zero, or x far from a zero)",
+                t,
+            )
+        if t == tries:
+            return _result(
+                False,
+                tried,
+                m,
+                f"K(X) is not inside X after {tries} boxes (last radius {float(np.max(r)):.1e}, "
+                f"|I - Y J(X)| <= {contraction:.2g}): x is not close enough to a zero; "
+                f"refine it with Newton steps",
+                t,
+            )
+        r = np.maximum(r, INFLATION * rho) + floor
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def _components(count: int, edges: Sequence[tuple[int, int]]) -> list[int]:
+    parent = list(range(count))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for i, j in edges:
+        parent[root(i)] = root(j)
+    return [root(i) for i in range(count)]
+
+
+def certify_all(
+    f: ca.Function, xs: Sequence[Sequence[float]] | np.ndarray, p=(), *, tries: int = TRIES
+) -> CertificateSet:
+    """Certify several approximate zeros of one system and check that they are distinct.
+
+    Args:
+        f: square system (see :func:`krawczyk`).
+        xs: (N, n) approximate zeros.
+        p: parameters (see :func:`krawczyk`), shared by every solution.
+        tries: boxes tried per solution.
+
+    Returns:
+        The :class:`CertificateSet`: ``proven`` when every solution is proven and every pair
+        of boxes is disjoint (then ``count == N`` distinct real zeros).
+    """
+    xs = np.asarray(xs, dtype=float)
+    if xs.ndim != 2:
+        raise InputError(f"xs must be (N, n) approximate zeros, got shape {xs.shape}")
+    certs = tuple(krawczyk(f, x, p, tries=tries) for x in xs)
+    proven = [i for i, c in enumerate(certs) if c.proven]
+    overlaps, duplicates = [], []
+    for a, i in enumerate(proven):
+        bi, di = certs[i].box, certs[i].domain
+        for j in proven[a + 1 :]:
+            bj, dj = certs[j].box, certs[j].domain
+            if np.all((bi[:, 0] <= bj[:, 1]) & (bj[:, 0] <= bi[:, 1])):
+                overlaps.append((i, j))
+                inside_j = np.all((dj[:, 0] <= bi[:, 0]) & (bi[:, 1] <= dj[:, 1]))
+                inside_i = np.all((di[:, 0] <= bj[:, 0]) & (bj[:, 1] <= di[:, 1]))
+                if inside_i or inside_j:
+                    duplicates.append((i, j))
+    roots = _components(len(certs), overlaps)
+    count = len({roots[i] for i in proven})
+    failed = [i for i, c in enumerate(certs) if not c.proven]
+    parts = [f"{len(proven)} of {len(certs)} solutions proven"]
+    if failed:
+        parts.append(f"not proven: {failed[:10]}{' ...' if len(failed) > 10 else ''}")
+    if duplicates:
+        parts.append(f"one zero counted twice: pairs {duplicates[:10]}")
+    undecided = [e for e in overlaps if e not in duplicates]
+    if undecided:
+        parts.append(f"overlapping boxes (maybe one zero): pairs {undecided[:10]}")
+    parts.append(
+        f"{count} distinct real zeros"
+        + (" (boxes pairwise disjoint)" if not overlaps else " at least")
+    )
+    return CertificateSet(
+        certificates=certs,
+        overlaps=tuple(overlaps),
+        duplicates=tuple(duplicates),
+        count=count,
+        reason="; ".join(parts),
+    )
+
+
+_CLOSURES: dict[str, ca.Function] = {}
+
+
+def closure_function(model: Model) -> ca.Function:
+    """The closure rows of ``model`` as a square system for :func:`krawczyk`.
+
+    Args:
+        model: a loaded model (``m`` unknowns, ``k`` actuated joints, ``f`` floating joints).
+
+    Returns:
+        The SX Function ``(y[m], q[k + 9 f]) -> g[m]`` of ``model.symbolic``, with the
+        parameters ``q = [theta; c]`` (actuated values, then the chart: the reference rotations
+        of the floating joints, column-major). Built once per model content.
+    """
+    key = model.content_hash
+    if key not in _CLOSURES:
+        s = model.symbolic
+        q = ca.vertcat(s.theta, s.c)
+        _CLOSURES[key] = ca.Function("closure", [s.y, q], [s.g], ["y", "q"], ["g"])
+    return _CLOSURES[key]
+
+
+def certify_solution(
+    model: Model,
+    y: Sequence[float],
+    theta: Sequence[float],
+    c: Sequence[float] | None = None,
+    *,
+    tries: int = TRIES,
+) -> Certificate:
+    """Krawczyk certificate of one solution of the closure system of ``model``.
+
+    Args:
+        model: a loaded model.
+        y: (m,) unknowns: canonical (``c`` None, e.g. ``SolveResult.y``) or local in the
+            chart ``c``.
+        theta: (k,) actuated values [rad or model length unit], exact.
+        c: (9 f,) chart of the floating joints, or None to centre one on ``y``.
+        tries: boxes tried.
+
+    Returns:
+        The certificate; its boxes are in the local chart coordinates of ``y`` (for models
+        without floating joints, the joint coordinates themselves).
+    """
+    y = _vector(y, model.m, "y")
+    theta = _vector(theta, model.k, "theta")
+    if c is None:
+        y, c = model.chart.to_local(y)
+    c = _vector(c, model.chart.size, "chart c")
+    return krawczyk(closure_function(model), y, np.concatenate([theta, c]), tries=tries)
