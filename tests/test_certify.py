@@ -73,6 +73,18 @@ def test_random_systems_with_known_roots_are_proven_around_the_root(n):
         assert np.all(c.domain[:, 0] <= r) and np.all(r <= c.domain[:, 1])
 
 
+def test_a_rough_point_gets_a_wide_uniqueness_box_and_a_tight_enclosure():
+    rng = np.random.default_rng(5)
+    f, r = _random_system(rng, 3)
+    x = r + rng.choice([-1, 1], 3) * 1e-4
+    rough = krawczyk(f, x, tighten=0)
+    tight = krawczyk(f, x)
+    assert rough.proven and tight.proven, (rough.reason, tight.reason)
+    assert tight.contains(r) and rough.contains(r)
+    assert tight.radius <= 1e-13 < 1e-9 <= rough.radius
+    assert np.all(tight.domain[:, 0] < r - 1e-4) and np.all(r + 1e-4 < tight.domain[:, 1])
+
+
 def test_a_parameter_box_is_certified_for_every_parameter_in_it():
     x, p = ca.SX.sym("x", 2), ca.SX.sym("p")
     f = ca.Function("f", [x, p], [ca.vertcat(x[0] ** 2 + x[1] ** 2 - p, x[0] - 2 * x[1])])

@@ -14,7 +14,9 @@ Function's expression graph with its binary64 constants.
 The box is chosen adaptively: its radius starts at twice the Newton correction ``|Y f(m)|``
 at the given point (plus the rounding floor of the interval Newton point), and where
 ``K(X)`` is not inside ``X`` the next box is ``K(X)`` inflated by half its radius around
-``m`` (epsilon-inflation), for a few tries.
+``m`` (epsilon-inflation), for a few tries. A proven enclosure wider than a few ulps (from
+a rough ``x``) is shrunk by Krawczyk steps centred on its midpoint (the zero stays in
+``K(X) & X``); the uniqueness box stays the first ``X``.
 
 :func:`certify_all` certifies a list of solutions and checks that their boxes are pairwise
 disjoint: each proven box then holds a different zero. :func:`closure_function` and
@@ -49,6 +51,9 @@ INFLATION = 1.5
 MAX_CONDITION = 1e14
 #: Smallest box radius tried (absolute).
 TINY = 1e-300
+#: Krawczyk steps that shrink a proven enclosure (see :func:`krawczyk`).
+TIGHTEN = 3
+EPS = float(np.finfo(float).eps)
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -65,8 +70,8 @@ class Certificate:
         proven: ``K(X)`` lies in the interior of ``X``: ``domain`` holds exactly one zero of
             ``f(., p)`` (for every ``p`` in the parameter box), and it lies in ``box``.
         box: (n, 2) ``[lo, hi]`` per unknown, rounded outward to binary64: the enclosure
-            ``K(X)`` of the zero when proven; the last box ``X`` tried otherwise (NaN when
-            none was built).
+            ``K(X)`` of the zero (tightened) when proven; the last box ``X`` tried otherwise
+            (NaN when none was built).
         domain: (n, 2) the box ``X`` rounded inward: no other zero lies in it (NaN when not
             proven).
         radius: largest half-width of ``box`` (in the units of ``x``; inf when unbounded).
@@ -240,7 +245,68 @@ def _result(
     )
 
 
-def krawczyk(f: ca.Function, x: Sequence[float], p=(), *, tries: int = TRIES) -> Certificate:
+def _inverse(sq: _Square, m: np.ndarray, p_mid: np.ndarray) -> tuple[np.ndarray | None, str]:
+    """``Y ~ J(m)^-1`` in binary64, or None and the reason."""
+    n = sq.n
+    F, J = sq.numeric(m, p_mid)
+    J = J.reshape(n, n, order="F")
+    if not (np.all(np.isfinite(F)) and np.all(np.isfinite(J))):
+        return None, "f or its Jacobian is not finite at x"
+    try:
+        Y = np.linalg.inv(J)
+        cond = float(np.linalg.norm(J, np.inf) * np.linalg.norm(Y, np.inf))
+    except np.linalg.LinAlgError:
+        Y, cond = None, math.inf
+    if not cond < MAX_CONDITION:
+        return None, (
+            f"the Jacobian is singular at x (condition number {cond:.1e}): a multiple zero or "
+            f"a singular configuration, which Krawczyk's test cannot isolate"
+        )
+    return Y, ""
+
+
+def _newton_point(sq: _Square, m: np.ndarray, P: list[arb], Y: np.ndarray) -> tuple:
+    """``(mid, Y, m - Y f(m))`` as balls: the point, ``Y`` exactly, the interval Newton point."""
+    n = sq.n
+    mid = [arb(float(t)) for t in m]
+    Ya = arb_mat(n, n, Y.ravel().tolist())
+    return mid, Ya, arb_mat(n, 1, mid) - Ya * arb_mat(n, 1, sq.value(mid, P)[0])
+
+
+def _operator(sq: _Square, X: list[arb], mid: list[arb], P: list[arb], Ya, newton) -> tuple:
+    """``K(X) = m - Y f(m) + (I - Y J(X)) (X - m)`` as balls, and ``I - Y J(X)``."""
+    n = sq.n
+    C = sq.identity - Ya * arb_mat(n, n, sq.jacobian_t(X, P)[0])
+    K = newton + C * arb_mat(n, 1, [X[i] - mid[i] for i in range(n)])
+    return [K[i, 0] for i in range(n)], C
+
+
+def _tighten(sq: _Square, K: list[arb], P: list[arb], p_mid: np.ndarray, steps: int) -> list:
+    """Shrink an enclosure of the zero by Krawczyk steps centred on its midpoint."""
+    n = sq.n
+    for _ in range(steps):
+        m = np.array([float(b.mid()) for b in K])
+        width = max(_up(b.rad()) for b in K)
+        if width <= 64 * EPS * (1 + float(np.max(np.abs(m)))):
+            break
+        Y, _ = _inverse(sq, m, p_mid)
+        if Y is None:
+            break
+        mid, Ya, newton = _newton_point(sq, m, P, Y)
+        K2, _ = _operator(sq, K, mid, P, Ya, newton)
+        try:  # the zero lies in K and in K2
+            K2 = [K2[i].intersection(K[i]) for i in range(n)]
+        except ValueError:
+            break
+        if not max(_up(b.rad()) for b in K2) < width:
+            break
+        K = K2
+    return K
+
+
+def krawczyk(
+    f: ca.Function, x: Sequence[float], p=(), *, tries: int = TRIES, tighten: int = TIGHTEN
+) -> Certificate:
     """Prove (or fail to prove) that one zero of ``f(., p)`` lies in a small box around ``x``.
 
     Args:
@@ -250,6 +316,8 @@ def krawczyk(f: ca.Function, x: Sequence[float], p=(), *, tries: int = TRIES) ->
         p: (k,) parameter values, exact; or (k, 2) ``[lo, hi]`` bounds (the statement then
             holds for every ``p`` in the box).
         tries: boxes tried (the first from the Newton correction at ``x``, then inflated).
+        tighten: Krawczyk steps that shrink a proven enclosure wider than a few ulps (from a
+            rough ``x``), each centred on the previous enclosure.
 
     Returns:
         The :class:`Certificate` (``proven`` False with a ``reason`` where the test fails: a
@@ -259,56 +327,35 @@ def krawczyk(f: ca.Function, x: Sequence[float], p=(), *, tries: int = TRIES) ->
         InputError: ``f`` is not a square system, or ``x``/``p`` have the wrong size.
         IntervalError: ``f`` uses an operation without an interval counterpart.
     """
+    if tries < 1 or tighten < 0:
+        raise InputError(f"tries >= 1 and tighten >= 0 required, got {tries}, {tighten}")
     sq: _Square = _SQUARES(f)
     n = sq.n
     m = _vector(x, n, "x")
     P, p_mid = _parameters(p, sq.n_params)
-    nan_box = np.full((n, 2), np.nan)
-    F, J = sq.numeric(m, p_mid)
-    F, J = F.copy(), J.reshape(n, n, order="F").copy()
-    if not (np.all(np.isfinite(F)) and np.all(np.isfinite(J))):
-        return _result(False, nan_box, m, "f or its Jacobian is not finite at x", 0)
-    try:
-        Y = np.linalg.inv(J)
-        cond = float(np.linalg.norm(J, np.inf) * np.linalg.norm(Y, np.inf))
-    except np.linalg.LinAlgError:
-        cond = math.inf
-    if not cond < MAX_CONDITION:
-        return _result(
-            False,
-            nan_box,
-            m,
-            f"the Jacobian is singular at x (condition number {cond:.1e}): a multiple zero or "
-            f"a singular configuration, which Krawczyk's test cannot isolate",
-            0,
-        )
-    delta = Y @ F
-    mid = [arb(float(t)) for t in m]
-    fm = sq.value(mid, P)[0]
-    Ya = arb_mat(n, n, Y.ravel().tolist())
-    newton = arb_mat(n, 1, mid) - Ya * arb_mat(n, 1, fm)  # m - Y f(m), rounding included
+    Y, why = _inverse(sq, m, p_mid)
+    if Y is None:
+        return _result(False, np.full((n, 2), np.nan), m, why, 0)
+    mid, Ya, newton = _newton_point(sq, m, P, Y)
+    delta = np.array([float(newton[i, 0].mid()) for i in range(n)]) - m
     floor = np.array([4 * _up(newton[i, 0].rad()) for i in range(n)])
     r = np.maximum(2 * np.max(np.abs(delta)) + floor, TINY)
     for t in range(1, tries + 1):
         X = [arb(m[i], r[i]) for i in range(n)]
-        D = arb_mat(n, 1, [arb(0, r[i]) for i in range(n)])
-        JX = arb_mat(n, n, sq.jacobian_t(X, P)[0])
-        C = sq.identity - Ya * JX
-        K = newton + C * D
-        Kb = [K[i, 0] for i in range(n)]
-        if all(X[i].contains_interior(Kb[i]) for i in range(n)):
-            domain = np.array([_inward(b) for b in X])
+        K, C = _operator(sq, X, mid, P, Ya, newton)
+        tried = np.array([[m[i] - r[i], m[i] + r[i]] for i in range(n)])
+        if all(X[i].contains_interior(K[i]) for i in range(n)):
+            K = _tighten(sq, K, P, p_mid, tighten)
             return _result(
                 True,
-                _outward(Kb),
+                _outward(K),
                 m,
                 f"K(X) lies in the interior of X (radius {float(np.max(r)):.1e}): "
                 f"exactly one zero in X",
                 t,
-                domain,
+                np.array([_inward(b) for b in X]),
             )
-        rho = np.array([_up(abs(Kb[i] - X[i].mid())) for i in range(n)])
-        tried = np.array([[m[i] - r[i], m[i] + r[i]] for i in range(n)])
+        rho = np.array([_up(abs(K[i] - mid[i])) for i in range(n)])
         if not np.all(np.isfinite(rho)):
             reason = "f or its interval Jacobian is unbounded on X (e.g. a division by 0)"
             return _result(False, tried, m, reason, t)
@@ -352,7 +399,12 @@ def _components(count: int, edges: Sequence[tuple[int, int]]) -> list[int]:
 
 
 def certify_all(
-    f: ca.Function, xs: Sequence[Sequence[float]] | np.ndarray, p=(), *, tries: int = TRIES
+    f: ca.Function,
+    xs: Sequence[Sequence[float]] | np.ndarray,
+    p=(),
+    *,
+    tries: int = TRIES,
+    tighten: int = TIGHTEN,
 ) -> CertificateSet:
     """Certify several approximate zeros of one system and check that they are distinct.
 
@@ -361,6 +413,7 @@ def certify_all(
         xs: (N, n) approximate zeros.
         p: parameters (see :func:`krawczyk`), shared by every solution.
         tries: boxes tried per solution.
+        tighten: Krawczyk steps that shrink each proven enclosure.
 
     Returns:
         The :class:`CertificateSet`: ``proven`` when every solution is proven and every pair
@@ -369,7 +422,7 @@ def certify_all(
     xs = np.asarray(xs, dtype=float)
     if xs.ndim != 2:
         raise InputError(f"xs must be (N, n) approximate zeros, got shape {xs.shape}")
-    certs = tuple(krawczyk(f, x, p, tries=tries) for x in xs)
+    certs = tuple(krawczyk(f, x, p, tries=tries, tighten=tighten) for x in xs)
     proven = [i for i, c in enumerate(certs) if c.proven]
     overlaps, duplicates = [], []
     for a, i in enumerate(proven):
