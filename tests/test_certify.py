@@ -19,6 +19,7 @@ from flint import arb
 import scdk_sym as sc
 from scdk_sym.algebraic import (
     certify_all,
+    certify_configurations,
     certify_solution,
     closure_function,
     interval_function,
@@ -277,3 +278,14 @@ def test_wrong_inputs_are_refused():
     g = ca.Function("g", [x], [x])
     with pytest.raises(InputError, match="x must be 2"):
         krawczyk(g, [0.0])
+
+
+def test_the_assembly_modes_of_the_hexapod_are_proven_distinct_in_one_chart():
+    model = shipped("stewart_gough")
+    theta = model.home.theta
+    ys = [cfg.y for cfg in sc.assembly_modes(model, theta)]
+    s = certify_configurations(model, ys, theta)
+    assert s.proven and s.count == len(ys) >= 2, s.reason
+    again = certify_configurations(model, [*ys, ys[1] + 1e-10], theta)
+    assert not again.proven and again.count == len(ys)
+    assert again.duplicates == ((1, len(ys)),), again.reason

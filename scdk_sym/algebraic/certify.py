@@ -38,6 +38,7 @@ from flint import arb, arb_mat
 
 from ..errors import InputError
 from ..kernels.fastcall import Buffered
+from ..model.chart import rot_exp
 from .interval import FunctionCache, IntervalFunction, as_sx_function, interval_function
 
 if TYPE_CHECKING:
@@ -446,10 +447,10 @@ def certify_all(
     undecided = [e for e in overlaps if e not in duplicates]
     if undecided:
         parts.append(f"overlapping boxes (maybe one zero): pairs {undecided[:10]}")
-    parts.append(
-        f"{count} distinct real zeros"
-        + (" (boxes pairwise disjoint)" if not overlaps else " at least")
-    )
+    if not overlaps:
+        parts.append(f"{count} distinct real zeros (boxes pairwise disjoint)")
+    else:
+        parts.append(f"{count} distinct real zeros{' at least' if undecided else ''}")
     return CertificateSet(
         certificates=certs,
         overlaps=tuple(overlaps),
@@ -509,3 +510,54 @@ def certify_solution(
         y, c = model.chart.to_local(y)
     c = _vector(c, model.chart.size, "chart c")
     return krawczyk(closure_function(model), y, np.concatenate([theta, c]), tries=tries)
+
+
+def _gibbs(R: np.ndarray) -> np.ndarray:
+    """Rodrigues (Gibbs) parameters ``tan(angle / 2) axis`` of a rotation (inverse Cayley)."""
+    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    return w / (1.0 + float(np.trace(R)))
+
+
+def certify_configurations(
+    model: Model,
+    ys: Sequence[Sequence[float]] | np.ndarray,
+    theta: Sequence[float],
+    c: Sequence[float] | None = None,
+    *,
+    tries: int = TRIES,
+    tighten: int = TIGHTEN,
+) -> CertificateSet:
+    """Certify several solutions of the closure system of ``model`` at one ``theta``.
+
+    Every solution is expressed in one chart (so that their boxes are comparable): the
+    rotation of each floating joint in Rodrigues parameters relative to the chart ``c``.
+
+    Args:
+        model: a loaded model.
+        ys: (N, m) canonical unknowns (e.g. ``[cfg.y for cfg in sc.assembly_modes(...)]``).
+        theta: (k,) actuated values, exact.
+        c: (9 f,) common chart; None: the chart centred on ``ys[0]``. No solution may be
+            turned by a half turn relative to it.
+        tries: boxes tried per solution.
+        tighten: Krawczyk steps that shrink each proven enclosure.
+
+    Returns:
+        The :class:`CertificateSet` (boxes in the local coordinates of the common chart).
+    """
+    ys = np.asarray(ys, dtype=float)
+    if ys.ndim != 2 or ys.shape[1] != model.m or not np.all(np.isfinite(ys)):
+        raise InputError(
+            f"ys must be (N, {model.m}) finite canonical unknowns, got shape {ys.shape}; "
+            f"pass one row per configuration"
+        )
+    theta = _vector(theta, model.k, "theta")
+    if c is None:
+        c = model.chart.to_local(ys[0])[1] if len(ys) else np.zeros(model.chart.size)
+    c = _vector(c, model.chart.size, "chart c")
+    local = ys.copy()
+    for i, idx in enumerate(model.chart.rotations):
+        ref = c[9 * i : 9 * i + 9].reshape(3, 3, order="F")
+        for row in local:
+            row[list(idx)] = _gibbs(ref.T @ rot_exp(row[list(idx)]))
+    q = np.concatenate([theta, c])
+    return certify_all(closure_function(model), local, q, tries=tries, tighten=tighten)
