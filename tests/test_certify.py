@@ -228,6 +228,7 @@ _OPS = {
     "fmax": (ca.fmax, max),
     "hypot": (ca.hypot, math.hypot),
     "pow": (lambda a, b: ca.fabs(a) ** b, lambda a, b: abs(a) ** b),
+    "integer pow": (lambda a, b: a ** ca.floor(b), lambda a, b: a ** math.floor(b)),
     "neg": (lambda a, b: -a, lambda a, b: -a),
     "sq": (lambda a, b: _sq(a), lambda a, b: a * a),
     "cube": (lambda a, b: a**3, lambda a, b: a**3),

@@ -215,15 +215,9 @@ def _up(a: arb) -> float:
     return math.nextafter(f, math.inf) if arb(f) < hi else f
 
 
-def _inward(a: arb) -> tuple[float, float]:
-    """A binary64 interval inside the ball ``a``."""
-    lo, hi = a.lower(), a.upper()
-    flo, fhi = float(lo), float(hi)
-    if arb(flo) < lo:
-        flo = math.nextafter(flo, math.inf)
-    if arb(fhi) > hi:
-        fhi = math.nextafter(fhi, -math.inf)
-    return flo, fhi
+def _inward(m: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """(n, 2) binary64 bounds inside ``[m - r, m + r]`` (one ulp in from the nearest)."""
+    return np.stack([np.nextafter(m - r, np.inf), np.nextafter(m + r, -np.inf)], axis=1)
 
 
 def _outward(balls: Sequence[arb]) -> np.ndarray:
@@ -354,7 +348,7 @@ def krawczyk(
                 f"K(X) lies in the interior of X (radius {float(np.max(r)):.1e}): "
                 f"exactly one zero in X",
                 t,
-                np.array([_inward(b) for b in X]),
+                _inward(m, r),  # inside X = arb(m, r), whose radius Arb rounds up
             )
         rho = np.array([_up(abs(K[i] - mid[i])) for i in range(n)])
         if not np.all(np.isfinite(rho)):
