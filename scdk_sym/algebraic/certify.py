@@ -16,13 +16,14 @@ at the given point (plus the rounding floor of the interval Newton point), and w
 ``K(X)`` is not inside ``X`` the next box is ``K(X)`` inflated by half its radius around
 ``m`` (epsilon-inflation), for a few tries. A proven enclosure wider than a few ulps (from
 a rough ``x``) is shrunk by Krawczyk steps centred on its midpoint (the zero stays in
-``K(X) & X``); the uniqueness box stays the first ``X``.
+``K(X) & X``); the uniqueness box stays the ``X`` that was proven.
 
 :func:`certify_all` certifies a list of solutions and checks that their boxes are pairwise
 disjoint: each proven box then holds a different zero. :func:`closure_function` and
 :func:`certify_solution` apply the test to the closure system ``g(y, theta) = 0`` of a loaded
 model (unknowns ``y`` in the local chart of the floating joints; ``theta`` and the chart as
-exact parameters).
+exact parameters); :func:`certify_configurations` certifies several solutions of a model in
+one common chart.
 """
 
 from __future__ import annotations
@@ -144,7 +145,7 @@ def _build_square(f: ca.Function) -> _Square:
     if f.n_in() not in (1, 2) or f.n_out() < 1:
         raise InputError(
             f"{name}: a system f(x) or f(x, p) has 1 or 2 inputs and an output, got "
-            f"{f.n_in()} inputs, {f.n_out()} outputs; fix the other arguments first"
+            f"{f.n_in()} inputs, {f.n_out()} outputs; wrap it as casadi.Function([x, p], [f])"
         )
     n = f.numel_in(0)
     n_params = f.numel_in(1) if f.n_in() == 2 else 0
@@ -288,6 +289,8 @@ def _tighten(sq: _Square, K: list[arb], P: list[arb], p_mid: np.ndarray, steps: 
         if Y is None:
             break
         mid, Ya, newton = _newton_point(sq, m, P, Y)
+        if not all(K[i].contains(mid[i]) for i in range(n)):  # the mean value form needs m in K
+            break
         K2, _ = _operator(sq, K, mid, P, Ya, newton)
         try:  # the zero lies in K and in K2
             K2 = [K2[i].intersection(K[i]) for i in range(n)]
