@@ -290,3 +290,16 @@ def test_the_assembly_modes_of_the_hexapod_are_proven_distinct_in_one_chart():
     again = certify_configurations(model, [*ys, ys[1] + 1e-10], theta)
     assert not again.proven and again.count == len(ys)
     assert again.duplicates == ((1, len(ys)),), again.reason
+
+
+def test_an_mx_function_is_expanded_and_inputs_are_checked():
+    x = ca.MX.sym("x", 2)
+    f = ca.Function("f", [x], [ca.vertcat(ca.sin(x[0]) * x[1], x[0] - x[1] ** 2)])
+    replay = interval_function(f)
+    assert replay.function.is_a("SXFunction")
+    got = replay(balls([0.5, -1.5]))[0]
+    want = np.array(f([0.5, -1.5])).ravel()
+    assert all((g + arb(0, 4 * EPS)).contains(arb(w)) for g, w in zip(got, want, strict=True))
+    assert interval_function(f) is replay  # translated once
+    with pytest.raises(InputError, match="has 2 entries"):
+        replay(balls([0.5]))

@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
-from flint import arb, arb_mat
+from flint import arb, arb_mat, ctx
 
 from ..errors import InputError
 from ..kernels.fastcall import Buffered
@@ -222,6 +222,13 @@ def _inward(m: np.ndarray, r: np.ndarray) -> np.ndarray:
 
 
 def _outward(balls: Sequence[arb]) -> np.ndarray:
+    """(n, 2) binary64 bounds around the balls."""
+    if ctx.prec <= 53 and all(b.is_finite() for b in balls):
+        # midpoints (<= 53 bits) and radii (30 bits) are binary64 numbers: one rounding of
+        # mid -/+ rad, undone by one step outward
+        mid = np.array([float(b.mid()) for b in balls])
+        rad = np.array([float(b.rad()) for b in balls])
+        return np.stack([np.nextafter(mid - rad, -np.inf), np.nextafter(mid + rad, np.inf)], 1)
     return np.array([[_down(b), _up(b)] for b in balls])
 
 
@@ -250,7 +257,7 @@ def _inverse(sq: _Square, m: np.ndarray, p_mid: np.ndarray) -> tuple[np.ndarray 
         return None, "f or its Jacobian is not finite at x"
     try:
         Y = np.linalg.inv(J)
-        cond = float(np.linalg.norm(J, np.inf) * np.linalg.norm(Y, np.inf))
+        cond = float(np.abs(J).sum(axis=1).max() * np.abs(Y).sum(axis=1).max())  # infinity norm
     except np.linalg.LinAlgError:
         Y, cond = None, math.inf
     if not cond < MAX_CONDITION:
@@ -282,7 +289,7 @@ def _tighten(sq: _Square, K: list[arb], P: list[arb], p_mid: np.ndarray, steps: 
     n = sq.n
     for _ in range(steps):
         m = np.array([float(b.mid()) for b in K])
-        width = max(_up(b.rad()) for b in K)
+        width = max(float(b.rad()) for b in K)  # radii are exact in binary64
         if width <= 64 * EPS * (1 + float(np.max(np.abs(m)))):
             break
         Y, _ = _inverse(sq, m, p_mid)
@@ -296,7 +303,7 @@ def _tighten(sq: _Square, K: list[arb], P: list[arb], p_mid: np.ndarray, steps: 
             K2 = [K2[i].intersection(K[i]) for i in range(n)]
         except ValueError:
             break
-        if not max(_up(b.rad()) for b in K2) < width:
+        if not max(float(b.rad()) for b in K2) < width:
             break
         K = K2
     return K
@@ -335,8 +342,9 @@ def krawczyk(
     if Y is None:
         return _result(False, np.full((n, 2), np.nan), m, why, 0)
     mid, Ya, newton = _newton_point(sq, m, P, Y)
-    delta = np.array([float(newton[i, 0].mid()) for i in range(n)]) - m
-    floor = np.array([4 * _up(newton[i, 0].rad()) for i in range(n)])
+    centre = [newton[i, 0] for i in range(n)]
+    delta = np.array([float(b.mid()) for b in centre]) - m
+    floor = 4 * np.array([float(b.rad()) for b in centre])  # radii are exact in binary64
     r = np.maximum(2 * np.max(np.abs(delta)) + floor, TINY)
     for t in range(1, tries + 1):
         X = [arb(m[i], r[i]) for i in range(n)]
