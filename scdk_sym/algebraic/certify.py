@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING
 import casadi as ca
 import numpy as np
 from flint import arb, arb_mat, ctx
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from ..kernels.fastcall import Buffered
@@ -94,7 +95,7 @@ class Certificate:
         for name in ("box", "domain", "x"):
             object.__setattr__(self, name, _frozen(getattr(self, name)))
 
-    def contains(self, point: Sequence[float]) -> bool:
+    def contains(self, point: ArrayLike) -> bool:
         """Whether ``point`` (n,) lies in ``box``."""
         q = np.asarray(point, dtype=float)
         return bool(np.all((self.box[:, 0] <= q) & (q <= self.box[:, 1])))
@@ -174,7 +175,7 @@ def _build_square(f: ca.Function) -> _Square:
 _SQUARES = FunctionCache(_build_square)
 
 
-def _vector(value, size: int, what: str) -> np.ndarray:
+def _vector(value: ArrayLike, size: int, what: str) -> np.ndarray:
     v = np.asarray(value, dtype=float).ravel()
     if v.size != size or not np.all(np.isfinite(v)):
         raise InputError(
@@ -184,7 +185,7 @@ def _vector(value, size: int, what: str) -> np.ndarray:
     return v
 
 
-def _parameters(p, size: int) -> tuple[list[arb], np.ndarray]:
+def _parameters(p: ArrayLike, size: int) -> tuple[list[arb], np.ndarray]:
     """Parameter balls and their binary64 midpoints from (k,) exact values or (k, 2) bounds."""
     a = np.asarray(p, dtype=float)
     if a.ndim == 2 and a.shape == (size, 2):
@@ -233,7 +234,12 @@ def _outward(balls: Sequence[arb]) -> np.ndarray:
 
 
 def _result(
-    proven: bool, box: np.ndarray, m: np.ndarray, reason: str, tries: int, domain=None
+    proven: bool,
+    box: np.ndarray,
+    m: np.ndarray,
+    reason: str,
+    tries: int,
+    domain: np.ndarray | None = None,
 ) -> Certificate:
     n = m.size
     radius = float(np.max((box[:, 1] - box[:, 0]) / 2)) if n else 0.0
@@ -268,7 +274,9 @@ def _inverse(sq: _Square, m: np.ndarray, p_mid: np.ndarray) -> tuple[np.ndarray 
     return Y, ""
 
 
-def _newton_point(sq: _Square, m: np.ndarray, P: list[arb], Y: np.ndarray) -> tuple:
+def _newton_point(
+    sq: _Square, m: np.ndarray, P: list[arb], Y: np.ndarray
+) -> tuple[list[arb], arb_mat, arb_mat]:
     """``(mid, Y, m - Y f(m))`` as balls: the point, ``Y`` exactly, the interval Newton point."""
     n = sq.n
     mid = [arb(float(t)) for t in m]
@@ -276,7 +284,9 @@ def _newton_point(sq: _Square, m: np.ndarray, P: list[arb], Y: np.ndarray) -> tu
     return mid, Ya, arb_mat(n, 1, mid) - Ya * arb_mat(n, 1, sq.value(mid, P)[0])
 
 
-def _operator(sq: _Square, X: list[arb], mid: list[arb], P: list[arb], Ya, newton) -> tuple:
+def _operator(
+    sq: _Square, X: list[arb], mid: list[arb], P: list[arb], Ya: arb_mat, newton: arb_mat
+) -> tuple[list[arb], arb_mat]:
     """``K(X) = m - Y f(m) + (I - Y J(X)) (X - m)`` as balls, and ``I - Y J(X)``."""
     n = sq.n
     C = sq.identity - Ya * arb_mat(n, n, sq.jacobian_t(X, P)[0])
@@ -310,7 +320,12 @@ def _tighten(sq: _Square, K: list[arb], P: list[arb], p_mid: np.ndarray, steps: 
 
 
 def krawczyk(
-    f: ca.Function, x: Sequence[float], p=(), *, tries: int = TRIES, tighten: int = TIGHTEN
+    f: ca.Function,
+    x: ArrayLike,
+    p: ArrayLike = (),
+    *,
+    tries: int = TRIES,
+    tighten: int = TIGHTEN,
 ) -> Certificate:
     """Prove (or fail to prove) that one zero of ``f(., p)`` lies in a small box around ``x``.
 
@@ -406,8 +421,8 @@ def _components(count: int, edges: Sequence[tuple[int, int]]) -> list[int]:
 
 def certify_all(
     f: ca.Function,
-    xs: Sequence[Sequence[float]] | np.ndarray,
-    p=(),
+    xs: ArrayLike,
+    p: ArrayLike = (),
     *,
     tries: int = TRIES,
     tighten: int = TIGHTEN,
@@ -489,9 +504,9 @@ def closure_function(model: Model) -> ca.Function:
 
 def certify_solution(
     model: Model,
-    y: Sequence[float],
-    theta: Sequence[float],
-    c: Sequence[float] | None = None,
+    y: ArrayLike,
+    theta: ArrayLike,
+    c: ArrayLike | None = None,
     *,
     tries: int = TRIES,
 ) -> Certificate:
@@ -525,9 +540,9 @@ def _gibbs(R: np.ndarray) -> np.ndarray:
 
 def certify_configurations(
     model: Model,
-    ys: Sequence[Sequence[float]] | np.ndarray,
-    theta: Sequence[float],
-    c: Sequence[float] | None = None,
+    ys: ArrayLike,
+    theta: ArrayLike,
+    c: ArrayLike | None = None,
     *,
     tries: int = TRIES,
     tighten: int = TIGHTEN,
