@@ -14,7 +14,7 @@ import casadi as ca
 import numpy as np
 import pytest
 from factories import MODELS, SEED_THETA0, SEED_X1, shipped
-from flint import arb
+from flint import arb, ctx
 
 import scdk_sym as sc
 from scdk_sym.algebraic import (
@@ -303,3 +303,17 @@ def test_an_mx_function_is_expanded_and_inputs_are_checked():
     assert interval_function(f) is replay  # translated once
     with pytest.raises(InputError, match="has 2 entries"):
         replay(balls([0.5]))
+
+
+@pytest.mark.parametrize("prec", [30, 120])
+def test_certificates_hold_at_other_arb_precisions(prec):
+    rng = np.random.default_rng(9)
+    f, r = _random_system(rng, 3)
+    old = ctx.prec
+    try:
+        ctx.prec = prec
+        c = krawczyk(f, r + 1e-9)
+    finally:
+        ctx.prec = old
+    assert c.proven and c.contains(r), c.reason
+    assert c.radius <= (1e-6 if prec < 53 else 1e-14)
