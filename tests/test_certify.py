@@ -279,6 +279,9 @@ def test_wrong_inputs_are_refused():
     g = ca.Function("g", [x], [x])
     with pytest.raises(InputError, match="x must be 2"):
         krawczyk(g, [0.0])
+    assert krawczyk(g, np.array([0.0, 0.0], dtype=complex)).proven  # real values, complex dtype
+    with pytest.raises(InputError, match="imaginary"):
+        krawczyk(g, [1j, 0.0])
 
 
 def test_the_assembly_modes_of_the_hexapod_are_proven_distinct_in_one_chart():

@@ -175,8 +175,21 @@ def _build_square(f: ca.Function) -> _Square:
 _SQUARES = FunctionCache(_build_square)
 
 
+def _real(value: ArrayLike, what: str) -> np.ndarray:
+    """``value`` as a float array; complex input only with zero imaginary parts."""
+    a = np.asarray(value)
+    if np.iscomplexobj(a):
+        if np.any(a.imag != 0):
+            raise InputError(
+                f"{what} has nonzero imaginary parts (max {np.max(np.abs(a.imag)):.1e}); "
+                f"certificates are for real zeros: pass the real part of a real solution"
+            )
+        a = a.real
+    return np.asarray(a, dtype=float)
+
+
 def _vector(value: ArrayLike, size: int, what: str) -> np.ndarray:
-    v = np.asarray(value, dtype=float).ravel()
+    v = _real(value, what).ravel()
     if v.size != size or not np.all(np.isfinite(v)):
         raise InputError(
             f"{what} must be {size} finite numbers, got shape {np.shape(value)}"
@@ -187,7 +200,7 @@ def _vector(value: ArrayLike, size: int, what: str) -> np.ndarray:
 
 def _parameters(p: ArrayLike, size: int) -> tuple[list[arb], np.ndarray]:
     """Parameter balls and their binary64 midpoints from (k,) exact values or (k, 2) bounds."""
-    a = np.asarray(p, dtype=float)
+    a = _real(p, "parameters p")
     if a.ndim == 2 and a.shape == (size, 2):
         if not np.all(np.isfinite(a)) or np.any(a[:, 0] > a[:, 1]):
             raise InputError(
@@ -440,7 +453,7 @@ def certify_all(
         The :class:`CertificateSet`: ``proven`` when every solution is proven and every pair
         of boxes is disjoint (then ``count == N`` distinct real zeros).
     """
-    xs = np.asarray(xs, dtype=float)
+    xs = _real(xs, "xs")
     if xs.ndim != 2:
         raise InputError(f"xs must be (N, n) approximate zeros, got shape {xs.shape}")
     certs = tuple(krawczyk(f, x, p, tries=tries, tighten=tighten) for x in xs)
@@ -564,7 +577,7 @@ def certify_configurations(
     Returns:
         The :class:`CertificateSet` (boxes in the local coordinates of the common chart).
     """
-    ys = np.asarray(ys, dtype=float)
+    ys = _real(ys, "ys")
     if ys.ndim != 2 or ys.shape[1] != model.m or not np.all(np.isfinite(ys)):
         raise InputError(
             f"ys must be (N, {model.m}) finite canonical unknowns, got shape {ys.shape}; "
