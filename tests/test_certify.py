@@ -182,8 +182,8 @@ def test_two_nearby_roots_get_disjoint_boxes():
     xs = [[a, math.sin(a)], [b, math.sin(b)]]
     s = certify_all(f, xs)
     assert s.proven and s.count == 2 and not s.overlaps, s.reason
-    ca_, cb = s.certificates
-    assert ca_.box[0, 1] < cb.box[0, 0]
+    first, second = s.certificates
+    assert first.box[0, 1] < second.box[0, 0]
     twice = certify_all(f, [xs[0], xs[1], np.add(xs[0], 1e-12)])
     assert not twice.proven and twice.count == 2 and twice.duplicates == ((0, 2),), twice.reason
     assert "counted twice" in twice.reason
