@@ -54,8 +54,8 @@ INFLATION = 1.5
 MAX_CONDITION = 1e14
 #: Smallest box radius tried (absolute).
 TINY = 1e-300
-#: Krawczyk steps that shrink a proven enclosure (see :func:`krawczyk`).
-TIGHTEN = 3
+#: Most Krawczyk steps that shrink a proven enclosure (see :func:`krawczyk`).
+TIGHTEN = 8
 EPS = float(np.finfo(float).eps)
 
 
@@ -349,8 +349,9 @@ def krawczyk(
         p: (k,) parameter values, exact; or (k, 2) ``[lo, hi]`` bounds (the statement then
             holds for every ``p`` in the box).
         tries: boxes tried (the first from the Newton correction at ``x``, then inflated).
-        tighten: Krawczyk steps that shrink a proven enclosure wider than a few ulps (from a
-            rough ``x``), each centred on the previous enclosure.
+        tighten: at most this many Krawczyk steps shrink a proven enclosure wider than a few
+            ulps (from a rough ``x``), each centred on the previous enclosure; they stop when
+            the enclosure stops shrinking.
 
     Returns:
         The :class:`Certificate` (``proven`` False with a ``reason`` where the test fails: a
