@@ -293,6 +293,10 @@ def test_the_assembly_modes_of_the_hexapod_are_proven_distinct_in_one_chart():
     again = certify_configurations(model, [*ys, ys[1] + 1e-10], theta)
     assert not again.proven and again.count == len(ys)
     assert again.duplicates == ((1, len(ys)),), again.reason
+    half_turn = np.array(ys[0])
+    half_turn[list(model.chart.rotations[0])] = [math.pi, 0.0, 0.0]  # about x, from identity
+    with pytest.raises(InputError, match="half turn"):
+        certify_configurations(model, [half_turn], theta, np.eye(3).ravel())
 
 
 def test_an_mx_function_is_expanded_and_inputs_are_checked():

@@ -549,7 +549,8 @@ def certify_solution(
 def _gibbs(R: np.ndarray) -> np.ndarray:
     """Rodrigues (Gibbs) parameters ``tan(angle / 2) axis`` of a rotation (inverse Cayley)."""
     w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    return w / (1.0 + float(np.trace(R)))
+    with np.errstate(divide="ignore", invalid="ignore"):  # a half turn: inf, refused later
+        return w / (1.0 + float(np.trace(R)))
 
 
 def certify_configurations(
@@ -593,5 +594,11 @@ def certify_configurations(
         ref = c[9 * i : 9 * i + 9].reshape(3, 3, order="F")
         for row in local:
             row[list(idx)] = _gibbs(ref.T @ rot_exp(row[list(idx)]))
+    far = np.flatnonzero(~np.all(np.abs(local) < 1e8, axis=1))
+    if far.size:
+        raise InputError(
+            f"configurations {far.tolist()} are turned by about a half turn from the chart; "
+            f"pass a chart c nearer to them (e.g. certify them in separate sets)"
+        )
     q = np.concatenate([theta, c])
     return certify_all(closure_function(model), local, q, tries=tries, tighten=tighten)
