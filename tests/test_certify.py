@@ -246,6 +246,10 @@ _OPS = {
     "asin": (lambda a, b: ca.asin(a / 4), lambda a, b: math.asin(a / 4)),
     "tanh": (lambda a, b: ca.tanh(a), lambda a, b: math.tanh(a)),
     "if_else": (lambda a, b: ca.if_else(a < b, a, b * b), lambda a, b: a if a < b else b * b),
+    "logic": (
+        lambda a, b: ca.if_else(ca.logic_or(ca.logic_and(a <= b, a != b), a == b), a, -b),
+        lambda a, b: a if (a <= b and a != b) or a == b else -b,
+    ),
 }
 
 
@@ -262,6 +266,15 @@ def test_each_operation_encloses_its_values_over_a_ball(op):
             point = centre + rng.uniform(-1e-3, 1e-3, 2)
             assert out.contains(arb(ref(*point))), (op, point, out)
         assert out.rad() < 1e3 * 1e-3 * (1 + abs(out.mid()))  # bounded, not a blow-up
+
+
+def test_undecided_comparisons_enclose_both_branches():
+    a, b = ca.SX.sym("a"), ca.SX.sym("b")
+    f = interval_function(ca.Function("f", [a, b], [ca.if_else(a < b, a, 3 - b)]))
+    out = f([arb(1, 0.1)], [arb(1)])[0][0]  # a < b undecided over a in [0.9, 1.1]
+    assert all(out.contains(arb(v)) for v in (0.9, 0.95, 2.0))
+    decided = f([arb(0.5, 0.1)], [arb(1)])[0][0]
+    assert decided.contains(arb(0.5)) and not decided.contains(arb(2.0))
 
 
 def test_unsupported_operations_are_named():
