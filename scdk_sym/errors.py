@@ -60,6 +60,18 @@ class InputError(ScdkError, ValueError):
     """A numeric argument has the wrong shape, is not finite, or is out of range."""
 
 
+class IntervalError(ScdkError):
+    """A Function cannot be evaluated in interval arithmetic.
+
+    Attributes:
+        operation: the CasADi operation without an interval counterpart (e.g. ``"call"``).
+    """
+
+    def __init__(self, message: str, operation: str):
+        self.operation = operation
+        super().__init__(message)
+
+
 class SolveError(ScdkError):
     """A solver could not produce a verified solution."""
 

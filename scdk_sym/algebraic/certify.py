@@ -1,0 +1,604 @@
+"""Interval (Krawczyk) certificates of real solutions of square systems ``f(x, p) = 0``.
+
+For a box ``X`` with centre ``m``, a floating-point ``Y ~ J(m)^-1`` and the interval Jacobian
+``J(X)`` (``casadi.jacobian`` of ``f`` replayed in ball arithmetic,
+:mod:`scdk_sym.algebraic.interval`), the Krawczyk operator is
+
+    K(X) = m - Y f(m) + (I - Y J(X)) (X - m).
+
+If ``K(X)`` lies in the interior of ``X``, then ``X`` holds exactly one zero of ``f(., p)``
+(for every ``p`` of the parameter box) and the zero lies in ``K(X)`` (Krawczyk 1969; Moore
+1977; Rump 1983). Every operation rounds outward, so the statement is a proof about the
+Function's expression graph with its binary64 constants.
+
+The box is chosen adaptively: its radius starts at twice the Newton correction ``|Y f(m)|``
+at the given point (plus the rounding floor of the interval Newton point), and where
+``K(X)`` is not inside ``X`` the next box is ``K(X)`` inflated by half its radius around
+``m`` (epsilon-inflation), for a few tries. A proven enclosure wider than a few ulps (from
+a rough ``x``) is shrunk by Krawczyk steps centred on its midpoint (the zero stays in
+``K(X) & X``); the uniqueness box stays the ``X`` that was proven.
+
+:func:`certify_all` certifies a list of solutions and checks that their boxes are pairwise
+disjoint: each proven box then holds a different zero. :func:`closure_function` and
+:func:`certify_solution` apply the test to the closure system ``g(y, theta) = 0`` of a loaded
+model (unknowns ``y`` in the local chart of the floating joints; ``theta`` and the chart as
+exact parameters); :func:`certify_configurations` certifies several solutions of a model in
+one common chart.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import casadi as ca
+import numpy as np
+from flint import arb, arb_mat, ctx
+from numpy.typing import ArrayLike
+
+from ..errors import InputError
+from ..kernels.fastcall import Buffered
+from ..model.chart import rot_exp
+from .interval import FunctionCache, IntervalFunction, as_sx_function, interval_function
+
+if TYPE_CHECKING:
+    from ..model.model import Model
+
+#: Boxes tried by :func:`krawczyk` before giving up.
+TRIES = 6
+#: Radius factor of the epsilon-inflation: the next radius is ``INFLATION * rad K(X)``.
+INFLATION = 1.5
+#: Condition number of ``J(m)`` above which no certificate is attempted.
+MAX_CONDITION = 1e14
+#: Smallest box radius tried (absolute).
+TINY = 1e-300
+#: Most Krawczyk steps that shrink a proven enclosure (see :func:`krawczyk`).
+TIGHTEN = 8
+EPS = float(np.finfo(float).eps)
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """The outcome of a Krawczyk test around one approximate solution.
+
+    Attributes:
+        proven: ``K(X)`` lies in the interior of ``X``: ``domain`` holds exactly one zero of
+            ``f(., p)`` (for every ``p`` in the parameter box), and it lies in ``box``.
+        box: (n, 2) ``[lo, hi]`` per unknown, rounded outward to binary64: the enclosure
+            ``K(X)`` of the zero (tightened) when proven; the last box ``X`` tried otherwise
+            (NaN when none was built).
+        domain: (n, 2) the box ``X`` rounded inward: no other zero lies in it (NaN when not
+            proven).
+        radius: largest half-width of ``box`` (in the units of ``x``; inf when unbounded).
+        reason: one line: what was proven, or why not.
+        x: (n,) the centre ``m`` of the boxes (the point given).
+        tries: boxes ``X`` tried.
+    """
+
+    proven: bool
+    box: np.ndarray
+    domain: np.ndarray
+    radius: float
+    reason: str
+    x: np.ndarray
+    tries: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("box", "domain", "x"):
+            object.__setattr__(self, name, _frozen(getattr(self, name)))
+
+    def contains(self, point: ArrayLike) -> bool:
+        """Whether ``point`` (n,) lies in ``box``."""
+        q = np.asarray(point, dtype=float)
+        return bool(np.all((self.box[:, 0] <= q) & (q <= self.box[:, 1])))
+
+
+@dataclass(frozen=True)
+class CertificateSet:
+    """Certificates of several solutions of one system, and whether they are distinct.
+
+    Attributes:
+        certificates: one per solution given, in order.
+        overlaps: pairs ``(i, j)``, ``i < j``, of proven certificates whose boxes intersect:
+            possibly one zero counted twice.
+        duplicates: the overlapping pairs proven to be one zero (one box lies in the other's
+            ``domain``, where the zero is unique).
+        count: distinct real zeros proven: the connected components of the overlap graph of
+            the proven boxes (exact when every overlap is a duplicate, a lower bound else).
+        reason: one-line summary.
+    """
+
+    certificates: tuple[Certificate, ...]
+    overlaps: tuple[tuple[int, int], ...]
+    duplicates: tuple[tuple[int, int], ...]
+    count: int
+    reason: str
+
+    @property
+    def proven(self) -> bool:
+        """Every solution proven and every pair of boxes disjoint: ``count`` distinct zeros."""
+        return all(c.proven for c in self.certificates) and not self.overlaps
+
+
+@dataclass(frozen=True)
+class _Square:
+    """The replays a Krawczyk test needs for one square system."""
+
+    n: int
+    n_params: int
+    value: IntervalFunction  # (x, p) -> f, (n,)
+    jacobian_t: IntervalFunction  # (x, p) -> J^T, dense column-major = J row-major
+    numeric: Buffered  # (x, p) -> (f, J column-major) in binary64
+    identity: arb_mat
+
+
+def _build_square(f: ca.Function) -> _Square:
+    f = as_sx_function(f)
+    name = f.name()
+    if f.n_in() not in (1, 2) or f.n_out() < 1:
+        raise InputError(
+            f"{name}: a system f(x) or f(x, p) has 1 or 2 inputs and an output, got "
+            f"{f.n_in()} inputs, {f.n_out()} outputs; wrap it as casadi.Function([x, p], [f])"
+        )
+    n = f.numel_in(0)
+    n_params = f.numel_in(1) if f.n_in() == 2 else 0
+    x = ca.SX.sym("x", n)
+    p = ca.SX.sym("p", n_params)
+    args = [ca.reshape(x, f.size_in(0))]
+    if f.n_in() == 2:
+        args.append(ca.reshape(p, f.size_in(1)))
+    g = ca.densify(ca.vec(f.call(args)[0]))
+    if g.numel() != n:
+        raise InputError(
+            f"{name}: not square: {g.numel()} rows (output 0) for {n} unknowns (input 0); "
+            f"select as many rows as unknowns"
+        )
+    J = ca.jacobian(g, x)
+    return _Square(
+        n=n,
+        n_params=n_params,
+        value=interval_function(ca.Function(f"{name}_value", [x, p], [g])),
+        jacobian_t=interval_function(ca.Function(f"{name}_jacobian", [x, p], [J.T])),
+        numeric=Buffered(ca.Function(f"{name}_newton", [x, p], [g, ca.densify(J)])),
+        identity=arb_mat(n, n, [1.0 if i == j else 0.0 for i in range(n) for j in range(n)]),
+    )
+
+
+_SQUARES = FunctionCache(_build_square)
+
+
+def _real(value: ArrayLike, what: str) -> np.ndarray:
+    """``value`` as a float array; complex input only with zero imaginary parts."""
+    a = np.asarray(value)
+    if np.iscomplexobj(a):
+        if np.any(a.imag != 0):
+            raise InputError(
+                f"{what} has nonzero imaginary parts (max {np.max(np.abs(a.imag)):.1e}); "
+                f"certificates are for real zeros: pass the real part of a real solution"
+            )
+        a = a.real
+    return np.asarray(a, dtype=float)
+
+
+def _vector(value: ArrayLike, size: int, what: str) -> np.ndarray:
+    v = _real(value, what).ravel()
+    if v.size != size or not np.all(np.isfinite(v)):
+        raise InputError(
+            f"{what} must be {size} finite numbers, got shape {np.shape(value)}"
+            f"{'' if v.size != size else ' with non-finite entries'}; pass a ({size},) array"
+        )
+    return v
+
+
+def _parameters(p: ArrayLike, size: int) -> tuple[list[arb], np.ndarray]:
+    """Parameter balls and their binary64 midpoints from (k,) exact values or (k, 2) bounds."""
+    a = _real(p, "parameters p")
+    if a.ndim == 2 and a.shape == (size, 2):
+        if not np.all(np.isfinite(a)) or np.any(a[:, 0] > a[:, 1]):
+            raise InputError(
+                "parameter bounds must be finite with lo <= hi per row; pass (k, 2) [lo, hi]"
+            )
+        balls = [arb(lo).union(arb(hi)) for lo, hi in a]
+        return balls, a.mean(axis=1)
+    v = _vector(a, size, "parameters p")
+    return [arb(float(t)) for t in v], v
+
+
+def _down(a: arb) -> float:
+    """Largest binary64 <= every point of ``a`` (``-inf`` if unbounded or NaN)."""
+    if not a.is_finite():
+        return -math.inf
+    lo = a.lower()
+    f = float(lo)
+    return math.nextafter(f, -math.inf) if arb(f) > lo else f
+
+
+def _up(a: arb) -> float:
+    """Smallest binary64 >= every point of ``a`` (``inf`` if unbounded or NaN)."""
+    if not a.is_finite():
+        return math.inf
+    hi = a.upper()
+    f = float(hi)
+    return math.nextafter(f, math.inf) if arb(f) < hi else f
+
+
+def _inward(m: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """(n, 2) binary64 bounds inside ``[m - r, m + r]`` (one ulp in from the nearest)."""
+    return np.stack([np.nextafter(m - r, np.inf), np.nextafter(m + r, -np.inf)], axis=1)
+
+
+def _outward(balls: Sequence[arb]) -> np.ndarray:
+    """(n, 2) binary64 bounds around the balls."""
+    if ctx.prec <= 53 and all(b.is_finite() for b in balls):
+        # midpoints (<= 53 bits) and radii (30 bits) are binary64 numbers: one rounding of
+        # mid -/+ rad, undone by one step outward
+        mid = np.array([float(b.mid()) for b in balls])
+        rad = np.array([float(b.rad()) for b in balls])
+        return np.stack([np.nextafter(mid - rad, -np.inf), np.nextafter(mid + rad, np.inf)], 1)
+    return np.array([[_down(b), _up(b)] for b in balls])
+
+
+def _result(
+    proven: bool,
+    box: np.ndarray,
+    m: np.ndarray,
+    reason: str,
+    tries: int,
+    domain: np.ndarray | None = None,
+) -> Certificate:
+    n = m.size
+    radius = float(np.max((box[:, 1] - box[:, 0]) / 2)) if n else 0.0
+    return Certificate(
+        proven=proven,
+        box=box,
+        domain=np.full((n, 2), np.nan) if domain is None else domain,
+        radius=radius if math.isfinite(radius) else math.inf,
+        reason=reason,
+        x=m,
+        tries=tries,
+    )
+
+
+def _inverse(sq: _Square, m: np.ndarray, p_mid: np.ndarray) -> tuple[np.ndarray | None, str]:
+    """``Y ~ J(m)^-1`` in binary64, or None and the reason."""
+    n = sq.n
+    F, J = sq.numeric(m, p_mid)
+    J = J.reshape(n, n, order="F")
+    if not (np.all(np.isfinite(F)) and np.all(np.isfinite(J))):
+        return None, "f or its Jacobian is not finite at x"
+    try:
+        Y = np.linalg.inv(J)
+        cond = float(np.abs(J).sum(axis=1).max() * np.abs(Y).sum(axis=1).max())  # infinity norm
+    except np.linalg.LinAlgError:
+        Y, cond = None, math.inf
+    if not cond < MAX_CONDITION:
+        return None, (
+            f"the Jacobian is singular at x (condition number {cond:.1e}): a multiple zero or "
+            f"a singular configuration, which Krawczyk's test cannot isolate"
+        )
+    return Y, ""
+
+
+def _newton_point(
+    sq: _Square, m: np.ndarray, P: list[arb], Y: np.ndarray
+) -> tuple[list[arb], arb_mat, arb_mat]:
+    """``(mid, Y, m - Y f(m))`` as balls: the point, ``Y`` exactly, the interval Newton point."""
+    n = sq.n
+    mid = [arb(float(t)) for t in m]
+    Ya = arb_mat(n, n, Y.ravel().tolist())
+    return mid, Ya, arb_mat(n, 1, mid) - Ya * arb_mat(n, 1, sq.value(mid, P)[0])
+
+
+def _operator(
+    sq: _Square, X: list[arb], mid: list[arb], P: list[arb], Ya: arb_mat, newton: arb_mat
+) -> tuple[list[arb], arb_mat]:
+    """``K(X) = m - Y f(m) + (I - Y J(X)) (X - m)`` as balls, and ``I - Y J(X)``."""
+    n = sq.n
+    C = sq.identity - Ya * arb_mat(n, n, sq.jacobian_t(X, P)[0])
+    K = newton + C * arb_mat(n, 1, [X[i] - mid[i] for i in range(n)])
+    return [K[i, 0] for i in range(n)], C
+
+
+def _tighten(sq: _Square, K: list[arb], P: list[arb], p_mid: np.ndarray, steps: int) -> list:
+    """Shrink an enclosure of the zero by Krawczyk steps centred on its midpoint."""
+    n = sq.n
+    for _ in range(steps):
+        m = np.array([float(b.mid()) for b in K])
+        width = max(float(b.rad()) for b in K)  # radii are exact in binary64
+        if width <= 64 * EPS * (1 + float(np.max(np.abs(m)))):
+            break
+        Y, _ = _inverse(sq, m, p_mid)
+        if Y is None:
+            break
+        mid, Ya, newton = _newton_point(sq, m, P, Y)
+        if not all(K[i].contains(mid[i]) for i in range(n)):  # the mean value form needs m in K
+            break
+        K2, _ = _operator(sq, K, mid, P, Ya, newton)
+        try:  # the zero lies in K and in K2
+            K2 = [K2[i].intersection(K[i]) for i in range(n)]
+        except ValueError:
+            break
+        if not max(float(b.rad()) for b in K2) < width:
+            break
+        K = K2
+    return K
+
+
+def krawczyk(
+    f: ca.Function,
+    x: ArrayLike,
+    p: ArrayLike = (),
+    *,
+    tries: int = TRIES,
+    tighten: int = TIGHTEN,
+) -> Certificate:
+    """Prove (or fail to prove) that one zero of ``f(., p)`` lies in a small box around ``x``.
+
+    Args:
+        f: square system, a CasADi SX Function ``(x[n]) -> f[n]`` or ``(x[n], p[k]) -> f[n]``
+            (output 0; an MX Function is expanded).
+        x: (n,) approximate zero: the centre of every box tried.
+        p: (k,) parameter values, exact; or (k, 2) ``[lo, hi]`` bounds (the statement then
+            holds for every ``p`` in the box).
+        tries: boxes tried (the first from the Newton correction at ``x``, then inflated).
+        tighten: at most this many Krawczyk steps shrink a proven enclosure wider than a few
+            ulps (from a rough ``x``), each centred on the previous enclosure; they stop when
+            the enclosure stops shrinking.
+
+    Returns:
+        The :class:`Certificate` (``proven`` False with a ``reason`` where the test fails: a
+        singular Jacobian at ``x``, or ``K(X)`` not inside ``X`` for every box tried).
+
+    Raises:
+        InputError: ``f`` is not a square system, or ``x``/``p`` have the wrong size.
+        IntervalError: ``f`` uses an operation without an interval counterpart.
+    """
+    if tries < 1 or tighten < 0:
+        raise InputError(f"tries >= 1 and tighten >= 0 required, got {tries}, {tighten}")
+    sq: _Square = _SQUARES(f)
+    n = sq.n
+    m = _vector(x, n, "x")
+    P, p_mid = _parameters(p, sq.n_params)
+    Y, why = _inverse(sq, m, p_mid)
+    if Y is None:
+        return _result(False, np.full((n, 2), np.nan), m, why, 0)
+    mid, Ya, newton = _newton_point(sq, m, P, Y)
+    centre = [newton[i, 0] for i in range(n)]
+    delta = np.array([float(b.mid()) for b in centre]) - m
+    floor = 4 * np.array([float(b.rad()) for b in centre])  # radii are exact in binary64
+    r = np.maximum(2 * np.max(np.abs(delta)) + floor, TINY)
+    for t in range(1, tries + 1):
+        X = [arb(m[i], r[i]) for i in range(n)]
+        K, C = _operator(sq, X, mid, P, Ya, newton)
+        tried = np.array([[m[i] - r[i], m[i] + r[i]] for i in range(n)])
+        if all(X[i].contains_interior(K[i]) for i in range(n)):
+            K = _tighten(sq, K, P, p_mid, tighten)
+            return _result(
+                True,
+                _outward(K),
+                m,
+                f"K(X) lies in the interior of X (radius {float(np.max(r)):.1e}): "
+                f"exactly one zero in X",
+                t,
+                _inward(m, r),  # inside X = arb(m, r), whose radius Arb rounds up
+            )
+        rho = np.array([_up(abs(K[i] - mid[i])) for i in range(n)])
+        if not np.all(np.isfinite(rho)):
+            reason = "f or its interval Jacobian is unbounded on X (e.g. a division by 0)"
+            return _result(False, tried, m, reason, t)
+        contraction = max(sum(_up(abs(C[i, j])) for j in range(n)) for i in range(n))
+        if contraction >= 1:
+            return _result(
+                False,
+                tried,
+                m,
+                f"I - Y J(X) does not contract (norm <= {contraction:.2g}, radius "
+                f"{float(np.max(r)):.1e}): J is singular or varies too much over X "
+                f"(a multiple zero, or x far from a zero)",
+                t,
+            )
+        if t == tries:
+            return _result(
+                False,
+                tried,
+                m,
+                f"K(X) is not inside X after {tries} boxes (last radius {float(np.max(r)):.1e}, "
+                f"|I - Y J(X)| <= {contraction:.2g}): x is not close enough to a zero; "
+                f"refine it with Newton steps",
+                t,
+            )
+        r = np.maximum(r, INFLATION * rho) + floor
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def _components(count: int, edges: Sequence[tuple[int, int]]) -> list[int]:
+    parent = list(range(count))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for i, j in edges:
+        parent[root(i)] = root(j)
+    return [root(i) for i in range(count)]
+
+
+def certify_all(
+    f: ca.Function,
+    xs: ArrayLike,
+    p: ArrayLike = (),
+    *,
+    tries: int = TRIES,
+    tighten: int = TIGHTEN,
+) -> CertificateSet:
+    """Certify several approximate zeros of one system and check that they are distinct.
+
+    Args:
+        f: square system (see :func:`krawczyk`).
+        xs: (N, n) approximate zeros.
+        p: parameters (see :func:`krawczyk`), shared by every solution.
+        tries: boxes tried per solution.
+        tighten: Krawczyk steps that shrink each proven enclosure.
+
+    Returns:
+        The :class:`CertificateSet`: ``proven`` when every solution is proven and every pair
+        of boxes is disjoint (then ``count == N`` distinct real zeros).
+    """
+    xs = _real(xs, "xs")
+    if xs.ndim != 2:
+        raise InputError(f"xs must be (N, n) approximate zeros, got shape {xs.shape}")
+    certs = tuple(krawczyk(f, x, p, tries=tries, tighten=tighten) for x in xs)
+    proven = [i for i, c in enumerate(certs) if c.proven]
+    overlaps, duplicates = [], []
+    for a, i in enumerate(proven):
+        bi, di = certs[i].box, certs[i].domain
+        for j in proven[a + 1 :]:
+            bj, dj = certs[j].box, certs[j].domain
+            if np.all((bi[:, 0] <= bj[:, 1]) & (bj[:, 0] <= bi[:, 1])):
+                overlaps.append((i, j))
+                inside_j = np.all((dj[:, 0] <= bi[:, 0]) & (bi[:, 1] <= dj[:, 1]))
+                inside_i = np.all((di[:, 0] <= bj[:, 0]) & (bj[:, 1] <= di[:, 1]))
+                if inside_i or inside_j:
+                    duplicates.append((i, j))
+    roots = _components(len(certs), overlaps)
+    count = len({roots[i] for i in proven})
+    failed = [i for i, c in enumerate(certs) if not c.proven]
+    parts = [f"{len(proven)} of {len(certs)} solutions proven"]
+    if failed:
+        parts.append(f"not proven: {failed[:10]}{' ...' if len(failed) > 10 else ''}")
+    if duplicates:
+        parts.append(f"one zero counted twice: pairs {duplicates[:10]}")
+    undecided = [e for e in overlaps if e not in duplicates]
+    if undecided:
+        parts.append(f"overlapping boxes (maybe one zero): pairs {undecided[:10]}")
+    if not overlaps:
+        parts.append(f"{count} distinct real zeros (boxes pairwise disjoint)")
+    else:
+        parts.append(f"{count} distinct real zeros{' at least' if undecided else ''}")
+    return CertificateSet(
+        certificates=certs,
+        overlaps=tuple(overlaps),
+        duplicates=tuple(duplicates),
+        count=count,
+        reason="; ".join(parts),
+    )
+
+
+_CLOSURES: dict[str, ca.Function] = {}
+
+
+def closure_function(model: Model) -> ca.Function:
+    """The closure rows of ``model`` as a square system for :func:`krawczyk`.
+
+    Args:
+        model: a loaded model (``m`` unknowns, ``k`` actuated joints, ``f`` floating joints).
+
+    Returns:
+        The SX Function ``(y[m], q[k + 9 f]) -> g[m]`` of ``model.symbolic``, with the
+        parameters ``q = [theta; c]`` (actuated values, then the chart: the reference rotations
+        of the floating joints, column-major). Built once per model content.
+    """
+    key = model.content_hash
+    if key not in _CLOSURES:
+        s = model.symbolic
+        q = ca.vertcat(s.theta, s.c)
+        _CLOSURES[key] = ca.Function("closure", [s.y, q], [s.g], ["y", "q"], ["g"])
+    return _CLOSURES[key]
+
+
+def certify_solution(
+    model: Model,
+    y: ArrayLike,
+    theta: ArrayLike,
+    c: ArrayLike | None = None,
+    *,
+    tries: int = TRIES,
+) -> Certificate:
+    """Krawczyk certificate of one solution of the closure system of ``model``.
+
+    Args:
+        model: a loaded model.
+        y: (m,) unknowns: canonical (``c`` None, e.g. ``SolveResult.y``) or local in the
+            chart ``c``.
+        theta: (k,) actuated values [rad or model length unit], exact.
+        c: (9 f,) chart of the floating joints, or None to centre one on ``y``.
+        tries: boxes tried.
+
+    Returns:
+        The certificate; its boxes are in the local chart coordinates of ``y`` (for models
+        without floating joints, the joint coordinates themselves).
+    """
+    y = _vector(y, model.m, "y")
+    theta = _vector(theta, model.k, "theta")
+    if c is None:
+        y, c = model.chart.to_local(y)
+    c = _vector(c, model.chart.size, "chart c")
+    return krawczyk(closure_function(model), y, np.concatenate([theta, c]), tries=tries)
+
+
+def _gibbs(R: np.ndarray) -> np.ndarray:
+    """Rodrigues (Gibbs) parameters ``tan(angle / 2) axis`` of a rotation (inverse Cayley)."""
+    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    with np.errstate(divide="ignore", invalid="ignore"):  # a half turn: inf, refused later
+        return w / (1.0 + float(np.trace(R)))
+
+
+def certify_configurations(
+    model: Model,
+    ys: ArrayLike,
+    theta: ArrayLike,
+    c: ArrayLike | None = None,
+    *,
+    tries: int = TRIES,
+    tighten: int = TIGHTEN,
+) -> CertificateSet:
+    """Certify several solutions of the closure system of ``model`` at one ``theta``.
+
+    Every solution is expressed in one chart (so that their boxes are comparable): the
+    rotation of each floating joint in Rodrigues parameters relative to the chart ``c``.
+
+    Args:
+        model: a loaded model.
+        ys: (N, m) canonical unknowns (e.g. ``[cfg.y for cfg in sc.assembly_modes(...)]``).
+        theta: (k,) actuated values, exact.
+        c: (9 f,) common chart; None: the chart centred on ``ys[0]``. No solution may be
+            turned by a half turn relative to it.
+        tries: boxes tried per solution.
+        tighten: Krawczyk steps that shrink each proven enclosure.
+
+    Returns:
+        The :class:`CertificateSet` (boxes in the local coordinates of the common chart).
+    """
+    ys = _real(ys, "ys")
+    if ys.ndim != 2 or ys.shape[1] != model.m or not np.all(np.isfinite(ys)):
+        raise InputError(
+            f"ys must be (N, {model.m}) finite canonical unknowns, got shape {ys.shape}; "
+            f"pass one row per configuration"
+        )
+    theta = _vector(theta, model.k, "theta")
+    if c is None:
+        c = model.chart.to_local(ys[0])[1] if len(ys) else np.zeros(model.chart.size)
+    c = _vector(c, model.chart.size, "chart c")
+    local = ys.copy()
+    for i, idx in enumerate(model.chart.rotations):
+        ref = c[9 * i : 9 * i + 9].reshape(3, 3, order="F")
+        for row in local:
+            row[list(idx)] = _gibbs(ref.T @ rot_exp(row[list(idx)]))
+    far = np.flatnonzero(~np.all(np.abs(local) < 1e8, axis=1))
+    if far.size:
+        raise InputError(
+            f"configurations {far.tolist()} are turned by about a half turn from the chart; "
+            f"pass a chart c nearer to them (e.g. certify them in separate sets)"
+        )
+    q = np.concatenate([theta, c])
+    return certify_all(closure_function(model), local, q, tries=tries, tighten=tighten)
