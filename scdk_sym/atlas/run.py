@@ -175,12 +175,11 @@ def atlas(
     _prebuild(model)
     source = model_source(model)
     st = (np.asarray(start.y).tolist(), np.asarray(start.theta).tolist())
-    bar = _bar(
-        progress,
-        points,
-        sum(layout.bounds(i)[1] - layout.bounds(i)[0] for i in range(layout.chunks) if done[i]),
+    already = sum(
+        layout.bounds(i)[1] - layout.bounds(i)[0] for i in range(layout.chunks) if done[i]
     )
-    count = [bar.n if bar is not None else 0]
+    bar = _bar(progress, points, already)
+    count = [already]
 
     def finished(index: int) -> None:
         a, b = layout.bounds(index)
@@ -256,7 +255,7 @@ def _distributed(todo, args, finished, workers, scheduler) -> None:
     try:
         if scheduler is None:
             cluster = LocalCluster(
-                n_workers=int(workers), threads_per_worker=1, processes=True, dashboard_address=None
+                n_workers=int(workers), threads_per_worker=1, processes=True, dashboard_address=":0"
             )
             client = Client(cluster)
         elif isinstance(scheduler, str):
