@@ -33,8 +33,9 @@ import casadi as ca
 #: RK4 steps in s from the start to theta0 of the two passes (the second for the points the
 #: first cannot vouch for).
 STEPS = (8, 32)
-#: Newton corrections after each RK4 step (and at the end).
-NEWTON = 2
+#: Newton corrections after each RK4 step, and at the end.
+NEWTON = 1
+POLISH = 2
 
 
 def build_sweep(model, steps: int) -> ca.Function:
@@ -52,7 +53,7 @@ def build_sweep(model, steps: int) -> ca.Function:
     m, k = sym.m, sym.k
     jp = ca.Function("jp", [y, theta, c], [sym.J_p])
     det = ca.Function("det", [y, theta, c], [ca.det(sym.J_p)])
-    rhs = ca.Function("rhs", [y, theta, c], [ca.solve(sym.J_p, sym.J_s)])
+    parts = ca.Function("parts", [y, theta, c], [sym.g, sym.J_p, sym.J_s])
     newton = ca.Function("newton", [y, theta, c], [y - ca.solve(sym.J_p, sym.g)])
     check = ca.Function("check", [y, theta, c], [ca.norm_inf(sym.g_check)])
     pose = ca.Function("pose", [y, theta, c], [sym.x])
@@ -63,26 +64,24 @@ def build_sweep(model, steps: int) -> ca.Function:
     d1 = ca.SX.sym("det1")
     h = 1.0 / steps
 
-    def f(yy, ss):
-        # dy/ds = J_p^-1 j_s with j_s = J_s dtheta (J_s = -dg/dtheta)
-        return rhs(yy, th1 + ss * dth, cc) @ dth
-
-    # one RK4 step with its Newton corrections; state = (y, s, det ratio, worst correction)
+    # one RK4 step and a Newton correction; state = (y, s, det ratio, worst correction).
+    # Each evaluation point shares one evaluation of (g, J_p, J_s) between dy/ds and det J_p.
     state = ca.SX.sym("state", m + 3)
     yk, s, ratio, worst = state[:m], state[m], state[m + 1], state[m + 2]
-    k1 = f(yk, s)
-    ya = yk + h / 2 * k1
-    k2 = f(ya, s + h / 2)
-    yb = yk + h / 2 * k2
-    k3 = f(yb, s + h / 2)
-    yc = yk + h * k3
-    k4 = f(yc, s + h)
+    slopes = []
+    yy = yk
+    for frac, nxt in ((0.0, 0.5), (0.5, 0.5), (0.5, 1.0), (1.0, None)):
+        _, Jp, Js = parts(yy, th1 + (s + frac * h) * dth, cc)
+        slopes.append(ca.solve(Jp, Js @ dth))  # dy/ds = J_p^-1 j_s, j_s = J_s dtheta
+        ratio = ca.fmin(ratio, ca.det(Jp) / d1)
+        if nxt is not None:
+            yy = yk + nxt * h * slopes[-1]
+    k1, k2, k3, k4 = slopes
     pred = yk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
     yn = pred
     for _ in range(NEWTON):
-        yn = newton(yn, th1 + (s + h) * dth, cc)
-    for yy, ss in ((ya, s + h / 2), (yn, s + h)):
-        ratio = ca.fmin(ratio, det(yy, th1 + ss * dth, cc) / d1)
+        gp, Jpp, _ = parts(yn, th1 + (s + h) * dth, cc)
+        yn = yn - ca.solve(Jpp, gp)
     worst = ca.fmax(worst, ca.norm_inf(yn - pred) / (ca.norm_inf(yn - yk) + 1e-300))
     step = ca.Function(
         f"scdk_atlas_step_{steps}",
@@ -97,10 +96,11 @@ def build_sweep(model, steps: int) -> ca.Function:
     cm = ca.MX.sym("c", c.numel())
     end = fold(ca.vertcat(y1, 0, 1, 0), t1, t0 - t1, det(y1, t1, cm), cm)
     yk = end[:m]
-    for _ in range(NEWTON):
+    for _ in range(POLISH):
         yk = newton(yk, t0, cm)
+    ratio = ca.fmin(end[m + 1], det(yk, t0, cm) / det(y1, t1, cm))
     y_sol, c_sol = _recentred(model, yk, cm)
-    outs = [yk, end[m + 1], end[m + 2], check(yk, t0, cm), ca.vec(jp(y_sol, t0, c_sol)),
+    outs = [yk, ratio, end[m + 2], check(yk, t0, cm), ca.vec(jp(y_sol, t0, c_sol)),
             pose(yk, t0, cm)]  # fmt: skip
     return ca.Function(
         f"scdk_atlas_sweep_{steps}",
