@@ -450,7 +450,10 @@ def _plot_atlas(args: argparse.Namespace) -> int:
         at = {}
         for part in args.at.split(","):
             name, _, value = part.partition("=")
-            at[name.strip()] = float(floats(value, f"--at {name.strip()}")[0])
+            vals = floats(value, f"--at {name.strip()}")
+            if vals.size != 1:
+                raise InputError(f"--at: expected NAME=value, got {part!r}")
+            at[name.strip()] = float(vals[0])
     print(f"wrote {plot_atlas(args.store, args.out, axes=axes, at=at)}")
     return 0
 

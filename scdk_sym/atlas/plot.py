@@ -40,7 +40,7 @@ def _slice(meta: dict, axes: tuple[str, str] | None, at: Mapping[str, float] | N
         raise InputError(f"--axes: expected two different grid axes, got {list(axes)}")
     for a in (*axes, *(at or {})):
         if a not in names:
-            raise UnknownNameError("grid axis", a, names)
+            raise UnknownNameError("grid joint", a, names)
     values = [np.linspace(a["lo"], a["hi"], a["n"]) for a in grid["axes"]]
     index: list = []
     fixed = {}
@@ -100,7 +100,8 @@ def plot_atlas(
 
     fig = _figure(4.6 * len(panels), 4.8)
     model = meta["model"]["name"]
-    where = ", ".join(f"{k} = {val:.4g}" for k, val in fixed.items())
+    held = {**fixed, **meta["grid"].get("fixed", {})}  # other axes, and joints not in the grid
+    where = ", ".join(f"{k} = {val:.4g}" for k, val in held.items())
     fig.suptitle(f"atlas of {model}" + (f" at {where}" if where else ""), fontsize=11)
     for j, (title, data) in enumerate(panels):
         ax = fig.add_subplot(1, len(panels), j + 1)
