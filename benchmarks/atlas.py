@@ -111,8 +111,9 @@ def report(label: str, run, base: float, base_x: np.ndarray, pick: np.ndarray) -
     diff = np.nanmax(np.abs(x - base_x)) if np.any(np.isfinite(base_x)) else np.nan
     same = bool(np.all(np.isnan(x) == np.isnan(base_x)))
     print(
-        f"{label:<30} {rate:>10.0f} solves/s ({rate / base:.0f}x baseline; {run.elapsed:.2f} s; "
-        f"status counts {run.counts}; max |x - baseline| {diff:.1e}; same failures {same})"
+        f"{label:<30} {rate:>8.0f} solves/s ({rate / base:.0f}x baseline; {run.elapsed:.2f} s; "
+        f"{run.points / run.busy:.0f} solves/s per busy worker; swept {run.swept}; "
+        f"status {run.counts}; max |x - baseline| {diff:.1e}; same failures {same})"
     )
     return rate
 

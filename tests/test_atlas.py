@@ -279,3 +279,15 @@ def test_plot_atlas(serial_store, tmp_path):
     rgb = image.imread(str(png))[:, :, :3]
     blue = np.array([0x4C, 0x9B, 0xE8]) / 255  # solved / det J_p > 0
     assert np.sum(np.max(np.abs(rgb - blue), axis=2) < 0.02) > 500
+
+
+def test_modes_counted_and_method_recorded(seed, tmp_path):
+    model, start = seed
+    out = tmp_path / "modes.zarr"
+    grid = "theta_1=1.3:1.3:1"  # one point: a mode search costs a second or more
+    sc.atlas(model, grid, out, start=start, modes=True, progress=False)
+    g = open_atlas(out)
+    direct = [len(sc.assembly_modes(model, th, backend="compiled")) for th in g["theta"][:]]
+    assert g["n_modes"][:].tolist() == direct
+    assert g["status"][:].tolist() == [0] and direct[0] >= 1
+    assert "not certified" in g.attrs["scdk_atlas"]["n_modes_method"]

@@ -49,6 +49,9 @@ class AtlasRun:
         computed: chunks solved by this call (the others were already done).
         counts: status code -> number of points with it, over the whole store.
         elapsed: wall time of this call [s].
+        busy: time spent in the chunk tasks of this call, summed over workers [s] (model
+            loading on a worker's first task included).
+        swept: points of this call settled by the compiled sweep (the others by sc.solve).
     """
 
     out: Path
@@ -57,6 +60,8 @@ class AtlasRun:
     computed: int
     counts: Mapping[int, int]
     elapsed: float
+    busy: float
+    swept: int
 
 
 def _version() -> str:
@@ -77,15 +82,16 @@ def _task(
     grid: Grid | None,
     thetas: np.ndarray | None,
     modes: bool,
-) -> tuple[int, np.ndarray]:
-    """Solve and write chunk ``index``; returns (index, status counts)."""
+) -> tuple[int, float, int]:
+    """Solve and write chunk ``index``; returns (index, seconds spent, points swept)."""
+    t0 = time.perf_counter()
     model = worker_model(source)
     cfg = model.configuration(np.array(start[0]), np.array(start[1]))
     a, b = layout.bounds(index)
     th = grid.thetas(a, b) if grid is not None else thetas
     res = solve_chunk(model, cfg, th, modes)
     write_chunk(out, layout, index, th, res)
-    return index, np.bincount(res.status, minlength=len(STATUS))
+    return index, time.perf_counter() - t0, res.swept
 
 
 def atlas(
@@ -181,7 +187,11 @@ def atlas(
     bar = _bar(progress, points, already)
     count = [already]
 
-    def finished(index: int) -> None:
+    spent = [0.0, 0]
+
+    def finished(index: int, seconds: float, swept: int) -> None:
+        spent[0] += seconds
+        spent[1] += swept
         a, b = layout.bounds(index)
         count[0] += b - a
         if bar is not None:
@@ -197,15 +207,14 @@ def atlas(
         if scheduler is None and not workers:
             _MODELS.setdefault(model.content_hash, model)  # this process: the caller's model
             for i in todo:
-                _task(*args(i))
-                finished(i)
+                finished(*_task(*args(i)))
         else:
             _distributed(todo, args, finished, workers, scheduler)
     finally:
         if bar is not None:
             bar.close()
     counts = _counts(out, len(STATUS))
-    return AtlasRun(out, points, layout.chunks, len(todo), counts, time.perf_counter() - t0)
+    return AtlasRun(out, points, layout.chunks, len(todo), counts, time.perf_counter() - t0, *spent)
 
 
 def _points(model, grid_or_thetas, start) -> tuple[Grid | None, np.ndarray | None, dict]:
@@ -272,7 +281,7 @@ def _distributed(todo, args, finished, workers, scheduler) -> None:
                 break
         for fut in pending:
             try:
-                index, _ = fut.result()
+                done_task = fut.result()
             except Exception as exc:
                 from ..errors import ScdkError
 
@@ -282,7 +291,7 @@ def _distributed(todo, args, finished, workers, scheduler) -> None:
                     f"atlas: a task failed ({type(exc).__name__}: {exc}); re-run the same "
                     "command to resume from the chunks already written"
                 ) from exc
-            finished(index)
+            finished(*done_task)
             nxt = next(queue, None)
             if nxt is not None:
                 pending.add(
