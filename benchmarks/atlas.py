@@ -112,7 +112,8 @@ def report(label: str, run, base: float, base_x: np.ndarray, pick: np.ndarray) -
     same = bool(np.all(np.isnan(x) == np.isnan(base_x)))
     print(
         f"{label:<30} {rate:>8.0f} solves/s ({rate / base:.0f}x baseline; {run.elapsed:.2f} s; "
-        f"{run.points / run.busy:.0f} solves/s per busy worker; swept {run.swept}; "
+        f"per worker: {run.points / run.busy:.0f} solves/s busy, {run.points / run.cpu:.0f} "
+        f"per CPU second; swept {run.swept}; "
         f"status {run.counts}; max |x - baseline| {diff:.1e}; same failures {same})"
     )
     return rate

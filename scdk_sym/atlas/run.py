@@ -51,6 +51,8 @@ class AtlasRun:
         elapsed: wall time of this call [s].
         busy: time spent in the chunk tasks of this call, summed over workers [s] (model
             loading on a worker's first task included).
+        cpu: CPU time of the threads that ran those tasks [s] (what the tasks cost, whatever
+            else shares the cores).
         swept: points of this call settled by the compiled sweep (the others by sc.solve).
     """
 
@@ -61,6 +63,7 @@ class AtlasRun:
     counts: Mapping[int, int]
     elapsed: float
     busy: float
+    cpu: float
     swept: int
 
 
@@ -82,16 +85,17 @@ def _task(
     grid: Grid | None,
     thetas: np.ndarray | None,
     modes: bool,
-) -> tuple[int, float, int]:
-    """Solve and write chunk ``index``; returns (index, seconds spent, points swept)."""
-    t0 = time.perf_counter()
+) -> tuple[int, float, float, int]:
+    """Solve and write chunk ``index``; returns (index, wall seconds, CPU seconds of this
+    thread, points swept)."""
+    t0, c0 = time.perf_counter(), time.thread_time()
     model = worker_model(source)
     cfg = model.configuration(np.array(start[0]), np.array(start[1]))
     a, b = layout.bounds(index)
     th = grid.thetas(a, b) if grid is not None else thetas
     res = solve_chunk(model, cfg, th, modes)
     write_chunk(out, layout, index, th, res)
-    return index, time.perf_counter() - t0, res.swept
+    return index, time.perf_counter() - t0, time.thread_time() - c0, res.swept
 
 
 def atlas(
@@ -187,11 +191,12 @@ def atlas(
     bar = _bar(progress, points, already)
     count = [already]
 
-    spent = [0.0, 0]
+    spent = [0.0, 0.0, 0]
 
-    def finished(index: int, seconds: float, swept: int) -> None:
+    def finished(index: int, seconds: float, cpu: float, swept: int) -> None:
         spent[0] += seconds
-        spent[1] += swept
+        spent[1] += cpu
+        spent[2] += swept
         a, b = layout.bounds(index)
         count[0] += b - a
         if bar is not None:
