@@ -7,6 +7,8 @@ error statistics are compared with the first-order propagation ``J sigma^2 J^T``
 dx/dtheta`` by central differences of ``sc.solve``.
 
     python examples/atlas_hexapod_montecarlo.py [--samples 2000] [--workers 2]
+
+The first run compiles the model's sweep into the kernel cache (about a minute here, once).
 """
 
 import argparse
