@@ -195,13 +195,15 @@ def test_killed_cli_process_resumes_identically(serial_store, tmp_path):
 def test_killed_worker_resumes_identically(seed, serial_store, client, tmp_path):
     model, start = seed
     out = tmp_path / "worker.zarr"
-    pids = list(client.run(os.getpid).values())
+    pids = client.run(os.getpid)  # worker address -> process id
     killed = []
 
     def kill(done: int, total: int) -> None:
-        if not killed:  # after the first chunk, with the others in flight on both workers
-            os.kill(pids[0], signal.SIGKILL)
-            killed.append(done)
+        if not killed:  # after the first chunk: a worker with a chunk in hand, if any
+            busy = [w for w, tasks in client.processing().items() if tasks and w in pids]
+            victim = busy[0] if busy else next(iter(pids))
+            os.kill(pids[victim], signal.SIGKILL)
+            killed.append(victim)
 
     # the lost tasks are retried elsewhere, or given up (AtlasError): the re-run completes
     with contextlib.suppress(AtlasError):
