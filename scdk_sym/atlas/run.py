@@ -128,7 +128,8 @@ def atlas(
             ``distributed.Client``; its workers must see ``out`` and share the kernel cache
             directory or be able to compile (``$SCDK_CACHE_DIR``).
         modes: also store ``n_modes``, the number of real assembly modes at each point
-            (:func:`scdk_sym.assembly_modes`; slow: tens of ms per point or more).
+            (:func:`scdk_sym.assembly_modes`; slow: about a second per point of the seed
+            robot on this machine's shared cores).
         start: the assembled start Configuration (default: ``model.home``).
         chunk: points per chunk (task and Zarr chunk); memory per task is O(chunk).
         progress: a tqdm progress bar on stderr.
@@ -206,7 +207,8 @@ def atlas(
 
     def args(i: int):
         a, b = layout.bounds(i)
-        return (source, st, str(out), layout, i, grid, None if grid else thetas[a:b], modes)
+        rows = None if grid is not None else thetas[a:b]
+        return (source, st, str(out), layout, i, grid, rows, modes)
 
     try:
         if scheduler is None and not workers:
