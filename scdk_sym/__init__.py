@@ -1,6 +1,7 @@
 """scdk_sym: singularity-consistent direct kinematics of closed-chain manipulators."""
 
 from . import builders
+from .atlas import atlas
 from .errors import ScdkError
 from .model.model import Model, load_model
 from .results import Configuration, Crossing, SolveResult, TrackResult
@@ -16,6 +17,7 @@ __all__ = [
     "SolveResult",
     "TrackResult",
     "assembly_modes",
+    "atlas",
     "builders",
     "load_model",
     "solve",

@@ -129,3 +129,11 @@ class TrackError(SolveError):
 
 class BuildError(ScdkError):
     """Building or compiling kernels failed (e.g. no C compiler)."""
+
+
+class AtlasError(ScdkError):
+    """An atlas run or store failed (missing dependency, unusable store, lost workers)."""
+
+
+class StoreMismatchError(AtlasError):
+    """An existing atlas store was written for another model, grid or set of options."""

@@ -1,0 +1,319 @@
+"""``sc.atlas``: the convergent direct kinematics over a joint grid, chunk by chunk, on Dask.
+
+Each chunk of points is one task: a worker rebuilds the model once per process
+(:func:`~scdk_sym.atlas.chunk.worker_model`), loads its compiled kernels from the disk cache
+(built here, on the client, before any task starts), solves the chunk
+(:func:`~scdk_sym.atlas.chunk.solve_chunk`) and writes it into the Zarr store, its
+done-marker last. Re-running with the same ``out`` solves only the chunks without a marker, so
+an interrupted run (Ctrl-C, a killed worker) resumes and ends byte-identical to an
+uninterrupted one. At most a few tasks per worker are in flight, so the client's memory does
+not grow with the grid.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+import uuid
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import AtlasError, InputError
+from .chunk import _MODELS, STATUS, ModelSource, model_source, solve_chunk, worker_model
+from .grid import Grid, make_grid
+from .store import FORMAT, Layout, create_or_check, write_chunk
+
+_pkg = "scdk_sym"
+#: Points per chunk (one task; also the Zarr chunk length) unless told.
+DEFAULT_CHUNK = 4096
+#: Tasks in flight per worker.
+IN_FLIGHT = 3
+#: What produced n_modes (recorded in the store).
+MODES_METHOD = (
+    "scdk_sym.assembly_modes(model, theta, backend='compiled'): real solutions found by "
+    "following SC solution curves from several starts (not certified complete)"
+)
+
+
+@dataclass(frozen=True)
+class AtlasRun:
+    """Summary of one :func:`atlas` call.
+
+    Attributes:
+        out: the store path.
+        points: points of the grid.
+        chunks: chunks of the store.
+        computed: chunks solved by this call (the others were already done).
+        counts: status code -> number of points with it, over the whole store.
+        elapsed: wall time of this call [s].
+        busy: time spent in the chunk tasks of this call, summed over workers [s] (model
+            loading on a worker's first task included).
+        cpu: CPU time of the threads that ran those tasks [s] (what the tasks cost, whatever
+            else shares the cores).
+        swept: points of this call settled by the compiled sweep (the others by sc.solve).
+    """
+
+    out: Path
+    points: int
+    chunks: int
+    computed: int
+    counts: Mapping[int, int]
+    elapsed: float
+    busy: float
+    cpu: float
+    swept: int
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version(_pkg)
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree
+        return "unknown"
+
+
+def _task(
+    source: ModelSource,
+    start: tuple[list[float], list[float]],
+    out: str,
+    layout: Layout,
+    index: int,
+    grid: Grid | None,
+    thetas: np.ndarray | None,
+    modes: bool,
+) -> tuple[int, float, float, int]:
+    """Solve and write chunk ``index``; returns (index, wall seconds, CPU seconds of this
+    thread, points swept)."""
+    t0, c0 = time.perf_counter(), time.thread_time()
+    model = worker_model(source)
+    cfg = model.configuration(np.array(start[0]), np.array(start[1]))
+    a, b = layout.bounds(index)
+    th = grid.thetas(a, b) if grid is not None else thetas
+    res = solve_chunk(model, cfg, th, modes)
+    write_chunk(out, layout, index, th, res)
+    return index, time.perf_counter() - t0, time.thread_time() - c0, res.swept
+
+
+def atlas(
+    model,
+    grid_or_thetas,
+    out: str | Path,
+    *,
+    workers: int | None = None,
+    scheduler=None,
+    modes: bool = False,
+    start=None,
+    chunk: int = DEFAULT_CHUNK,
+    progress: bool = True,
+    on_chunk: Callable[[int, int], None] | None = None,
+) -> AtlasRun:
+    """Convergent direct kinematics at every point of a joint grid, into a Zarr store.
+
+    Point ``i`` holds ``sc.solve(model, theta_i, start=start, branch="convergent")``.
+
+    Args:
+        model: the model.
+        grid_or_thetas: a grid ``"NAME=lo:hi:n,..."`` or mapping ``name -> (lo, hi, n)``
+            (point ``i`` is the C-order flattening, axes in the order given; actuated joints
+            that are not axes stay at the start's value), or explicit (N, k) ``theta`` rows
+            in the model's actuated order.
+        out: the store directory (``*.zarr``); an existing store of the same run resumes.
+        workers: number of local worker processes (a Dask ``LocalCluster``, one thread
+            each); ``None`` or 0 solves in this process, without Dask.
+        scheduler: address of a running Dask scheduler (``"tcp://host:8786"``) or a
+            ``distributed.Client``; its workers must see ``out`` and share the kernel cache
+            directory or be able to compile (``$SCDK_CACHE_DIR``).
+        modes: also store ``n_modes``, the number of real assembly modes at each point
+            (:func:`scdk_sym.assembly_modes`; slow: about a second per point of the seed
+            robot on this machine's shared cores).
+        start: the assembled start Configuration (default: ``model.home``).
+        chunk: points per chunk (task and Zarr chunk); memory per task is O(chunk).
+        progress: a tqdm progress bar on stderr.
+        on_chunk: called on the client after each chunk as ``on_chunk(points_done, total)``.
+
+    Returns:
+        The :class:`AtlasRun` summary; the data is in the store (see
+        :mod:`scdk_sym.atlas.store`).
+
+    Raises:
+        InputError: bad grid, thetas, chunk or worker count.
+        UnknownNameError: a grid name is not an actuated joint.
+        StoreMismatchError: ``out`` holds an atlas of another model, grid or options.
+        AtlasError: Dask or Zarr missing, workers lost (re-run to resume).
+    """
+    from ..solvers.sc import _singular_start, validate_start
+
+    t0 = time.perf_counter()
+    start = validate_start(model, start)
+    if _singular_start(model, start):
+        raise InputError("atlas: the start configuration is singular; start from a regular one")
+    if not isinstance(chunk, int | np.integer) or chunk < 1:
+        raise InputError(f"atlas: chunk must be a positive number of points, got {chunk!r}")
+    if workers is not None and (not isinstance(workers, int | np.integer) or workers < 0):
+        raise InputError(f"atlas: workers must be a non-negative integer, got {workers!r}")
+    if workers and scheduler is not None:
+        raise InputError("atlas: give workers (a local cluster) or scheduler, not both")
+    grid, thetas, what = _points(model, grid_or_thetas, start)
+    points = grid.size if grid is not None else len(thetas)
+    layout = Layout(points, model.k, len(model.workspace), int(min(chunk, max(points, 1))), modes)
+    meta = {
+        "format": FORMAT,
+        "package": _pkg,
+        "version": _version(),
+        "model": {
+            "name": model.name,
+            "content_hash": model.content_hash,
+            "frame": model.frame,
+            "actuated": list(model.actuated),
+            "workspace": list(model.workspace),
+        },
+        **what,
+        "points": points,
+        "chunk": layout.chunk,
+        "start": {"theta": np.asarray(start.theta).tolist(), "y": np.asarray(start.y).tolist()},
+        "branch": "convergent",
+        "status_codes": {str(k): v for k, v in STATUS.items()},
+        "modes": modes,
+        **({"n_modes_method": MODES_METHOD} if modes else {}),
+    }
+    out = Path(out)
+    done = create_or_check(out, layout, meta)
+    todo = [i for i in range(layout.chunks) if not done[i]]
+    _prebuild(model)
+    source = model_source(model)
+    st = (np.asarray(start.y).tolist(), np.asarray(start.theta).tolist())
+    already = sum(
+        layout.bounds(i)[1] - layout.bounds(i)[0] for i in range(layout.chunks) if done[i]
+    )
+    bar = _bar(progress, points, already)
+    count = [already]
+
+    spent = [0.0, 0.0, 0]
+
+    def finished(index: int, seconds: float, cpu: float, swept: int) -> None:
+        spent[0] += seconds
+        spent[1] += cpu
+        spent[2] += swept
+        a, b = layout.bounds(index)
+        count[0] += b - a
+        if bar is not None:
+            bar.update(b - a)
+        if on_chunk is not None:
+            on_chunk(count[0], points)
+
+    def args(i: int):
+        a, b = layout.bounds(i)
+        rows = None if grid is not None else thetas[a:b]
+        return (source, st, str(out), layout, i, grid, rows, modes)
+
+    try:
+        if scheduler is None and not workers:
+            _MODELS.setdefault(model.content_hash, model)  # this process: the caller's model
+            for i in todo:
+                finished(*_task(*args(i)))
+        else:
+            _distributed(todo, args, finished, workers, scheduler)
+    finally:
+        if bar is not None:
+            bar.close()
+    counts = _counts(out, len(STATUS))
+    return AtlasRun(out, points, layout.chunks, len(todo), counts, time.perf_counter() - t0, *spent)
+
+
+def _points(model, grid_or_thetas, start) -> tuple[Grid | None, np.ndarray | None, dict]:
+    if isinstance(grid_or_thetas, Grid):
+        grid = grid_or_thetas
+        if grid.actuated != tuple(model.actuated):
+            raise InputError("atlas: the grid was made for another model (actuated names differ)")
+    elif isinstance(grid_or_thetas, str | Mapping):
+        grid = make_grid(model, grid_or_thetas, np.asarray(start.theta, float))
+    else:
+        thetas = np.array(grid_or_thetas, dtype=float)
+        if thetas.ndim != 2 or thetas.shape[1] != model.k or not len(thetas):
+            raise InputError(
+                f"atlas: thetas must be (N, {model.k}) rows ({', '.join(model.actuated)}), "
+                f"got shape {thetas.shape}"
+            )
+        digest = hashlib.sha256(np.ascontiguousarray(thetas).tobytes()).hexdigest()
+        return None, thetas, {"grid": None, "thetas_sha256": digest}
+    return grid, None, {"grid": grid.to_attrs(), "thetas_sha256": None}
+
+
+def _prebuild(model) -> None:
+    """Compile (or find in the disk cache) every kernel the workers load."""
+    from ..follower.cvodes import engine
+    from .sweep import sweep_library
+
+    sweep_library(model)
+    engine(model, "compiled")
+
+
+def _bar(progress: bool, total: int, initial: int):
+    if not progress:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, initial=initial, unit="pt", desc="atlas", smoothing=0.05)
+
+
+def _distributed(todo, args, finished, workers, scheduler) -> None:
+    try:
+        from distributed import Client, LocalCluster, as_completed
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise AtlasError(
+            "atlas with workers or a scheduler needs Dask: pip install 'dask[distributed]'"
+        ) from exc
+    cluster = client = None
+    try:
+        if scheduler is None:
+            cluster = LocalCluster(
+                n_workers=int(workers), threads_per_worker=1, processes=True, dashboard_address=":0"
+            )
+            client = Client(cluster)
+        elif isinstance(scheduler, str):
+            client = Client(scheduler)
+        else:
+            client = scheduler
+        slots = IN_FLIGHT * max(1, len(client.scheduler_info().get("workers", {})))
+        queue = iter(todo)
+        run = uuid.uuid4().hex[:12]  # task keys unique to this call
+        pending = as_completed()
+        for i in queue:
+            pending.add(client.submit(_task, *args(i), key=f"scdk-atlas-{run}-{i}", pure=False))
+            if pending.count() >= slots:
+                break
+        for fut in pending:
+            try:
+                done_task = fut.result()
+            except Exception as exc:
+                from ..errors import ScdkError
+
+                if isinstance(exc, ScdkError):
+                    raise
+                raise AtlasError(
+                    f"atlas: a task failed ({type(exc).__name__}: {exc}); re-run the same "
+                    "command to resume from the chunks already written"
+                ) from exc
+            finished(*done_task)
+            nxt = next(queue, None)
+            if nxt is not None:
+                pending.add(
+                    client.submit(_task, *args(nxt), key=f"scdk-atlas-{run}-{nxt}", pure=False)
+                )
+    finally:
+        if client is not None and client is not scheduler:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _counts(out: Path, size: int) -> dict[int, int]:
+    from .store import open_atlas
+
+    status = np.asarray(open_atlas(out)["status"][:])
+    codes, n = np.unique(status, return_counts=True)
+    return {int(c): int(k) for c, k in zip(codes, n, strict=True)}

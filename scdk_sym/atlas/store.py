@@ -1,0 +1,153 @@
+"""The atlas store: a Zarr group of chunked arrays with per-chunk done-markers.
+
+Layout (``N`` points, ``k`` actuated joints, ``n`` workspace coordinates, chunks of ``C``
+points along the first axis of every array):
+
+* ``theta`` (N, k) float64, ``x`` (N, n) float64 (NaN where not solved), ``det_jp`` (N,)
+  float64, ``status`` (N,) int8 (codes in the ``status_codes`` attribute), ``n_modes`` (N,)
+  int16 (with modes only; -1 where the search failed);
+* ``done`` (number of chunks,) uint8, one Zarr chunk per entry: 1 once every array of that
+  chunk is written (the marker is written last, so a chunk interrupted mid-write is redone);
+* attribute ``scdk_atlas``: what the store is for (model hash, grid or the hash of the
+  explicit thetas, start, modes, chunk size, package version); a store whose attribute
+  differs from the requested run is refused.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import AtlasError, StoreMismatchError
+
+#: Format of the store layout.
+FORMAT = 1
+
+
+def _zarr():
+    try:
+        import zarr
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise AtlasError("the atlas needs zarr: pip install 'zarr>=3'") from exc
+    return zarr
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Sizes of a store."""
+
+    points: int
+    k: int
+    n: int
+    chunk: int
+    modes: bool
+
+    @property
+    def chunks(self) -> int:
+        return -(-self.points // self.chunk)
+
+    def bounds(self, index: int) -> tuple[int, int]:
+        """(start, stop) points of chunk ``index``."""
+        return index * self.chunk, min(self.points, (index + 1) * self.chunk)
+
+
+_OPEN: dict[tuple[str, Layout], object] = {}
+
+
+def create_or_check(path: str | Path, layout: Layout, meta: dict) -> np.ndarray:
+    """Create the store, or check that an existing one is for the same run.
+
+    Args:
+        path: the store directory (``*.zarr``).
+        layout: sizes.
+        meta: the ``scdk_atlas`` attribute of this run (JSON-able).
+
+    Returns:
+        (chunks,) bool: the chunks already done.
+
+    Raises:
+        StoreMismatchError: the store exists and was written for another model, grid, start,
+            chunk size, modes setting or package version.
+        AtlasError: the path exists and is not an atlas store.
+    """
+    zarr = _zarr()
+    p = Path(path)
+    meta = json.loads(json.dumps(meta))  # the form it takes in JSON
+    if p.exists() and any(p.iterdir()):
+        try:
+            group = zarr.open_group(str(p), mode="r")
+        except Exception as exc:  # zarr raises several types for a non-store directory
+            raise AtlasError(
+                f"--out {str(p)!r} exists and is not an atlas store: choose a new path"
+            ) from exc
+        old = group.attrs.get("scdk_atlas")
+        if old is None:
+            raise AtlasError(
+                f"--out {str(p)!r} is a Zarr store but not an atlas: choose a new path"
+            )
+        if old != meta:
+            diff = sorted(key for key in set(old) | set(meta) if old.get(key) != meta.get(key))
+            raise StoreMismatchError(
+                f"store {str(p)!r} was written for another run (differs in: {', '.join(diff)}); "
+                "use a new --out path or the same model, grid and options"
+            )
+        return np.asarray(group["done"][:]) == 1
+    # built beside its place and renamed into it: a store is complete or absent
+    tmp = p.with_name(f".{p.name}.{os.getpid()}.partial")
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    if hasattr(zarr, "create_array"):  # zarr 3
+        group = zarr.open_group(str(tmp), mode="w-", attributes={"scdk_atlas": meta})
+    else:  # zarr 2 (Python 3.10)
+        group = zarr.open_group(str(tmp), mode="w-")
+        group.attrs.update({"scdk_atlas": meta})
+    N, C = layout.points, layout.chunk
+    arrays = [
+        ("theta", (N, layout.k), (C, layout.k), "float64", np.nan),
+        ("x", (N, layout.n), (C, layout.n), "float64", np.nan),
+        ("det_jp", (N,), (C,), "float64", np.nan),
+        ("status", (N,), (C,), "int8", -1),
+        *([("n_modes", (N,), (C,), "int16", -1)] if layout.modes else []),
+        ("done", (layout.chunks,), (1,), "uint8", 0),
+    ]
+    for name, shape, chunks, dtype, fill in arrays:
+        create = getattr(group, "create_array", None) or group.create_dataset
+        create(name, shape=shape, chunks=chunks, dtype=dtype, fill_value=fill)
+    os.replace(tmp, p)
+    return np.zeros(layout.chunks, dtype=bool)
+
+
+def write_chunk(path: str, layout: Layout, index: int, theta, result) -> None:
+    """Write one chunk's arrays, then its done-marker."""
+    group = _OPEN.get((path, layout))
+    if group is None:
+        group = _OPEN[(path, layout)] = _zarr().open_group(path, mode="r+")
+    a, b = layout.bounds(index)
+    group["theta"][a:b] = theta
+    group["x"][a:b] = result.x
+    group["det_jp"][a:b] = result.det_jp
+    group["status"][a:b] = result.status
+    if layout.modes:
+        group["n_modes"][a:b] = result.n_modes
+    group["done"][index] = 1
+
+
+def open_atlas(path: str | Path):
+    """The Zarr group of an atlas store (read-only).
+
+    Raises:
+        AtlasError: the path is not an atlas store.
+    """
+    zarr = _zarr()
+    try:
+        group = zarr.open_group(str(path), mode="r")
+    except Exception as exc:
+        raise AtlasError(f"cannot open atlas store {str(path)!r}: {exc}") from exc
+    if "scdk_atlas" not in group.attrs:
+        raise AtlasError(f"{str(path)!r} is not an atlas store (no scdk_atlas attribute)")
+    return group

@@ -1,0 +1,159 @@
+"""The compiled sweep: the convergent branch of many ``theta0`` from one start in one C call.
+
+Where ``det J_p`` keeps its sign along the straight path from the start, the SC solution
+curve is the graph of ``y(s)`` over ``s`` in [0, 1] (``s' = b det J_p`` never vanishes: no
+fold), so the first ``s = 1`` crossing of :func:`scdk_sym.solve`'s convergent branch is
+``y(1)``, the end of the initial-value problem ``dy/ds = J_p^{-1} j_s``. The sweep integrates
+it with :data:`STEPS` RK4 steps, each followed by Newton corrections, and returns what decides
+whether the answer is that solution:
+
+* ``det J_p`` at every RK stage and step end, divided by its value at the start (all must
+  be positive: the path stayed on the start's side);
+* the largest Newton correction of a step relative to that step's motion (small: each
+  corrector landed on the curve it was predicted on, not on another sheet);
+* the residual and ``J_p`` at the end (verification; well conditioned, or the point is left
+  to :func:`scdk_sym.solve`, which names singular solutions).
+
+A point the sweep cannot vouch for is solved by :func:`scdk_sym.solve` itself; both give the
+same root to rounding (the test suite compares them to 1e-12).
+
+The kernel is generated, compiled once per model into the disk cache (keyed by the model's
+kernel hash and this module's source) and loaded with ``casadi.external``; mapped over a
+chunk of points it is one call per chunk.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import tempfile
+from pathlib import Path
+
+import casadi as ca
+
+#: RK4 steps in s from the start to theta0 of the two passes (the second for the points the
+#: first cannot vouch for).
+STEPS = (8, 32)
+#: Newton corrections after each RK4 step, and at the end.
+NEWTON = 1
+POLISH = 2
+
+
+def build_sweep(model, steps: int) -> ca.Function:
+    """The SX sweep Function of a model.
+
+    Signature: ``(y1[m], theta1[k], theta0[k], c) -> (y0[m], det_ratio_min, correction,
+    residual, J_p0[m*m], x0[n])`` with ``y`` in the local chart ``c`` of the start;
+    ``det_ratio_min`` the smallest ``det J_p / det J_p(start)`` met, ``correction`` the
+    largest Newton correction of a step divided by that step's ``max |dy|`` (plus 1e-300),
+    ``residual`` the largest verification row at the end, ``J_p0`` in the chart centred on
+    the solution (as :func:`scdk_sym.solve` checks it).
+    """
+    sym = model.symbolic
+    y, theta, c = sym.y, sym.theta, sym.c
+    m, k = sym.m, sym.k
+    jp = ca.Function("jp", [y, theta, c], [sym.J_p])
+    det = ca.Function("det", [y, theta, c], [ca.det(sym.J_p)])
+    parts = ca.Function("parts", [y, theta, c], [sym.g, sym.J_p, sym.J_s])
+    newton = ca.Function("newton", [y, theta, c], [y - ca.solve(sym.J_p, sym.g)])
+    check = ca.Function("check", [y, theta, c], [ca.norm_inf(sym.g_check)])
+    pose = ca.Function("pose", [y, theta, c], [sym.x])
+
+    th1 = ca.SX.sym("theta1", k)
+    dth = ca.SX.sym("dtheta", k)
+    cc = ca.SX.sym("c", c.numel())
+    d1 = ca.SX.sym("det1")
+    h = 1.0 / steps
+
+    # one RK4 step and a Newton correction; state = (y, s, det ratio, worst correction).
+    # Each evaluation point shares one evaluation of (g, J_p, J_s) between dy/ds and det J_p.
+    state = ca.SX.sym("state", m + 3)
+    yk, s, ratio, worst = state[:m], state[m], state[m + 1], state[m + 2]
+    slopes = []
+    yy = yk
+    for frac, nxt in ((0.0, 0.5), (0.5, 0.5), (0.5, 1.0), (1.0, None)):
+        _, Jp, Js = parts(yy, th1 + (s + frac * h) * dth, cc)
+        slopes.append(ca.solve(Jp, Js @ dth))  # dy/ds = J_p^-1 j_s, j_s = J_s dtheta
+        ratio = ca.fmin(ratio, ca.det(Jp) / d1)
+        if nxt is not None:
+            yy = yk + nxt * h * slopes[-1]
+    k1, k2, k3, k4 = slopes
+    pred = yk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    yn = pred
+    for _ in range(NEWTON):
+        gp, Jpp, _ = parts(yn, th1 + (s + h) * dth, cc)
+        yn = yn - ca.solve(Jpp, gp)
+    worst = ca.fmax(worst, ca.norm_inf(yn - pred) / (ca.norm_inf(yn - yk) + 1e-300))
+    step = ca.Function(
+        f"scdk_atlas_step_{steps}",
+        [state, th1, dth, d1, cc],
+        [ca.vertcat(yn, s + h, ratio, worst)],
+    )
+    fold = step.fold(steps)
+
+    y1 = ca.MX.sym("y1", m)
+    t1 = ca.MX.sym("theta1", k)
+    t0 = ca.MX.sym("theta0", k)
+    cm = ca.MX.sym("c", c.numel())
+    end = fold(ca.vertcat(y1, 0, 1, 0), t1, t0 - t1, det(y1, t1, cm), cm)
+    yk = end[:m]
+    for _ in range(POLISH):
+        yk = newton(yk, t0, cm)
+    ratio = ca.fmin(end[m + 1], det(yk, t0, cm) / det(y1, t1, cm))
+    y_sol, c_sol = _recentred(model, yk, cm)
+    outs = [yk, ratio, end[m + 2], check(yk, t0, cm), ca.vec(jp(y_sol, t0, c_sol)),
+            pose(yk, t0, cm)]  # fmt: skip
+    return ca.Function(
+        f"scdk_atlas_sweep_{steps}",
+        [y1, t1, t0, cm],
+        [ca.densify(e) for e in outs],
+        ["y1", "theta1", "theta0", "c"],
+        ["y0", "det_ratio_min", "correction", "residual", "J_p0", "x0"],
+    )
+
+
+def _recentred(model, y, c):
+    """``(y, c)`` in the chart centred on ``y`` (rho = 0), as ``model.chart.to_local`` of the
+    canonical ``y`` gives it (:mod:`scdk_sym.model.chart`)."""
+    parts_y = [y[i] for i in range(y.numel())]
+    parts_c = [c[i] for i in range(c.numel())]
+    for b, idx in enumerate(model.chart.rotations):
+        rho = ca.vertcat(*[y[i] for i in idx])
+        W = ca.skew(rho)
+        R = ca.reshape(c[9 * b : 9 * b + 9], 3, 3) @ (
+            ca.MX.eye(3) + 2 * (W + W @ W) / (1 + ca.dot(rho, rho))
+        )
+        for i in idx:
+            parts_y[i] = 0
+        vec = ca.vec(R)
+        for j in range(9):
+            parts_c[9 * b + j] = vec[j]
+    return ca.vertcat(*parts_y), ca.vertcat(*parts_c) if parts_c else c
+
+
+def sweep_key(model) -> str:
+    """Cache key of a model's sweep library: its kernel hash and this module's source."""
+    from ..kernels.compile import cache_key
+
+    h = hashlib.sha256(cache_key(model).encode())
+    h.update(Path(__file__).read_bytes())
+    return h.hexdigest()[:24]
+
+
+def sweep_library(model) -> Path:
+    """The compiled sweep of a model, built into the disk cache on first use (seconds)."""
+    from ..kernels.cache import cache_dir
+    from ..kernels.compile import _compile_into, write_c
+
+    target = cache_dir() / f"atlas_sweep_{sweep_key(model)}.so"
+    if not target.exists():
+        with tempfile.TemporaryDirectory() as tmp:
+            funcs = [build_sweep(model, n) for n in STEPS]
+            src = write_c(funcs, "scdk_atlas_sweep", Path(tmp), with_header=False)
+            _compile_into(src, target)
+    return target
+
+
+def load_sweeps(model) -> tuple[ca.Function, ...]:
+    """The cached compiled sweeps of a model, one per entry of :data:`STEPS`."""
+    lib = str(sweep_library(model))
+    return tuple(ca.external(f"scdk_atlas_sweep_{n}", lib) for n in STEPS)

@@ -1,0 +1,296 @@
+"""The atlas: every stored point against a direct sc.solve, resumption after interruptions
+(client Ctrl-C, a killed `scdk atlas` process, a killed Dask worker) compared byte for byte
+with an uninterrupted store, and refusal of stores written for another run.
+
+Measured 115 s for this file with the machine's two cores at load average 13 (most of it
+starting worker processes, which import the package, for the three clusters)."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from factories import MODELS, SEED_X1, shipped
+
+import scdk_sym as sc
+from scdk_sym.atlas import STATUS, make_grid, open_atlas
+from scdk_sym.cli import main as cli_main
+from scdk_sym.errors import AtlasError, PathError, StoreMismatchError, UnknownNameError
+
+zarr = pytest.importorskip("zarr")
+
+#: 4 x 3 x 3 points around the paper's theta0, some beyond the start's reach (PathError).
+GRID = "theta_1=1.05:1.55:4,theta_3=-3.15:-2.65:3,theta_2=-1.05:-0.55:3"
+CHUNK = 8
+X_TOL = 1e-12
+
+
+@pytest.fixture(scope="module")
+def seed():
+    model = shipped("planar_hexa")
+    return model, model.inverse_kinematics(SEED_X1)
+
+
+@pytest.fixture(scope="module")
+def reference(seed):
+    """(thetas, x, status) from the package's own solve, point by point, in C order."""
+    model, start = seed
+    a = np.linspace(1.05, 1.55, 4)
+    c = np.linspace(-3.15, -2.65, 3)
+    b = np.linspace(-1.05, -0.55, 3)
+    A, C, B = np.meshgrid(a, c, b, indexing="ij")  # the order the names appear
+    thetas = np.stack([A.ravel(), B.ravel(), C.ravel()], axis=1)  # actuated order
+    xs = np.full((len(thetas), 3), np.nan)
+    status = np.zeros(len(thetas), dtype=int)
+    for i, th in enumerate(thetas):
+        try:
+            res = sc.solve(model, th, start=start, branch="convergent")
+        except PathError:
+            status[i] = 1
+            continue
+        xs[i] = res.x
+        status[i] = 4 if res.status == "singular" else 0
+    assert 0 < np.sum(status == 0) < len(thetas)  # both outcomes are exercised
+    return thetas, xs, status
+
+
+@pytest.fixture(scope="module")
+def client():
+    """A LocalCluster of two worker processes, shared by the tests that need one."""
+    distributed = pytest.importorskip("distributed")
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
+        ) as cluster,
+        distributed.Client(cluster) as cl,
+    ):
+        yield cl
+
+
+@pytest.fixture(scope="module")
+def serial_store(seed, tmp_path_factory):
+    model, start = seed
+    out = tmp_path_factory.mktemp("atlas") / "serial.zarr"
+    sc.atlas(model, GRID, out, start=start, chunk=CHUNK, progress=False)
+    return out
+
+
+def files(store: Path) -> dict[str, bytes]:
+    return {
+        str(p.relative_to(store)): p.read_bytes() for p in sorted(store.rglob("*")) if p.is_file()
+    }
+
+
+def check_against(out: Path, reference) -> None:
+    thetas, xs, status = reference
+    g = open_atlas(out)
+    np.testing.assert_array_equal(g["theta"][:], thetas)
+    np.testing.assert_array_equal(g["status"][:], status)
+    np.testing.assert_array_equal(np.isnan(g["x"][:]), np.isnan(xs))
+    np.testing.assert_allclose(g["x"][:], xs, rtol=0, atol=X_TOL, equal_nan=True)
+    assert np.all(g["done"][:] == 1)
+
+
+def test_serial_equals_direct_solves(serial_store, reference, seed):
+    model, start = seed
+    check_against(serial_store, reference)
+    g = open_atlas(serial_store)
+    meta = g.attrs["scdk_atlas"]
+    assert meta["model"]["content_hash"] == model.content_hash
+    assert [a["name"] for a in meta["grid"]["axes"]] == ["theta_1", "theta_3", "theta_2"]
+    assert meta["status_codes"]["1"].startswith("PathError")
+    assert meta["version"]
+    # det J_p: the sign of the start's side at every solved point (convergent branch)
+    det = g["det_jp"][:]
+    ok = g["status"][:] == 0
+    y_loc, c = model.chart.to_local(start.y)
+    det0 = np.linalg.det(np.array(model.kernels.jac(y_loc, start.theta, c)[0]))
+    assert np.all(np.sign(det[ok]) == np.sign(det0)) and np.all(np.isnan(det[~ok]))
+
+
+def test_workers_equal_direct_solves(seed, reference, serial_store, client, tmp_path):
+    model, start = seed
+    one, two = tmp_path / "one.zarr", tmp_path / "two.zarr"
+    sc.atlas(model, GRID, one, start=start, chunk=CHUNK, workers=1, progress=False)
+    sc.atlas(model, GRID, two, start=start, chunk=CHUNK, scheduler=client, progress=False)
+    for out in (one, two):
+        check_against(out, reference)
+        assert files(out) == files(serial_store)
+
+
+def test_sweep_equals_solve_fallback(seed, reference, monkeypatch):
+    """The compiled sweep settles most points; with it disabled every point goes through
+    sc.solve: both agree to 1e-12 and fail on the same points."""
+    from scdk_sym.atlas import chunk
+
+    model, start = seed
+    thetas = reference[0]
+    swept = chunk.solve_chunk(model, start, thetas)
+    assert swept.swept == np.sum(reference[2] == 0)
+    monkeypatch.setattr(chunk, "_sweeps", lambda model: ())
+    direct = chunk.solve_chunk(model, start, thetas)
+    assert direct.swept == 0
+    np.testing.assert_array_equal(direct.status, swept.status)
+    np.testing.assert_allclose(direct.x, swept.x, rtol=0, atol=X_TOL, equal_nan=True)
+    np.testing.assert_allclose(direct.det_jp, swept.det_jp, rtol=1e-10, equal_nan=True)
+
+
+def test_client_interrupt_resumes_identically(seed, serial_store, tmp_path):
+    model, start = seed
+    out = tmp_path / "interrupted.zarr"
+
+    def stop(done: int, total: int) -> None:
+        if done >= 2 * CHUNK:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        sc.atlas(model, GRID, out, start=start, chunk=CHUNK, progress=False, on_chunk=stop)
+    assert open_atlas(out)["done"][:].tolist() == [1, 1, 0, 0, 0]
+    seen = []
+    run = sc.atlas(
+        model,
+        GRID,
+        out,
+        start=start,
+        chunk=CHUNK,
+        progress=False,
+        on_chunk=lambda d, t: seen.append(d),
+    )
+    assert run.computed == 3 and seen[0] == 3 * CHUNK
+    assert files(out) == files(serial_store)
+
+
+def test_killed_cli_process_resumes_identically(serial_store, tmp_path):
+    out = tmp_path / "killed.zarr"
+    argv = ["atlas", str(MODELS / "planar_hexa"), "--grid", GRID, "--out", str(out),
+            "--from-x", "0,0,0.4", "--chunk", str(CHUNK), "--no-progress"]  # fmt: skip
+    proc = subprocess.Popen([sys.executable, "-m", "scdk_sym", *argv],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
+    markers = out / "done" / "c"
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None:
+            if markers.exists() and len(list(markers.iterdir())) >= 1:
+                break
+            time.sleep(0.01)
+        assert proc.poll() is None, "the run ended before it could be killed"
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    done = open_atlas(out)["done"][:]
+    assert 1 <= done.sum() < len(done)
+    assert cli_main(argv) == 0
+    assert files(out) == files(serial_store)
+
+
+def test_killed_worker_resumes_identically(seed, serial_store, client, tmp_path):
+    model, start = seed
+    out = tmp_path / "worker.zarr"
+    pids = client.run(os.getpid)  # worker address -> process id
+    killed = []
+
+    def kill(done: int, total: int) -> None:
+        if not killed:  # after the first chunk: a worker with a chunk in hand, if any
+            busy = [w for w, tasks in client.processing().items() if tasks and w in pids]
+            victim = busy[0] if busy else next(iter(pids))
+            os.kill(pids[victim], signal.SIGKILL)
+            killed.append(victim)
+
+    # the lost tasks are retried elsewhere, or given up (AtlasError): the re-run completes
+    with contextlib.suppress(AtlasError):
+        sc.atlas(model, GRID, out, start=start, chunk=CHUNK, scheduler=client, progress=False,
+                 on_chunk=kill)  # fmt: skip
+    assert killed
+    client.wait_for_workers(2, timeout=60)
+    sc.atlas(model, GRID, out, start=start, chunk=CHUNK, scheduler=client, progress=False)
+    assert files(out) == files(serial_store)
+
+
+def test_store_of_another_run_is_refused(seed, serial_store, tmp_path):
+    model, start = seed
+    other_grid = GRID.replace(":4,", ":5,")
+    with pytest.raises(StoreMismatchError, match="grid"):
+        sc.atlas(model, other_grid, serial_store, start=start, chunk=CHUNK, progress=False)
+    reduced = shipped("planar_hexa_reduced")
+    with pytest.raises(StoreMismatchError, match="model"):
+        sc.atlas(reduced, GRID, serial_store, chunk=CHUNK, progress=False)
+    with pytest.raises(StoreMismatchError, match="start"):
+        sc.atlas(model, GRID, serial_store, chunk=CHUNK, progress=False)  # from home
+    (tmp_path / "junk").mkdir()
+    (tmp_path / "junk" / "file.txt").write_text("not a store")
+    with pytest.raises(AtlasError, match="not an atlas store"):
+        sc.atlas(model, GRID, tmp_path / "junk", start=start, progress=False)
+    assert (
+        cli_main(
+            [
+                "atlas",
+                str(MODELS / "planar_hexa"),
+                "--grid",
+                other_grid,
+                "--out",
+                str(serial_store),
+                "--from-x",
+                "0,0,0.4",
+                "--no-progress",
+            ]
+        )
+        == 1
+    )
+
+
+def test_grid_names_and_order(seed):
+    model, start = seed
+    g = make_grid(model, "theta_2=0:1:2,theta_1=5:7:3", start.theta)
+    th = g.thetas(0, g.size)
+    assert g.shape == (2, 3) and th.shape == (6, 3)
+    np.testing.assert_array_equal(th[:, 1], [0, 0, 0, 1, 1, 1])
+    np.testing.assert_array_equal(th[:, 0], [5, 6, 7, 5, 6, 7])
+    np.testing.assert_array_equal(th[:, 2], start.theta[2])  # not named: the start's value
+    np.testing.assert_array_equal(g.thetas(2, 5), th[2:5])
+    with pytest.raises(UnknownNameError, match="theta_1, theta_2, theta_3"):
+        make_grid(model, "theta_9=0:1:2", start.theta)
+    assert set(STATUS) == {0, 1, 2, 3, 4}
+
+
+def test_plot_atlas(serial_store, tmp_path):
+    image = pytest.importorskip("matplotlib.image")
+    png = tmp_path / "atlas.png"
+    assert (
+        cli_main(
+            [
+                "plot-atlas",
+                str(serial_store),
+                "--out",
+                str(png),
+                "--axes",
+                "theta_1,theta_2",
+                "--at",
+                "theta_3=-2.9",
+            ]
+        )
+        == 0
+    )
+    rgb = image.imread(str(png))[:, :, :3]
+    blue = np.array([0x4C, 0x9B, 0xE8]) / 255  # solved / det J_p > 0
+    assert np.sum(np.max(np.abs(rgb - blue), axis=2) < 0.02) > 500
+
+
+def test_modes_counted_and_method_recorded(seed, tmp_path):
+    model, start = seed
+    out = tmp_path / "modes.zarr"
+    grid = "theta_1=1.3:1.3:1"  # one point: a mode search costs a second or more
+    sc.atlas(model, grid, out, start=start, modes=True, progress=False)
+    g = open_atlas(out)
+    direct = [len(sc.assembly_modes(model, th, backend="compiled")) for th in g["theta"][:]]
+    assert g["n_modes"][:].tolist() == direct
+    assert g["status"][:].tolist() == [0] and direct[0] >= 1
+    assert "not certified" in g.attrs["scdk_atlas"]["n_modes_method"]
