@@ -16,7 +16,7 @@ Both backends apply this rule with the same constants (the module constants belo
 :mod:`scdk_sym.codegen.generate` writes into the generated tracker) and the same kernels:
 ``backend="cvodes"`` (this module) follows the SC curve with CVODES
 (:func:`~scdk_sym.solvers.sc.trace`), ``backend="c"`` with the Runge-Kutta steps of the
-generated C tracker (:mod:`scdk_sym.codegen.templates`, whose header states the same rule).
+generated C tracker (``scdk_sym/codegen/c/tracker.c.in``, whose header states the same rule).
 Only the way the curve is followed differs; the prediction, the cheap step, the Newton
 correctors, the choice and the refusal are the same computation.
 
