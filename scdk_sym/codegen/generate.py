@@ -3,9 +3,10 @@
 :func:`generate` writes, for a C prefix ``P`` (default ``scdk``):
 
 - ``P_kernels.c`` / ``P_kernels.h``: CasADi's ``CodeGenerator`` output for ``g``, ``J_p`` and
-  ``J_s``, the pose, the SC field, one RK4 step of it, the RK4 step in ``s``, the
-  fixed-iteration Newton corrector, the chart re-centring and an inverse-kinematics step
-  (self-contained C, see :mod:`scdk_sym.codegen.kernels`);
+  ``J_s``, the pose, the curve follower's kernels (the oriented SC tangent, one RK4
+  predictor-corrector step, the RK4 step in ``s``, the Newton corrector and polish), the chart
+  re-centring and an inverse-kinematics step (self-contained C, see
+  :mod:`scdk_sym.codegen.kernels`);
 - ``P_tracker.c`` / ``P_tracker.h``: the tracker, the templates ``codegen/c/tracker.c.in`` and
   ``codegen/c/tracker.h.in`` (package data, :mod:`scdk_sym.codegen.templates`) filled with the
   model's sizes, tolerances and home configuration.
@@ -142,6 +143,7 @@ def generate(model, directory: str | Path, prefix: str = "scdk") -> GeneratedSou
         "TOL": repr(float(model.tolerance)),
         "LENGTH_SCALE": repr(float(max(model.length_scale, 1e-300))),
         **_rule_constants(),
+        **_follower_constants(),
         "PERIODIC": _periodic(model),
     }
     header = templates.fill(templates.template(templates.HEADER), values)
@@ -178,6 +180,22 @@ def _periodic(model) -> str:
     mask = np.zeros(model.m, dtype=int)
     mask[periodic(model)] = 1
     return ", ".join(str(v) for v in mask)
+
+
+def _follower_constants() -> dict[str, str]:
+    """The step-control constants of the curve follower (:mod:`scdk_sym.follower.curve`),
+    which the C tracker's ``follow`` mirrors."""
+    from ..follower import curve
+
+    return {
+        "MAX_PREDICTOR_ERROR": repr(float(curve.MAX_PREDICTOR_ERROR)),
+        "NEWTON_TOL": repr(float(curve.NEWTON_TOL)),
+        "MIN_COS": repr(float(curve.MIN_COS)),
+        "SMOOTH_CORRECTION": repr(float(curve.SMOOTH_CORRECTION)),
+        "SMOOTH_COS": repr(float(curve.SMOOTH_COS)),
+        "GROW": repr(float(curve.GROW)),
+        "FINE": str(int(curve.FINE)),
+    }
 
 
 def _rule_constants() -> dict[str, str]:

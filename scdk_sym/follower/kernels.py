@@ -31,6 +31,8 @@ POLISH_STEPS = 8
 PLANE_STEPS = 8
 #: Newton steps locating a fold (``[g; t_s] = 0``).
 FOLD_STEPS = 8
+#: Newton iterations of the ``newton`` kernel (its callers call it again if needed).
+NEWTON_ITERATIONS = 2
 BACKENDS = ("casadi", "compiled")
 
 
@@ -40,25 +42,35 @@ class FollowerKernels:
 
     Attributes:
         steps: (x[2(m+1)], h, p[2k], c) -> (X[2(m+1), STEPS], info[3, STEPS],
-            J[m*m, STEPS]): ``STEPS`` predictor-corrector steps of arc length ``h`` from
-            ``x = (q, t)`` (a point of the curve and its unit tangent): RK4 predictor along the
-            tangent field, ``CORRECTIONS`` Newton corrections on the plane normal to ``t``;
-            ``info`` rows: first and last correction (weighted norm), cosine between the
-            tangents before and after; ``J``: ``vec(J_p)`` at each new point (column-major).
+            J[m*m, STEPS]): ``STEPS`` successive ``step`` calls (``mapaccum``).
+        step: (x[2(m+1)], h, p[2k], c) -> (x_new[2(m+1)], info[3], J[m*m]): one
+            predictor-corrector step of arc length ``h`` from ``x = (q, t)`` (a point of the
+            curve and its unit tangent): RK4 predictor along the tangent field,
+            ``CORRECTIONS`` Newton corrections on the plane normal to ``t``; ``info``: first and
+            last correction (weighted norm), cosine between the tangents before and after;
+            ``J``: ``vec(J_p)`` at the new point (column-major).
         tangent: (q, v, p, c) -> (t, vec(J_p)): unit tangent at ``q`` oriented along ``v``.
         plane: (q0, v, p, c) -> (q, max|g|): Newton on ``[H; v^T W (q - q0)] = 0`` (the curve
             point on the plane through ``q0`` normal to ``v``).
         fold: (q, v, p, c) -> q: Newton on ``[H; t_s] = 0`` (a turning point of ``s``).
-        polish: (y, theta, c) -> (y, max|g|): Newton at fixed ``theta``.
+        polish: (y, theta, c) -> (y, max|g|): ``POLISH_STEPS`` Newton steps at fixed ``theta``.
+        newton: (y, theta, c) -> (y_new, max|g(y_new)|, max|last correction|):
+            ``NEWTON_ITERATIONS`` Newton steps at fixed ``theta`` (the same step as ``polish``).
+        predict: (y, theta1[k], dtheta[k], c) -> y1: one RK4 step of
+            ``dy/ds = J_p^{-1} J_s dtheta`` from ``s = 0`` to ``s = 1`` (the curve with ``s`` as
+            the independent variable, valid off the singular manifold).
         singular: (y, theta, c) -> (g, J_p, J_s, dJ_p/d(y, theta) [m*m, m+k]): what a
             minimum-norm Newton onto the singular manifold ``det J_p = 0`` needs.
     """
 
     steps: ca.Function
+    step: ca.Function
     tangent: ca.Function
     plane: ca.Function
     fold: ca.Function
     polish: ca.Function
+    newton: ca.Function
+    predict: ca.Function
     singular: ca.Function
 
     def all(self) -> list[ca.Function]:
@@ -111,7 +123,13 @@ def build_follower_kernels(sym) -> FollowerKernels:
         qk = qk + dq
     t_new, J_new = f_tan(qk, t1, p, c)
     info = ca.vertcat(corrections[0], corrections[-1], ca.dot(weight * t_new, t1))
-    step = ca.Function("scdk_follow_step", [x, h, p, c], [ca.vertcat(qk, t_new), info, J_new])
+    step = ca.Function(
+        "scdk_follow_step",
+        [x, h, p, c],
+        [ca.vertcat(qk, t_new), info, J_new],
+        ["x", "h", "p", "c"],
+        ["x_new", "info", "J_p"],
+    )
     f_steps = step.mapaccum("scdk_follow_steps", STEPS)
 
     # the curve point on the plane through q0 normal to v
@@ -137,19 +155,46 @@ def build_follower_kernels(sym) -> FollowerKernels:
         qk = fold1(qk, v, p, c)
     f_fold = ca.Function("scdk_follow_fold", [qa, v, p, c], [qk], ["q", "v", "p", "c"], ["q_fold"])
 
+    # Newton at fixed theta: one step, iterated by the polish and the tracker's corrector
     theta = ca.SX.sym("theta", k)
     g0, J0 = ca.substitute([sym.g, sym.J_p], [sym.theta], [theta])
-    newton = ca.Function("scdk_newton1", [y, theta, c], [y - ca.solve(J0, g0)])
+    newton1 = ca.Function("scdk_newton1", [y, theta, c], [ca.solve(J0, g0)])
+    residual = ca.Function("scdk_residual", [y, theta, c], [ca.norm_inf(g0)])
     yk = y
     for _ in range(POLISH_STEPS):
-        yk = newton(yk, theta, c)
-    res = ca.norm_inf(ca.substitute(g0, y, yk))
+        yk = yk - newton1(yk, theta, c)
     f_polish = ca.Function(
         "scdk_follow_polish",
         [y, theta, c],
-        [yk, res],
+        [yk, residual(yk, theta, c)],
         ["y", "theta", "c"],
         ["y_solved", "residual"],
+    )
+    yk = y
+    last = ca.SX.zeros(m)
+    for _ in range(NEWTON_ITERATIONS):
+        last = newton1(yk, theta, c)
+        yk = yk - last
+    f_newton = ca.Function(
+        "scdk_follow_newton",
+        [y, theta, c],
+        [yk, residual(yk, theta, c), ca.norm_inf(last)],
+        ["y", "theta", "c"],
+        ["y_new", "residual", "correction"],
+    )
+
+    # one RK4 step in s of dy/ds = J_p^-1 j_s, s from 0 to 1
+    dyds = ca.Function("scdk_dyds", [y, s, theta1, dtheta, c], [ca.solve(Jp, Js @ dtheta)])
+    d1 = dyds(y, 0.0, theta1, dtheta, c)
+    d2 = dyds(y + 0.5 * d1, 0.5, theta1, dtheta, c)
+    d3 = dyds(y + 0.5 * d2, 0.5, theta1, dtheta, c)
+    d4 = dyds(y + d3, 1.0, theta1, dtheta, c)
+    f_predict = ca.Function(
+        "scdk_follow_predict",
+        [y, theta1, dtheta, c],
+        [y + (d1 + 2 * d2 + 2 * d3 + d4) / 6],
+        ["y", "theta1", "dtheta", "c"],
+        ["y1"],
     )
 
     z = ca.vertcat(sym.y, sym.theta)
@@ -161,7 +206,9 @@ def build_follower_kernels(sym) -> FollowerKernels:
         ["y", "theta", "c"],
         ["g", "J_p", "J_s", "dJ_p"],
     )
-    return FollowerKernels(f_steps, f_tan, f_plane, f_fold, f_polish, f_sing)
+    return FollowerKernels(
+        f_steps, step, f_tan, f_plane, f_fold, f_polish, f_newton, f_predict, f_sing
+    )
 
 
 def follower_kernels(model, backend: str = "casadi") -> FollowerKernels:
