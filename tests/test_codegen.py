@@ -262,6 +262,16 @@ def test_generated_kernels_equal_the_casadi_functions(boundary):
     ref = np.array(follower.step(np.append(q, t), 0.01, p, c)[0]).ravel()
     np.testing.assert_allclose(xn, ref, rtol=1e-13, atol=1e-15)
     assert xn[6] > 0 and info[2] > 0.99
+    # against the model's own kernels: t spans the null space of H = [J_p, -J_s dtheta] with
+    # unit length in the arc-length metric, and the step lands on the curve 0.01 along it
+    dtheta = p[6:]
+    Jp, Js = (np.array(a) for a in model.kernels.jac(y, theta, c))
+    np.testing.assert_allclose(Jp @ t[:6] - (Js @ dtheta) * t[6], 0.0, atol=1e-12)
+    assert t[:6] @ t[:6] + (dtheta @ dtheta) * t[6] ** 2 == pytest.approx(1.0, rel=1e-12)
+    g_new = np.array(model.kernels.g(xn[:6], theta + xn[6] * dtheta, c)).ravel()
+    assert np.max(np.abs(g_new)) < 1e-12
+    d = xn[:7] - q
+    assert d[:6] @ d[:6] + (dtheta @ dtheta) * d[6] ** 2 == pytest.approx(1e-4, rel=1e-3)
 
 
 @pytest.mark.parametrize("name", ["planar_hexa", "planar_3rpr"])

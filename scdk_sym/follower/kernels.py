@@ -78,6 +78,72 @@ class FollowerKernels:
         return [getattr(self, f.name) for f in fields(self)]
 
 
+def bordered_tangent(
+    Jp: ca.SX, Js: ca.SX, dtheta: ca.SX, v: ca.SX, rhs: ca.SX | None = None
+) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX | None]:
+    """The oriented SC tangent by the bordered solve: the package's one definition of it.
+
+    ``[H'; v^T] t = e_{m+1}`` with ``H' = [J_p, -J_s dtheta]``, solved in the balanced variables
+    ``(y, |dtheta| s)`` (every column of order one: CasADi's symbolic QR has no pivoting and
+    loses digits on the badly scaled ``[J_p, -j_s; v^T]`` when ``dtheta`` is small).
+
+    Args:
+        Jp: (m, m) ``J_p`` at the point.
+        Js: (m, k) ``J_s`` at the point.
+        dtheta: (k,) direction of the line in joint space.
+        v: (m+1,) orientation: the tangent has ``v . t > 0`` (in the balanced variables).
+        rhs: optional (m,) right-hand side ``r``: also solve ``[H'; v^T] d = [r; 0]`` with the
+            same matrix (the stabilising correction of the SC field, ``r = -g``).
+
+    Returns:
+        ``(t, t_hat, w, d)``: the unit tangent in ``(y, s)`` (metric ``|dy|^2 + (|dtheta| ds)^2``)
+        [(m+1,)]; the balanced solution before normalisation (its last entry vanishes exactly
+        where ``det J_p`` does) [(m+1,)]; ``w = |dtheta|``; ``d`` in ``(y, s)`` (None without
+        ``rhs``).
+    """
+    m = Jp.size1()
+    w = ca.sqrt(ca.dot(dtheta, dtheta) + 1e-300)
+    js_hat = Js @ (dtheta / w)
+    A = ca.vertcat(ca.horzcat(Jp, -js_hat), ca.horzcat(v[:m].T, w * v[m]))
+    e = ca.DM.zeros(m + 1)
+    e[m] = 1.0
+    d = None
+    if rhs is None:
+        t_hat = ca.solve(A, e)
+    else:
+        sol = ca.solve(A, ca.horzcat(e, ca.vertcat(rhs, 0)))
+        t_hat = sol[:, 0]
+        d = ca.vertcat(sol[:m, 1], sol[m, 1] / w)
+    t = ca.vertcat(t_hat[:m], t_hat[m] / w) / ca.norm_2(t_hat)
+    return t, t_hat, w, d
+
+
+def newton_correction(sym) -> ca.Function:
+    """(y, theta, c) -> ``J_p^{-1} g``: the Newton correction at fixed ``theta`` (one
+    definition; ``y - correction`` is one Newton step)."""
+    return ca.Function("scdk_newton1", [sym.y, sym.theta, sym.c], [ca.solve(sym.J_p, sym.g)])
+
+
+def rk4_in_s(sym, y0: ca.SX, s0, s1, theta1: ca.SX, dtheta: ca.SX, steps: int) -> ca.SX:
+    """``steps`` RK4 steps of ``dy/ds = J_p^{-1} J_s dtheta`` (``theta = theta1 + s dtheta``)
+    from ``(y0, s0)`` to ``s1``: the curve with ``s`` as the independent variable (valid off the
+    singular manifold)."""
+    s, a, d = ca.SX.sym("s"), ca.SX.sym("theta1", sym.k), ca.SX.sym("dtheta", sym.k)
+    Jp, Js = ca.substitute([sym.J_p, sym.J_s], [sym.theta], [a + s * d])
+    dyds = ca.Function("scdk_dyds", [sym.y, s, a, d, sym.c], [ca.solve(Jp, Js @ d)])
+    c = sym.c
+    h = (s1 - s0) / steps
+    yk, sk = y0, s0
+    for _ in range(steps):
+        k1 = dyds(yk, sk, theta1, dtheta, c)
+        k2 = dyds(yk + h / 2 * k1, sk + h / 2, theta1, dtheta, c)
+        k3 = dyds(yk + h / 2 * k2, sk + h / 2, theta1, dtheta, c)
+        k4 = dyds(yk + h * k3, sk + h, theta1, dtheta, c)
+        yk = yk + h * (k1 + 2 * k2 + 2 * k3 + k4) / 6
+        sk = sk + h
+    return yk
+
+
 def build_follower_kernels(sym) -> FollowerKernels:
     """Build the follower's Functions from a model's symbolic system (``model.symbolic``)."""
     m, k = sym.m, sym.k
@@ -89,16 +155,9 @@ def build_follower_kernels(sym) -> FollowerKernels:
     q = ca.vertcat(y, s)
     g, Jp, Js = ca.substitute([sym.g, sym.J_p, sym.J_s], [sym.theta], [theta1 + s * dtheta])
     w2 = ca.dot(dtheta, dtheta)
-    w = ca.sqrt(w2 + 1e-300)
     weight = ca.vertcat(ca.DM.ones(m), w2)
     v = ca.SX.sym("v", m + 1)
-    # the bordered solve in the balanced variables (y, |dtheta| s): every column of order one
-    js_hat = Js @ (dtheta / w)
-    A = ca.vertcat(ca.horzcat(Jp, -js_hat), ca.horzcat(v[:m].T, w * v[m]))
-    e = ca.DM.zeros(m + 1)
-    e[m] = 1.0
-    t_hat = ca.solve(A, e)
-    t = ca.vertcat(t_hat[:m], t_hat[m] / w) / ca.norm_2(t_hat)
+    t, t_hat, _w, _ = bordered_tangent(Jp, Js, dtheta, v)
     f_tan = ca.Function(
         "scdk_follow_tangent", [q, v, p, c], [t, ca.vec(Jp)], ["q", "v", "p", "c"], ["t", "J_p"]
     )
@@ -156,10 +215,9 @@ def build_follower_kernels(sym) -> FollowerKernels:
     f_fold = ca.Function("scdk_follow_fold", [qa, v, p, c], [qk], ["q", "v", "p", "c"], ["q_fold"])
 
     # Newton at fixed theta: one step, iterated by the polish and the tracker's corrector
-    theta = ca.SX.sym("theta", k)
-    g0, J0 = ca.substitute([sym.g, sym.J_p], [sym.theta], [theta])
-    newton1 = ca.Function("scdk_newton1", [y, theta, c], [ca.solve(J0, g0)])
-    residual = ca.Function("scdk_residual", [y, theta, c], [ca.norm_inf(g0)])
+    theta = sym.theta
+    newton1 = newton_correction(sym)
+    residual = ca.Function("scdk_residual", [y, theta, c], [ca.norm_inf(sym.g)])
     yk = y
     for _ in range(POLISH_STEPS):
         yk = yk - newton1(yk, theta, c)
@@ -184,15 +242,10 @@ def build_follower_kernels(sym) -> FollowerKernels:
     )
 
     # one RK4 step in s of dy/ds = J_p^-1 j_s, s from 0 to 1
-    dyds = ca.Function("scdk_dyds", [y, s, theta1, dtheta, c], [ca.solve(Jp, Js @ dtheta)])
-    d1 = dyds(y, 0.0, theta1, dtheta, c)
-    d2 = dyds(y + 0.5 * d1, 0.5, theta1, dtheta, c)
-    d3 = dyds(y + 0.5 * d2, 0.5, theta1, dtheta, c)
-    d4 = dyds(y + d3, 1.0, theta1, dtheta, c)
     f_predict = ca.Function(
         "scdk_follow_predict",
         [y, theta1, dtheta, c],
-        [y + (d1 + 2 * d2 + 2 * d3 + d4) / 6],
+        [rk4_in_s(sym, y, 0.0, 1.0, theta1, dtheta, 1)],
         ["y", "theta1", "dtheta", "c"],
         ["y1"],
     )
