@@ -4,13 +4,17 @@ The curve is ``H(q) = 0`` with ``q = (y, s)``, ``H = g(y, theta1 + s dtheta)`` a
 ``p = (theta1, dtheta)``; its Jacobian is ``[J_p, -j_s]`` with ``j_s = J_s dtheta``. Lengths along
 it are measured in the metric ``|dy|^2 + (|dtheta| ds)^2`` (arc length in joint space).
 
-The oriented tangent has one definition, the bordered solve
-``[H'; v^T] t = e_{m+1}``: by Cramer's rule ``t`` is parallel to the SC field
+The oriented tangent has one definition in the package, :func:`bordered_tangent`, the
+bordered solve ``[H'; v^T] t = e_{m+1}``: by Cramer's rule ``t`` is parallel to the SC field
 ``nu = [adj(J_p) j_s; det J_p]`` (the generalised cross product of the rows of ``H'``) with
 ``v . t > 0``. It is regular on the singular manifold ``det J_p = 0`` (folds) and only fails
 where ``H'`` drops rank (bifurcations, handled by the follower). Along a branch
 ``sign(t_s) = sign(det J_p) * sign(det [H'; v^T])``: at a fold ``t_s`` and ``det J_p`` change
 sign together; at a bifurcation ``det J_p`` changes sign while ``t_s`` does not.
+
+:func:`bordered_tangent`, :func:`newton_correction` and :func:`rk4_in_s` are also what the
+CVODES field (:mod:`scdk_sym.kernels.functions`) is built from, and the generated C tracker's
+curve kernels are this module's Functions (:mod:`scdk_sym.codegen.kernels`).
 """
 
 from __future__ import annotations
@@ -119,15 +123,33 @@ def bordered_tangent(
 
 
 def newton_correction(sym) -> ca.Function:
-    """(y, theta, c) -> ``J_p^{-1} g``: the Newton correction at fixed ``theta`` (one
-    definition; ``y - correction`` is one Newton step)."""
+    """The Newton correction at fixed ``theta`` (``y - correction`` is one Newton step).
+
+    Args:
+        sym: the model's symbolic system (``model.symbolic``).
+
+    Returns:
+        (y[m], theta[k], c) -> ``J_p^{-1} g`` [model length unit, rad].
+    """
     return ca.Function("scdk_newton1", [sym.y, sym.theta, sym.c], [ca.solve(sym.J_p, sym.g)])
 
 
 def rk4_in_s(sym, y0: ca.SX, s0, s1, theta1: ca.SX, dtheta: ca.SX, steps: int) -> ca.SX:
-    """``steps`` RK4 steps of ``dy/ds = J_p^{-1} J_s dtheta`` (``theta = theta1 + s dtheta``)
-    from ``(y0, s0)`` to ``s1``: the curve with ``s`` as the independent variable (valid off the
-    singular manifold)."""
+    """RK4 steps along the curve with ``s`` as the independent variable (valid off the
+    singular manifold): ``dy/ds = J_p^{-1} J_s dtheta`` on ``theta = theta1 + s dtheta``.
+
+    Args:
+        sym: the model's symbolic system (``model.symbolic``).
+        y0: (m,) unknowns at ``s0``.
+        s0: start value of ``s`` (a number or a scalar SX).
+        s1: end value of ``s``.
+        theta1: (k,) actuated values at ``s = 0`` [rad or model length unit].
+        dtheta: (k,) direction of the line.
+        steps: number of equal RK4 steps from ``s0`` to ``s1``.
+
+    Returns:
+        (m,) the unknowns at ``s1``.
+    """
     s, a, d = ca.SX.sym("s"), ca.SX.sym("theta1", sym.k), ca.SX.sym("dtheta", sym.k)
     Jp, Js = ca.substitute([sym.J_p, sym.J_s], [sym.theta], [a + s * d])
     dyds = ca.Function("scdk_dyds", [sym.y, s, a, d, sym.c], [ca.solve(Jp, Js @ d)])
