@@ -11,6 +11,7 @@ from factories import ROOT, shipped
 from scdk_sym.cli import main
 from scdk_sym.codegen.generate import generate
 from scdk_sym.codegen.kernels import build_tracker_kernels
+from scdk_sym.follower.kernels import build_follower_kernels
 
 EXAMPLE = ROOT / "examples" / "c"
 CFLAGS = ["-std=c99", "-O2", "-Wall"]
@@ -44,7 +45,8 @@ def test_sources_are_self_contained(built):
         assert included <= STANDARD_HEADERS | generated, (path.name, included)
         assert "casadi/" not in text
     header = src.kernels_h.read_text()
-    for kernel in ("g", "jac", "pose", "field", "rk4", "predict", "newton", "recentre"):
+    for kernel in ("g", "jac", "pose", "tangent", "step", "predict", "newton", "polish",
+                   "recentre"):  # fmt: skip
         assert f"int scdk_{kernel}(const casadi_real** arg" in header
     tracker = src.tracker_h.read_text()
     assert "#define SCDK_NY 6" in tracker and "#define SCDK_NTHETA 6" in tracker
@@ -87,7 +89,8 @@ int main(void) {
     scdk_options opt;
     double th[SCDK_NTHETA], y[SCDK_NY], ys[2 * SCDK_NY], J[SCDK_NY * SCDK_NY];
     double Js[SCDK_NY * SCDK_NTHETA], g[SCDK_NY], q[SCDK_NY + 1], t[SCDK_NY + 1];
-    double p[2 * SCDK_NTHETA + SCDK_NY + 3], qn[SCDK_NY + 1], res, corr;
+    double p[2 * SCDK_NTHETA], v[SCDK_NY + 1], x[2 * SCDK_NY + 2], xn[2 * SCDK_NY + 2];
+    double info[3], h = 0.01, res, corr;
     const double *arg[SCDK_SZ_ARG];
     double *out[SCDK_SZ_RES];
     casadi_int iw[SCDK_SZ_IW];
@@ -160,13 +163,20 @@ int main(void) {
         p[i] = scdk_home_theta[i];
         p[SCDK_NTHETA + i] = 1e-2 * (i % 3 - 1);
     }
-    for (i = 0; i <= SCDK_NY; ++i) p[2 * SCDK_NTHETA + i] = i == SCDK_NY;
-    p[2 * SCDK_NTHETA + SCDK_NY + 1] = 0.01;
-    p[2 * SCDK_NTHETA + SCDK_NY + 2] = 1.0;
-    arg[0] = q; arg[1] = p; arg[2] = scdk_home_c;
-    out[0] = qn; out[1] = t;
-    scdk_rk4(arg, out, iw, w, 0);
-    for (i = 0; i <= SCDK_NY; ++i) printf("rk4 %.17g\n", qn[i]);
+    for (i = 0; i <= SCDK_NY; ++i) v[i] = i == SCDK_NY;
+    arg[0] = q; arg[1] = v; arg[2] = p; arg[3] = scdk_home_c;
+    out[0] = t; out[1] = NULL;
+    scdk_tangent(arg, out, iw, w, 0);
+    for (i = 0; i <= SCDK_NY; ++i) printf("tangent %.17g\n", t[i]);
+    for (i = 0; i <= SCDK_NY; ++i) {
+        x[i] = q[i];
+        x[SCDK_NY + 1 + i] = t[i];
+    }
+    arg[0] = x; arg[1] = &h; arg[2] = p; arg[3] = scdk_home_c;
+    out[0] = xn; out[1] = info; out[2] = NULL;
+    scdk_step(arg, out, iw, w, 0);
+    for (i = 0; i < 2 * SCDK_NY + 2; ++i) printf("step %.17g\n", xn[i]);
+    for (i = 0; i < 3; ++i) printf("info %.17g\n", info[i]);
     return 0;
 }
 """
@@ -239,10 +249,29 @@ def test_generated_kernels_equal_the_casadi_functions(boundary):
     # two Newton iterations: quadratic convergence from a 6 mm residual
     assert np.max(np.abs(g)) > 1e-3 and values["newton_res"][0] < 1e-7
     assert values["newton_res"][0] == pytest.approx(float(res[0]), rel=1e-6)
-    p = np.concatenate([theta, 1e-2 * (np.arange(6) % 3 - 1), np.eye(7)[6], [0.01, 1.0]])
-    qn = np.array(kern.rk4(np.append(y, 0.0), p, c)[0]).ravel()
-    np.testing.assert_allclose(values["rk4"], qn, rtol=1e-12, atol=1e-15)
-    assert qn[-1] > 0  # oriented by v = e_s: s increases
+    p = np.concatenate([theta, 1e-2 * (np.arange(6) % 3 - 1)])
+    q = np.append(y, 0.0)
+    t = np.array(kern.tangent(q, np.eye(7)[6], p, c)[0]).ravel()
+    np.testing.assert_allclose(values["tangent"], t, rtol=1e-12, atol=1e-15)
+    assert t[-1] > 0  # oriented by v = e_s: s increases
+    xn, info, _ = (np.array(a).ravel() for a in kern.step(np.append(q, t), 0.01, p, c))
+    np.testing.assert_allclose(values["step"], xn, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(values["info"], info, rtol=1e-9, atol=1e-15)
+    # one step of arc length 0.01 along the curve: the tracker's kernel is the follower's
+    follower = build_follower_kernels(model.symbolic)
+    ref = np.array(follower.step(np.append(q, t), 0.01, p, c)[0]).ravel()
+    np.testing.assert_allclose(xn, ref, rtol=1e-13, atol=1e-15)
+    assert xn[6] > 0 and info[2] > 0.99
+    # against the model's own kernels: t spans the null space of H = [J_p, -J_s dtheta] with
+    # unit length in the arc-length metric, and the step lands on the curve 0.01 along it
+    dtheta = p[6:]
+    Jp, Js = (np.array(a) for a in model.kernels.jac(y, theta, c))
+    np.testing.assert_allclose(Jp @ t[:6] - (Js @ dtheta) * t[6], 0.0, atol=1e-12)
+    assert t[:6] @ t[:6] + (dtheta @ dtheta) * t[6] ** 2 == pytest.approx(1.0, rel=1e-12)
+    g_new = np.array(model.kernels.g(xn[:6], theta + xn[6] * dtheta, c)).ravel()
+    assert np.max(np.abs(g_new)) < 1e-12
+    d = xn[:7] - q
+    assert d[:6] @ d[:6] + (dtheta @ dtheta) * d[6] ** 2 == pytest.approx(1e-4, rel=1e-3)
 
 
 @pytest.mark.parametrize("name", ["planar_hexa", "planar_3rpr"])

@@ -3,13 +3,16 @@
 :func:`generate` writes, for a C prefix ``P`` (default ``scdk``):
 
 - ``P_kernels.c`` / ``P_kernels.h``: CasADi's ``CodeGenerator`` output for ``g``, ``J_p`` and
-  ``J_s``, the pose, the SC field, one RK4 step of it, the RK4 step in ``s``, the
-  fixed-iteration Newton corrector, the chart re-centring and an inverse-kinematics step
-  (self-contained C, see :mod:`scdk_sym.codegen.kernels`);
-- ``P_tracker.c`` / ``P_tracker.h``: the tracker (:mod:`scdk_sym.codegen.templates`) with the
+  ``J_s``, the pose, the curve follower's kernels (the oriented SC tangent, one RK4
+  predictor-corrector step, the RK4 step in ``s``, the Newton corrector and polish), the chart
+  re-centring and an inverse-kinematics step (self-contained C, see
+  :mod:`scdk_sym.codegen.kernels`);
+- ``P_tracker.c`` / ``P_tracker.h``: the tracker, the templates ``codegen/c/tracker.c.in`` and
+  ``codegen/c/tracker.h.in`` (package data, :mod:`scdk_sym.codegen.templates`) filled with the
   model's sizes, tolerances and home configuration.
 
-The four files compile with ``gcc -std=c99 -O2 -Wall`` and ``-lm`` alone.
+The four files compile with ``gcc -std=c99 -O2 -Wall -Wextra`` (no warnings) and ``-lm``
+alone.
 """
 
 from __future__ import annotations
@@ -109,7 +112,7 @@ def generate(model, directory: str | Path, prefix: str = "scdk") -> GeneratedSou
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     kern = build_tracker_kernels(model.symbolic, model.chart.rotations, prefix)
-    write_c(kern.all(), f"{prefix}_kernels", out, with_header=True)
+    _quiet_unused_parameters(write_c(kern.all(), f"{prefix}_kernels", out, with_header=True))
     funcs = kern.all()
     home = model.home
     y_loc, c = model.chart.to_local(home.y)
@@ -140,10 +143,11 @@ def generate(model, directory: str | Path, prefix: str = "scdk") -> GeneratedSou
         "TOL": repr(float(model.tolerance)),
         "LENGTH_SCALE": repr(float(max(model.length_scale, 1e-300))),
         **_rule_constants(),
+        **_follower_constants(),
         "PERIODIC": _periodic(model),
     }
-    header = _fill(templates.HEADER, values)
-    source = _fill(templates.SOURCE, values)
+    header = templates.fill(templates.template(templates.HEADER), values)
+    source = templates.fill(templates.template(templates.SOURCE), values)
     (out / f"{prefix}_tracker.h").write_text(header)
     (out / f"{prefix}_tracker.c").write_text(source)
     return GeneratedSources(
@@ -156,12 +160,42 @@ def generate(model, directory: str | Path, prefix: str = "scdk") -> GeneratedSou
     )
 
 
+#: Put first in CasADi's generated kernels: their functions keep the common signature
+#: ``(arg, res, iw, w, mem)`` whether or not they use every argument.
+_UNUSED_PARAMETERS = """/* CasADi's kernels share one signature; some leave arguments unused */
+#if defined(__GNUC__)
+#pragma GCC diagnostic ignored "-Wunused-parameter"
+#endif
+"""
+
+
+def _quiet_unused_parameters(source: Path) -> None:
+    """Silence ``-Wunused-parameter`` in a CasADi-generated C file (``-Wall -Wextra`` clean)."""
+    source.write_text(_UNUSED_PARAMETERS + source.read_text())
+
+
 def _periodic(model) -> str:
     from ..solvers.track import periodic
 
     mask = np.zeros(model.m, dtype=int)
     mask[periodic(model)] = 1
     return ", ".join(str(v) for v in mask)
+
+
+def _follower_constants() -> dict[str, str]:
+    """The step-control constants of the curve follower (:mod:`scdk_sym.follower.curve`),
+    which the C tracker's ``follow`` mirrors."""
+    from ..follower import curve
+
+    return {
+        "MAX_PREDICTOR_ERROR": repr(float(curve.MAX_PREDICTOR_ERROR)),
+        "NEWTON_TOL": repr(float(curve.NEWTON_TOL)),
+        "MIN_COS": repr(float(curve.MIN_COS)),
+        "SMOOTH_CORRECTION": repr(float(curve.SMOOTH_CORRECTION)),
+        "SMOOTH_COS": repr(float(curve.SMOOTH_COS)),
+        "GROW": repr(float(curve.GROW)),
+        "FINE": str(int(curve.FINE)),
+    }
 
 
 def _rule_constants() -> dict[str, str]:
@@ -182,22 +216,15 @@ def _rule_constants() -> dict[str, str]:
     }
 
 
-def _fill(text: str, values: dict[str, str]) -> str:
-    def sub(match: re.Match) -> str:
-        return values[match.group(1)]
-
-    filled = re.sub(r"@([A-Z_]+)@", sub, text)
-    return filled
-
-
 def compile_library(sources: GeneratedSources, target: str | Path) -> Path:
     """Compile generated sources into a shared library (gcc, flags :data:`SHARED_FLAGS`).
 
     Raises:
         BuildError: no compiler, or the compilation failed (first error line quoted).
     """
-    target = Path(target)
-    cmd = [compiler(), *SHARED_FLAGS, *map(str, sources.sources), "-o", str(target), "-lm"]
+    target = Path(target).resolve()
+    files = [str(Path(p).resolve()) for p in sources.sources]
+    cmd = [compiler(), *SHARED_FLAGS, *files, "-o", str(target), "-lm"]
     proc = subprocess.run(cmd, capture_output=True, text=True, cwd=sources.directory)
     if proc.returncode != 0:
         first = (proc.stderr.strip().splitlines() or ["?"])[0]

@@ -5,13 +5,17 @@ into self-contained C (no CasADi headers or runtime). The chart ``c`` of the flo
 (see :mod:`scdk_sym.model.chart`) is the last argument of each kernel, as in
 :mod:`scdk_sym.kernels.functions`.
 
-Two integrations of the singularity-consistent (SC) curve are provided:
+The curve kernels are those of the Python curve follower, :func:`scdk_sym.follower.kernels.
+build_follower_kernels` (one definition of the oriented SC tangent, of the predictor-corrector
+step and of the Newton corrector), renamed with the C prefix and made dense:
 
-- ``rk4``: one classical Runge-Kutta step of the SC field in arc length (regular on the
-  singular manifold), used to follow the curve through folds;
+- ``tangent`` and ``step``: the unit tangent and one RK4 predictor-corrector step in arc length
+  (regular on the singular manifold), used to follow the curve through folds;
 - ``predict``: one Runge-Kutta step of ``dy/ds = J_p^{-1} j_s`` from ``s = 0`` to ``s = 1``
   (the same curve with ``s`` as the independent variable, valid off the singular manifold),
-  used for the cheap continuation step of a smooth track.
+  used for the cheap continuation step of a smooth track;
+- ``newton`` and ``polish``: Newton at fixed ``theta`` (a few iterations, and the follower's
+  polish that finishes a crossing of ``s = 1``).
 """
 
 from __future__ import annotations
@@ -20,11 +24,9 @@ from dataclasses import dataclass, fields
 
 import casadi as ca
 
+from ..follower.kernels import build_follower_kernels
 from ..kernels.functions import build_kernels
 from ..symbolic.system import Symbolic
-
-#: Newton iterations of the ``newton`` kernel (the tracker calls it again if needed).
-NEWTON_ITERATIONS = 2
 
 
 @dataclass(frozen=True)
@@ -35,15 +37,18 @@ class TrackerKernels:
         g: (y[m], theta[k], c) -> g[m]: the loop-closure residual [model length unit].
         jac: (y, theta, c) -> (J_p[m,m], J_s[m,k]), column-major.
         pose: (y, theta, c) -> (T[4,4], x[n]): platform placement and workspace coordinates.
-        field: (q[m+1], p, c) -> dq/dtau: the stabilised SC field, ``q = (y, s)``,
-            ``p = (theta1[k], dtheta[k], v[m+1], h, K)``; ``h`` is the arc length per unit of
-            ``tau``, ``K`` the gain of the residual decay, ``v`` orients the tangent.
-        rk4: (q, p, c) -> (q_next, tangent_next): one RK4 step of ``field`` over
-            ``tau in [0, 1]`` (arc length ``h``), and the unit tangent at ``q_next``.
+        tangent: (q[m+1], v[m+1], p[2k], c) -> (t[m+1], vec(J_p)[m*m]): unit tangent of the
+            curve at ``q = (y, s)`` oriented along ``v``, ``p = (theta1, dtheta)`` (the
+            follower's ``tangent``).
+        step: (x[2(m+1)], h, p[2k], c) -> (x_new[2(m+1)], info[3], vec(J_p)[m*m]): one
+            predictor-corrector step of arc length ``h`` from ``x = (q, t)`` (the follower's
+            ``step``; ``info``: first and last correction, cosine of the tangent's turn).
         predict: (y, theta1, dtheta, c) -> y1: one RK4 step of ``dy/ds = J_p^{-1} J_s dtheta``
-            from ``s = 0`` to ``s = 1``.
+            from ``s = 0`` to ``s = 1`` (the follower's ``predict``).
         newton: (y, theta, c) -> (y_new, max|g(y_new)|, max|last correction|): a fixed number
-            of Newton iterations on ``g(., theta) = 0``.
+            of Newton iterations on ``g(., theta) = 0`` (the follower's ``newton``).
+        polish: (y, theta, c) -> (y_new, max|g(y_new)|): the follower's polish (more
+            iterations of the same Newton step).
         recentre: (y, c) -> (y0, c0): chart moved to the current rotation (rotation
             parameters of ``y0`` are zero), reference rotation re-orthonormalised.
         ik_step: (z[m+k], T_target[4,4], c) -> (z_new, residual): one Newton step of the
@@ -53,10 +58,11 @@ class TrackerKernels:
     g: ca.Function
     jac: ca.Function
     pose: ca.Function
-    field: ca.Function
-    rk4: ca.Function
+    tangent: ca.Function
+    step: ca.Function
     predict: ca.Function
     newton: ca.Function
+    polish: ca.Function
     recentre: ca.Function
     ik_step: ca.Function
 
@@ -65,57 +71,29 @@ class TrackerKernels:
         return [getattr(self, f.name) for f in fields(self)]
 
 
-def _dense(f: ca.Function) -> ca.Function:
-    """``f`` with every input and output dense (column-major, all entries stored).
+def _dense(f: ca.Function, name: str | None = None) -> ca.Function:
+    """``f`` with every input and output dense (column-major, all entries stored), renamed.
 
     CasADi's generated C reads and writes the nonzeros of each argument only; the C tracker
     indexes its arrays as dense column-major matrices, so a structural zero (``J_p`` of a
     chain whose closures each involve a subset of the joints) would shift every later entry.
+    An SX Function called on SX symbols is inlined: the result is the same expression graph.
     """
-    if all(f.sparsity_in(i).is_dense() for i in range(f.n_in())) and all(
+    name = name or f.name()
+    dense = all(f.sparsity_in(i).is_dense() for i in range(f.n_in())) and all(
         f.sparsity_out(i).is_dense() for i in range(f.n_out())
-    ):
+    )
+    if dense and name == f.name():
         return f
     ins = [ca.SX.sym(f.name_in(i), f.size1_in(i), f.size2_in(i)) for i in range(f.n_in())]
     outs = [ca.densify(o) for o in f.call(ins)]
-    return ca.Function(f.name(), ins, outs, f.name_in(), f.name_out())
+    return ca.Function(name, ins, outs, f.name_in(), f.name_out())
 
 
 def _cayley(rho: ca.SX) -> ca.SX:
     from ..symbolic.kinematics import cayley
 
     return cayley(rho)
-
-
-def _scaled_field(sym: Symbolic, prefix: str) -> ca.Function:
-    """The stabilised SC field, computed in the balanced variables ``(y, sigma = |dtheta| s)``.
-
-    The same field as :func:`scdk_sym.kernels.functions.build_kernels` (unit tangent in the
-    metric ``|dy|^2 + (|dtheta| ds)^2``, oriented by ``v``, plus ``K`` times the Newton-like
-    correction towards ``g = 0``), but the bordered matrix ``[J_p, -j_s / |dtheta|; v^T]`` is
-    solved with every column of order one: the symbolic QR of CasADi has no pivoting and
-    loses digits on the badly scaled ``[J_p, -j_s; v^T]`` when ``dtheta`` is small.
-    """
-    m, k = sym.m, sym.k
-    q = ca.SX.sym("q", m + 1)
-    p = ca.SX.sym("p", 2 * k + m + 3)
-    c = sym.c
-    theta1, dtheta = p[:k], p[k : 2 * k]
-    v, h, gain = p[2 * k : 2 * k + m + 1], p[2 * k + m + 1], p[2 * k + m + 2]
-    w = ca.sqrt(ca.sumsqr(dtheta) + 1e-300)
-    y, s = q[:m], q[m]
-    g, Jp, Js = ca.substitute(
-        [sym.g, sym.J_p, sym.J_s], [sym.y, sym.theta], [y, theta1 + s * dtheta]
-    )
-    js_hat = Js @ (dtheta / w)
-    A = ca.vertcat(ca.horzcat(Jp, -js_hat), ca.horzcat(v[:m].T, w * v[m]))
-    rhs = ca.horzcat(ca.vertcat(ca.DM.zeros(m), 1), ca.vertcat(-g, 0))
-    sol = ca.solve(A, rhs)
-    t, corr = sol[:, 0], sol[:, 1]
-    t = t / ca.norm_2(t)
-    unscale = ca.vertcat(ca.DM.ones(m), 1 / w)
-    dq = h * t * unscale + gain * corr * unscale
-    return ca.Function(f"{prefix}_field", [q, p, c], [dq], ["q", "p", "c"], ["dq"])
 
 
 def build_tracker_kernels(
@@ -134,59 +112,8 @@ def build_tracker_kernels(
         is dense (the C tracker indexes them as dense column-major arrays).
     """
     base = build_kernels(sym, name=prefix)
+    curve = build_follower_kernels(sym)
     y, theta, c = sym.y, sym.theta, sym.c
-    m, k = sym.m, sym.k
-
-    f = _scaled_field(sym, prefix)
-    q = ca.SX.sym("q", m + 1)
-    p = ca.SX.sym("p", 2 * k + m + 3)
-    # rk4: one RK4 step of the SC field over tau in [0, 1]
-    k1 = f(q, p, c)
-    k2 = f(q + 0.5 * k1, p, c)
-    k3 = f(q + 0.5 * k2, p, c)
-    k4 = f(q + k3, p, c)
-    q_next = q + (k1 + 2 * k2 + 2 * k3 + k4) / 6
-    # unit tangent at q_next: the field with h = 1, K = 0
-    p_unit = ca.vertcat(p[: 2 * k + m + 1], 1.0, 0.0)
-    t_next = f(q_next, p_unit, c)
-    rk4 = ca.Function(
-        f"{prefix}_rk4", [q, p, c], [q_next, t_next], ["q", "p", "c"], ["q_next", "tangent"]
-    )
-
-    # predict: one RK4 step in s of dy/ds = J_p^{-1} J_s dtheta, s from 0 to 1
-    theta1 = ca.SX.sym("theta1", k)
-    dtheta = ca.SX.sym("dtheta", k)
-    s = ca.SX.sym("s")
-    Jp_s, Js_s = ca.substitute([sym.J_p, sym.J_s], [theta], [theta1 + s * dtheta])
-    dyds = ca.Function("dyds", [y, s, theta1, dtheta, c], [ca.solve(Jp_s, Js_s @ dtheta)])
-    y0 = ca.SX.sym("y0", m)
-    d1 = dyds(y0, 0.0, theta1, dtheta, c)
-    d2 = dyds(y0 + 0.5 * d1, 0.5, theta1, dtheta, c)
-    d3 = dyds(y0 + 0.5 * d2, 0.5, theta1, dtheta, c)
-    d4 = dyds(y0 + d3, 1.0, theta1, dtheta, c)
-    predict = ca.Function(
-        f"{prefix}_predict",
-        [y0, theta1, dtheta, c],
-        [y0 + (d1 + 2 * d2 + 2 * d3 + d4) / 6],
-        ["y", "theta1", "dtheta", "c"],
-        ["y1"],
-    )
-
-    # newton: fixed iterations y <- y - J_p^{-1} g
-    step = ca.Function("newton1", [y, theta, c], [ca.solve(sym.J_p, sym.g)])
-    gfun = ca.Function("gres", [y, theta, c], [sym.g])
-    yk = y
-    last = ca.SX.zeros(m)
-    for _ in range(NEWTON_ITERATIONS):
-        last = step(yk, theta, c)
-        yk = yk - last
-    newton = ca.Function(
-        f"{prefix}_newton",
-        [y, theta, c],
-        [yk, ca.norm_inf(gfun(yk, theta, c)), ca.norm_inf(last)],
-        ["y", "theta", "c"],
-        ["y_new", "residual", "correction"],
-    )
 
     # recentre: R_ref <- R_ref cayley(rho), rho <- 0, one Newton-Schulz orthonormalisation
     y_out = ca.SX(y)
@@ -205,11 +132,14 @@ def build_tracker_kernels(
         g=g,
         jac=base.jac,
         pose=base.pose,
-        field=f,
-        rk4=rk4,
-        predict=predict,
-        newton=newton,
+        tangent=curve.tangent,
+        step=curve.step,
+        predict=curve.predict,
+        newton=curve.newton,
+        polish=curve.polish,
         recentre=recentre,
         ik_step=base.ik_step,
     )
-    return TrackerKernels(**{name: _dense(fun) for name, fun in kernels.items()})
+    return TrackerKernels(
+        **{name: _dense(fun, f"{prefix}_{name}") for name, fun in kernels.items()}
+    )

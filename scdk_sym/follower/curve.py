@@ -47,6 +47,13 @@ from .kernels import follower_kernels
 MAX_PREDICTOR_ERROR = 0.1
 NEWTON_TOL = 1e-7
 MIN_COS = 0.97
+#: Accepted steps whose first correction is below SMOOTH_CORRECTION of the step and whose
+#: tangent turned by < acos(SMOOTH_COS) are smooth: the next step grows by GROW.
+SMOOTH_CORRECTION = 0.02
+SMOOTH_COS = 0.95
+GROW = 1.6
+#: Intervals of a step on which the cubic Hermite of s is checked for a crossing of a level.
+FINE = 64
 #: A CVODES chunk is accepted when its end tangent is within acos(CHUNK_COS) of its start's.
 CHUNK_COS = 0.8
 #: Rejections in a row (each halving the step) before stepping over.
@@ -194,7 +201,11 @@ class _RK4:
         Q = np.hstack([q[:, None], X[: m + 1, :n_ok]])
         T = np.hstack([t[:, None], X[m + 1 :, :n_ok]])
         D = np.concatenate([[det], _dets(J[:, :n_ok], m)])
-        smooth = bool(n_ok == good.size and info[0].max() < 0.02 * h and info[2].min() > 0.95)
+        smooth = bool(
+            n_ok == good.size
+            and info[0].max() < SMOOTH_CORRECTION * h
+            and info[2].min() > SMOOTH_COS
+        )
         return _Chunk(Q, T, D, n_ok, smooth, n_ok < good.size)
 
 
@@ -249,7 +260,7 @@ def _hermite(u: np.ndarray) -> np.ndarray:
     return np.array([2 * u3 - 3 * u2 + 1, u3 - 2 * u2 + u, -2 * u3 + 3 * u2, u3 - u2])
 
 
-_FINE = np.linspace(0.0, 1.0, 65)
+_FINE = np.linspace(0.0, 1.0, FINE + 1)
 _BASIS = _hermite(_FINE)
 
 
@@ -600,7 +611,7 @@ def follow(
             halvings = 0
             h_good = h
             if ch.smooth:
-                h = min(1.6 * h, h_max)
+                h = min(GROW * h, h_max)
         if replaced is not None or used == last:
             halvings = 0
     out.s_range = (s_lo, s_hi)

@@ -4,13 +4,17 @@ The curve is ``H(q) = 0`` with ``q = (y, s)``, ``H = g(y, theta1 + s dtheta)`` a
 ``p = (theta1, dtheta)``; its Jacobian is ``[J_p, -j_s]`` with ``j_s = J_s dtheta``. Lengths along
 it are measured in the metric ``|dy|^2 + (|dtheta| ds)^2`` (arc length in joint space).
 
-The oriented tangent has one definition, the bordered solve
-``[H'; v^T] t = e_{m+1}``: by Cramer's rule ``t`` is parallel to the SC field
+The oriented tangent has one definition in the package, :func:`bordered_tangent`, the
+bordered solve ``[H'; v^T] t = e_{m+1}``: by Cramer's rule ``t`` is parallel to the SC field
 ``nu = [adj(J_p) j_s; det J_p]`` (the generalised cross product of the rows of ``H'``) with
 ``v . t > 0``. It is regular on the singular manifold ``det J_p = 0`` (folds) and only fails
 where ``H'`` drops rank (bifurcations, handled by the follower). Along a branch
 ``sign(t_s) = sign(det J_p) * sign(det [H'; v^T])``: at a fold ``t_s`` and ``det J_p`` change
 sign together; at a bifurcation ``det J_p`` changes sign while ``t_s`` does not.
+
+:func:`bordered_tangent`, :func:`newton_correction` and :func:`rk4_in_s` are also what the
+CVODES field (:mod:`scdk_sym.kernels.functions`) is built from, and the generated C tracker's
+curve kernels are this module's Functions (:mod:`scdk_sym.codegen.kernels`).
 """
 
 from __future__ import annotations
@@ -31,6 +35,8 @@ POLISH_STEPS = 8
 PLANE_STEPS = 8
 #: Newton steps locating a fold (``[g; t_s] = 0``).
 FOLD_STEPS = 8
+#: Newton iterations of the ``newton`` kernel (its callers call it again if needed).
+NEWTON_ITERATIONS = 2
 BACKENDS = ("casadi", "compiled")
 
 
@@ -40,30 +46,124 @@ class FollowerKernels:
 
     Attributes:
         steps: (x[2(m+1)], h, p[2k], c) -> (X[2(m+1), STEPS], info[3, STEPS],
-            J[m*m, STEPS]): ``STEPS`` predictor-corrector steps of arc length ``h`` from
-            ``x = (q, t)`` (a point of the curve and its unit tangent): RK4 predictor along the
-            tangent field, ``CORRECTIONS`` Newton corrections on the plane normal to ``t``;
-            ``info`` rows: first and last correction (weighted norm), cosine between the
-            tangents before and after; ``J``: ``vec(J_p)`` at each new point (column-major).
+            J[m*m, STEPS]): ``STEPS`` successive ``step`` calls (``mapaccum``).
+        step: (x[2(m+1)], h, p[2k], c) -> (x_new[2(m+1)], info[3], J[m*m]): one
+            predictor-corrector step of arc length ``h`` from ``x = (q, t)`` (a point of the
+            curve and its unit tangent): RK4 predictor along the tangent field,
+            ``CORRECTIONS`` Newton corrections on the plane normal to ``t``; ``info``: first and
+            last correction (weighted norm), cosine between the tangents before and after;
+            ``J``: ``vec(J_p)`` at the new point (column-major).
         tangent: (q, v, p, c) -> (t, vec(J_p)): unit tangent at ``q`` oriented along ``v``.
         plane: (q0, v, p, c) -> (q, max|g|): Newton on ``[H; v^T W (q - q0)] = 0`` (the curve
             point on the plane through ``q0`` normal to ``v``).
         fold: (q, v, p, c) -> q: Newton on ``[H; t_s] = 0`` (a turning point of ``s``).
-        polish: (y, theta, c) -> (y, max|g|): Newton at fixed ``theta``.
+        polish: (y, theta, c) -> (y, max|g|): ``POLISH_STEPS`` Newton steps at fixed ``theta``.
+        newton: (y, theta, c) -> (y_new, max|g(y_new)|, max|last correction|):
+            ``NEWTON_ITERATIONS`` Newton steps at fixed ``theta`` (the same step as ``polish``).
+        predict: (y, theta1[k], dtheta[k], c) -> y1: one RK4 step of
+            ``dy/ds = J_p^{-1} J_s dtheta`` from ``s = 0`` to ``s = 1`` (the curve with ``s`` as
+            the independent variable, valid off the singular manifold).
         singular: (y, theta, c) -> (g, J_p, J_s, dJ_p/d(y, theta) [m*m, m+k]): what a
             minimum-norm Newton onto the singular manifold ``det J_p = 0`` needs.
     """
 
     steps: ca.Function
+    step: ca.Function
     tangent: ca.Function
     plane: ca.Function
     fold: ca.Function
     polish: ca.Function
+    newton: ca.Function
+    predict: ca.Function
     singular: ca.Function
 
     def all(self) -> list[ca.Function]:
         """Every Function, in declaration order."""
         return [getattr(self, f.name) for f in fields(self)]
+
+
+def bordered_tangent(
+    Jp: ca.SX, Js: ca.SX, dtheta: ca.SX, v: ca.SX, rhs: ca.SX | None = None
+) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX | None]:
+    """The oriented SC tangent by the bordered solve: the package's one definition of it.
+
+    ``[H'; v^T] t = e_{m+1}`` with ``H' = [J_p, -J_s dtheta]``, solved in the balanced variables
+    ``(y, |dtheta| s)`` (every column of order one: CasADi's symbolic QR has no pivoting and
+    loses digits on the badly scaled ``[J_p, -j_s; v^T]`` when ``dtheta`` is small).
+
+    Args:
+        Jp: (m, m) ``J_p`` at the point.
+        Js: (m, k) ``J_s`` at the point.
+        dtheta: (k,) direction of the line in joint space.
+        v: (m+1,) orientation: the tangent has ``v . t > 0`` (in the balanced variables).
+        rhs: optional (m,) right-hand side ``r``: also solve ``[H'; v^T] d = [r; 0]`` with the
+            same matrix (the stabilising correction of the SC field, ``r = -g``).
+
+    Returns:
+        ``(t, t_hat, w, d)``: the unit tangent in ``(y, s)`` (metric ``|dy|^2 + (|dtheta| ds)^2``)
+        [(m+1,)]; the balanced solution before normalisation (its last entry vanishes exactly
+        where ``det J_p`` does) [(m+1,)]; ``w = |dtheta|``; ``d`` in ``(y, s)`` (None without
+        ``rhs``).
+    """
+    m = Jp.size1()
+    w = ca.sqrt(ca.dot(dtheta, dtheta) + 1e-300)
+    js_hat = Js @ (dtheta / w)
+    A = ca.vertcat(ca.horzcat(Jp, -js_hat), ca.horzcat(v[:m].T, w * v[m]))
+    e = ca.DM.zeros(m + 1)
+    e[m] = 1.0
+    d = None
+    if rhs is None:
+        t_hat = ca.solve(A, e)
+    else:
+        sol = ca.solve(A, ca.horzcat(e, ca.vertcat(rhs, 0)))
+        t_hat = sol[:, 0]
+        d = ca.vertcat(sol[:m, 1], sol[m, 1] / w)
+    t = ca.vertcat(t_hat[:m], t_hat[m] / w) / ca.norm_2(t_hat)
+    return t, t_hat, w, d
+
+
+def newton_correction(sym) -> ca.Function:
+    """The Newton correction at fixed ``theta`` (``y - correction`` is one Newton step).
+
+    Args:
+        sym: the model's symbolic system (``model.symbolic``).
+
+    Returns:
+        (y[m], theta[k], c) -> ``J_p^{-1} g`` [model length unit, rad].
+    """
+    return ca.Function("scdk_newton1", [sym.y, sym.theta, sym.c], [ca.solve(sym.J_p, sym.g)])
+
+
+def rk4_in_s(sym, y0: ca.SX, s0, s1, theta1: ca.SX, dtheta: ca.SX, steps: int) -> ca.SX:
+    """RK4 steps along the curve with ``s`` as the independent variable (valid off the
+    singular manifold): ``dy/ds = J_p^{-1} J_s dtheta`` on ``theta = theta1 + s dtheta``.
+
+    Args:
+        sym: the model's symbolic system (``model.symbolic``).
+        y0: (m,) unknowns at ``s0``.
+        s0: start value of ``s`` (a number or a scalar SX).
+        s1: end value of ``s``.
+        theta1: (k,) actuated values at ``s = 0`` [rad or model length unit].
+        dtheta: (k,) direction of the line.
+        steps: number of equal RK4 steps from ``s0`` to ``s1``.
+
+    Returns:
+        (m,) the unknowns at ``s1``.
+    """
+    s, a, d = ca.SX.sym("s"), ca.SX.sym("theta1", sym.k), ca.SX.sym("dtheta", sym.k)
+    Jp, Js = ca.substitute([sym.J_p, sym.J_s], [sym.theta], [a + s * d])
+    dyds = ca.Function("scdk_dyds", [sym.y, s, a, d, sym.c], [ca.solve(Jp, Js @ d)])
+    c = sym.c
+    h = (s1 - s0) / steps
+    yk, sk = y0, s0
+    for _ in range(steps):
+        k1 = dyds(yk, sk, theta1, dtheta, c)
+        k2 = dyds(yk + h / 2 * k1, sk + h / 2, theta1, dtheta, c)
+        k3 = dyds(yk + h / 2 * k2, sk + h / 2, theta1, dtheta, c)
+        k4 = dyds(yk + h * k3, sk + h, theta1, dtheta, c)
+        yk = yk + h * (k1 + 2 * k2 + 2 * k3 + k4) / 6
+        sk = sk + h
+    return yk
 
 
 def build_follower_kernels(sym) -> FollowerKernels:
@@ -77,16 +177,9 @@ def build_follower_kernels(sym) -> FollowerKernels:
     q = ca.vertcat(y, s)
     g, Jp, Js = ca.substitute([sym.g, sym.J_p, sym.J_s], [sym.theta], [theta1 + s * dtheta])
     w2 = ca.dot(dtheta, dtheta)
-    w = ca.sqrt(w2 + 1e-300)
     weight = ca.vertcat(ca.DM.ones(m), w2)
     v = ca.SX.sym("v", m + 1)
-    # the bordered solve in the balanced variables (y, |dtheta| s): every column of order one
-    js_hat = Js @ (dtheta / w)
-    A = ca.vertcat(ca.horzcat(Jp, -js_hat), ca.horzcat(v[:m].T, w * v[m]))
-    e = ca.DM.zeros(m + 1)
-    e[m] = 1.0
-    t_hat = ca.solve(A, e)
-    t = ca.vertcat(t_hat[:m], t_hat[m] / w) / ca.norm_2(t_hat)
+    t, t_hat, _w, _ = bordered_tangent(Jp, Js, dtheta, v)
     f_tan = ca.Function(
         "scdk_follow_tangent", [q, v, p, c], [t, ca.vec(Jp)], ["q", "v", "p", "c"], ["t", "J_p"]
     )
@@ -111,7 +204,13 @@ def build_follower_kernels(sym) -> FollowerKernels:
         qk = qk + dq
     t_new, J_new = f_tan(qk, t1, p, c)
     info = ca.vertcat(corrections[0], corrections[-1], ca.dot(weight * t_new, t1))
-    step = ca.Function("scdk_follow_step", [x, h, p, c], [ca.vertcat(qk, t_new), info, J_new])
+    step = ca.Function(
+        "scdk_follow_step",
+        [x, h, p, c],
+        [ca.vertcat(qk, t_new), info, J_new],
+        ["x", "h", "p", "c"],
+        ["x_new", "info", "J_p"],
+    )
     f_steps = step.mapaccum("scdk_follow_steps", STEPS)
 
     # the curve point on the plane through q0 normal to v
@@ -137,19 +236,40 @@ def build_follower_kernels(sym) -> FollowerKernels:
         qk = fold1(qk, v, p, c)
     f_fold = ca.Function("scdk_follow_fold", [qa, v, p, c], [qk], ["q", "v", "p", "c"], ["q_fold"])
 
-    theta = ca.SX.sym("theta", k)
-    g0, J0 = ca.substitute([sym.g, sym.J_p], [sym.theta], [theta])
-    newton = ca.Function("scdk_newton1", [y, theta, c], [y - ca.solve(J0, g0)])
+    # Newton at fixed theta: one step, iterated by the polish and the tracker's corrector
+    theta = sym.theta
+    newton1 = newton_correction(sym)
+    residual = ca.Function("scdk_residual", [y, theta, c], [ca.norm_inf(sym.g)])
     yk = y
     for _ in range(POLISH_STEPS):
-        yk = newton(yk, theta, c)
-    res = ca.norm_inf(ca.substitute(g0, y, yk))
+        yk = yk - newton1(yk, theta, c)
     f_polish = ca.Function(
         "scdk_follow_polish",
         [y, theta, c],
-        [yk, res],
+        [yk, residual(yk, theta, c)],
         ["y", "theta", "c"],
         ["y_solved", "residual"],
+    )
+    yk = y
+    last = ca.SX.zeros(m)
+    for _ in range(NEWTON_ITERATIONS):
+        last = newton1(yk, theta, c)
+        yk = yk - last
+    f_newton = ca.Function(
+        "scdk_follow_newton",
+        [y, theta, c],
+        [yk, residual(yk, theta, c), ca.norm_inf(last)],
+        ["y", "theta", "c"],
+        ["y_new", "residual", "correction"],
+    )
+
+    # one RK4 step in s of dy/ds = J_p^-1 j_s, s from 0 to 1
+    f_predict = ca.Function(
+        "scdk_follow_predict",
+        [y, theta1, dtheta, c],
+        [rk4_in_s(sym, y, 0.0, 1.0, theta1, dtheta, 1)],
+        ["y", "theta1", "dtheta", "c"],
+        ["y1"],
     )
 
     z = ca.vertcat(sym.y, sym.theta)
@@ -161,7 +281,9 @@ def build_follower_kernels(sym) -> FollowerKernels:
         ["y", "theta", "c"],
         ["g", "J_p", "J_s", "dJ_p"],
     )
-    return FollowerKernels(f_steps, f_tan, f_plane, f_fold, f_polish, f_sing)
+    return FollowerKernels(
+        f_steps, step, f_tan, f_plane, f_fold, f_polish, f_newton, f_predict, f_sing
+    )
 
 
 def follower_kernels(model, backend: str = "casadi") -> FollowerKernels:

@@ -14,7 +14,9 @@ stays regular on the singular manifold (``det J_p = 0``) and for any number of u
 The solvers re-centre ``v`` on the current tangent at every chunk, so ``v . nu`` stays
 positive. The tangent is normalised in the metric ``|dy|^2 + (|dtheta| ds)^2`` (arc length
 in joint space), and the stabilising term ``[H; v^T]^{-1} [-K g; 0]`` makes ``g`` decay as
-``exp(-K tau)``.
+``exp(-K tau)``. The bordered solve, the Newton correction and the RK4 steps in ``s`` are the
+curve follower's (:func:`scdk_sym.follower.kernels.bordered_tangent`, ``newton_correction``,
+``rk4_in_s``): one definition of each in the package.
 """
 
 from __future__ import annotations
@@ -23,13 +25,12 @@ from dataclasses import dataclass, fields
 
 import casadi as ca
 
+from ..follower.kernels import bordered_tangent, newton_correction, rk4_in_s
 from ..symbolic.system import Symbolic
 
-FINISH_RK_STEPS = 4
 #: RK4 steps of the warm (fast-path) kernel: warm solves move little.
 WARM_RK_STEPS = 1
 NEWTON_STEPS = 4
-CROSS_NEWTON_STEPS = 8
 
 
 @dataclass(frozen=True)
@@ -47,9 +48,6 @@ class Kernels:
         pose: (y, theta, c) -> (T[4,4], x[n]).
         field: (q[m+1], p, c) -> dq/dtau, p = (theta1[k], dtheta[k], v[m+1], scale, K).
         probe: (q, p, c) -> (tangent[m+1], vec(J_p)[m*m], x[n]).
-        finish: (y_a[m], s_a, theta1, dtheta, c) -> (y at s = 1, max|g|, max|Newton correction|):
-            RK4 in s from s_a to 1, then Newton.
-        cross: (q, p, c) -> q on the singular manifold (Newton on [g; t_s]).
         ik_step: (z[m+k], T_target[4,4], c) -> (z_new, max|F|): Newton step on [g; pose error].
         warm: (y1, theta1, theta0, c) -> (y0, max|Newton correction|, max|check| at the start,
             max|check| at the end, vec(J_p) at the start, vec(J_p) at the end, T[4,4], x[n]):
@@ -62,8 +60,6 @@ class Kernels:
     pose: ca.Function
     field: ca.Function
     probe: ca.Function
-    finish: ca.Function
-    cross: ca.Function
     ik_step: ca.Function
     warm: ca.Function
 
@@ -72,6 +68,7 @@ class Kernels:
 
 
 def _sc_parts(sym: Symbolic):
+    """The SC tangent and the stabilising correction, by the follower's bordered solve."""
     m, k = sym.m, sym.k
     s = ca.SX.sym("s")
     theta1 = ca.SX.sym("theta1", k)
@@ -79,22 +76,11 @@ def _sc_parts(sym: Symbolic):
     v = ca.SX.sym("v", m + 1)
     scale = ca.SX.sym("scale")
     gain = ca.SX.sym("K")
-    theta_s = theta1 + s * dtheta
-    g, Jp, Js = ca.substitute([sym.g, sym.J_p, sym.J_s], [sym.theta], [theta_s])
-    js = Js @ dtheta
-    # Work in the scaled coordinate s_hat = |dtheta| s, in which the metric is Euclidean and
-    # the bordered matrix stays well conditioned however small the theta step is.
-    w = ca.norm_2(dtheta)
-    A = ca.vertcat(ca.horzcat(Jp, -js / w), ca.horzcat(v[:m].T, w * v[m]))
-    rhs = ca.horzcat(ca.vertcat(ca.DM.zeros(m), 1), ca.vertcat(-g, 0))
-    sol = ca.solve(A, rhs)
-    t_hat, c_hat = sol[:, 0], sol[:, 1]
-    t = ca.vertcat(t_hat[:m], t_hat[m] / w)  # back to (y, s); t_s vanishes where det J_p does
-    corr = ca.vertcat(c_hat[:m], c_hat[m] / w)
-    tangent = t / ca.norm_2(t_hat)
+    g, Jp, Js = ca.substitute([sym.g, sym.J_p, sym.J_s], [sym.theta], [theta1 + s * dtheta])
+    tangent, _t_hat, _w, corr = bordered_tangent(Jp, Js, dtheta, v, -g)
     q = ca.vertcat(sym.y, s)
     p = ca.vertcat(theta1, dtheta, v, scale, gain)
-    return q, p, g, Jp, js, t, tangent, corr, scale, gain, theta1, dtheta, s, t_hat[m]
+    return q, p, Jp, tangent, corr, scale, gain, theta1, dtheta, s
 
 
 def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
@@ -107,7 +93,7 @@ def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
     f_jac = ca.Function(f"{name}_jac", [y, theta, c], [sym.J_p, sym.J_s], yt, ["J_p", "J_s"])
     f_pose = ca.Function(f"{name}_pose", [y, theta, c], [sym.pose, sym.x], yt, ["T", "x"])
 
-    q, p, g, Jp, js, t, tangent, corr, scale, gain, theta1, dtheta, s, t_hat_s = _sc_parts(sym)
+    q, p, Jp, tangent, corr, scale, gain, theta1, dtheta, s = _sc_parts(sym)
     dq = scale * tangent + gain * corr
     f_field = ca.Function(f"{name}_field", [q, p, c], [dq], ["q", "p", "c"], ["dq"])
     x_s = ca.substitute(sym.x, sym.theta, theta1 + s * dtheta)
@@ -119,47 +105,15 @@ def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
         ["tangent", "J_p", "x"],
     )
 
-    # finish: from a point of the curve at s_a, follow dy/ds = J_p^-1 j_s to s = 1, then Newton
-    ya = ca.SX.sym("y_a", m)
-    sa = ca.SX.sym("s_a")
-    dyds = ca.Function("dyds", [y, s, theta1, dtheta, c], [ca.solve(Jp, js)])
-    newton = ca.Function("newton1", [y, theta, c], [y - ca.solve(sym.J_p, sym.g)])
+    newton = newton_correction(sym)
 
     def rk_newton(y_a, s_a, th1, dth, rk_steps: int, newton_steps: int):
-        h = (1 - s_a) / rk_steps
-        yk, sk = y_a, s_a
-        for _ in range(rk_steps):
-            k1 = dyds(yk, sk, th1, dth, c)
-            k2 = dyds(yk + h / 2 * k1, sk + h / 2, th1, dth, c)
-            k3 = dyds(yk + h / 2 * k2, sk + h / 2, th1, dth, c)
-            k4 = dyds(yk + h * k3, sk + h, th1, dth, c)
-            yk = yk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-            sk = sk + h
-        y_pred = yk
+        """RK4 in s from (y_a, s_a) to s = 1, then Newton at th1 + dth; (y, max|correction|)."""
+        y_pred = rk4_in_s(sym, y_a, s_a, 1.0, th1, dth, rk_steps)
+        yk = y_pred
         for _ in range(newton_steps):
-            yk = newton(yk, th1 + dth, c)
+            yk = yk - newton(yk, th1 + dth, c)
         return yk, ca.norm_inf(yk - y_pred)
-
-    y_fin, corr_fin = rk_newton(ya, sa, theta1, dtheta, FINISH_RK_STEPS, NEWTON_STEPS)
-    res = ca.norm_inf(
-        ca.substitute(sym.g, ca.vertcat(y, theta), ca.vertcat(y_fin, theta1 + dtheta))
-    )
-    f_finish = ca.Function(
-        f"{name}_finish",
-        [ya, sa, theta1, dtheta, c],
-        [y_fin, res, corr_fin],
-        ["y_a", "s_a", "theta1", "dtheta", "c"],
-        ["y", "residual", "correction"],
-    )
-
-    # cross: Newton on F(q) = [g(y, theta(s)); t_s] = 0 (t_s vanishes exactly where det J_p does)
-    F = ca.vertcat(g, t_hat_s)
-    step = ca.Function("cross1", [q, p, c], [q - ca.solve(ca.jacobian(F, q), F)])
-    qk = ca.SX.sym("q0", m + 1)
-    qi = qk
-    for _ in range(CROSS_NEWTON_STEPS):
-        qi = step(qi, p, c)
-    f_cross = ca.Function(f"{name}_cross", [qk, p, c], [qi], ["q", "p", "c"], ["q_singular"])
 
     # ik_step: Newton step on [g(y, theta); pose error] over z = (y, theta)
     from ..symbolic.kinematics import pose_error
@@ -182,7 +136,7 @@ def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
     y1 = ca.SX.sym("y1", m)
     th1 = ca.SX.sym("theta1", sym.k)
     th0 = ca.SX.sym("theta0", sym.k)
-    y0, corr = rk_newton(y1, 0, th1, th0 - th1, WARM_RK_STEPS, NEWTON_STEPS)
+    y0, corr = rk_newton(y1, 0.0, th1, th0 - th1, WARM_RK_STEPS, NEWTON_STEPS)
     at = ca.Function("at", [y, theta, c], [ca.norm_inf(sym.g_check), ca.vec(sym.J_p)])
     res1, J1 = at(y1, th1, c)
     res0, J0 = at(y0, th0, c)
@@ -194,4 +148,4 @@ def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
         ["y1", "theta1", "theta0", "c"],
         ["y0", "correction", "residual1", "residual0", "J_p1", "J_p0", "T", "x"],
     )
-    return Kernels(f_g, f_check, f_jac, f_pose, f_field, f_probe, f_finish, f_cross, f_ik, f_warm)
+    return Kernels(f_g, f_check, f_jac, f_pose, f_field, f_probe, f_ik, f_warm)

@@ -15,8 +15,9 @@ The judging rule
 Both backends apply this rule with the same constants (the module constants below, which
 :mod:`scdk_sym.codegen.generate` writes into the generated tracker) and the same kernels:
 ``backend="cvodes"`` (this module) follows the SC curve with CVODES
-(:func:`~scdk_sym.solvers.sc.trace`), ``backend="c"`` with the Runge-Kutta steps of the
-generated C tracker (:mod:`scdk_sym.codegen.templates`, whose header states the same rule).
+(:func:`~scdk_sym.solvers.sc.trace`), ``backend="c"`` with the follower's RK4
+predictor-corrector steps (:mod:`scdk_sym.follower.kernels`, code-generated) in the generated C
+tracker (``scdk_sym/codegen/c/tracker.c.in``, whose header states the same rule).
 Only the way the curve is followed differs; the prediction, the cheap step, the Newton
 correctors, the choice and the refusal are the same computation.
 
@@ -130,8 +131,8 @@ PARTNER_ITERATIONS = 3
 PARTNER_STEP = 1e-7
 #: R3: crossings of s = 1 collected per direction.
 HITS_PER_DIRECTION = 2
-#: Runge-Kutta steps per direction of the C tracker's curve follower (a safety limit: the arc
-#: budget ends the search first).
+#: Predictor-corrector steps per direction of the C tracker's curve follower (a safety limit:
+#: the arc budget ends the search first).
 MAX_STEPS = 2000
 
 #: Status codes shared with the C tracker (:data:`scdk_sym.codegen.library.STATUS`).
