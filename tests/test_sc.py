@@ -1,10 +1,8 @@
 """The singularity-consistent solver on the paper's example (scdk_sym.solvers.sc)."""
 
-import shutil
-
 import numpy as np
 import pytest
-from factories import SEED_THETA0, SEED_X1, seed_models, shipped
+from factories import SEED_THETA0, SEED_X1, compiler_missing, seed_models, shipped
 
 from scdk_sym.errors import InputError, NotAssembledError, PathError, ScdkError
 from scdk_sym.results import Configuration
@@ -97,8 +95,8 @@ def test_path_samples_follow_the_paper_figures(seed):
 
 @pytest.mark.parametrize("backend", ["casadi", "compiled"])
 def test_fast_path_and_backends_agree_with_the_full_path(backend):
-    if backend == "compiled" and shutil.which("gcc") is None:
-        pytest.skip("no C compiler")
+    if backend == "compiled" and compiler_missing():
+        pytest.skip(compiler_missing())
     model = shipped("planar_hexa_reduced")
     rng = np.random.default_rng(5)
     for _ in range(10):

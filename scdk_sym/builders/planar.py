@@ -32,6 +32,11 @@ def rrr_leg_angles(
     """
     d = vertex - base
     dist = float(np.hypot(*d))
+    if not dist > 1e-12 * max(arm, rod):
+        raise InputError(
+            f"vertex {vertex.tolist()} coincides with the leg's base joint {base.tolist()}: the "
+            "leg's angles are undefined; move the platform point or the home pose"
+        )
     c = (dist**2 + arm**2 - rod**2) / (2 * arm * dist)
     if not -1.0 <= c <= 1.0:
         raise InputError(
@@ -47,8 +52,8 @@ def rrr_leg_angles(
 def _check_triangle(points: np.ndarray, name: str) -> None:
     a, b, c = points
     area = 0.5 * abs((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]))
-    scale = max(np.ptp(points, axis=0).max(), 1e-300)
-    if area < 1e-9 * scale**2:
+    scale = float(np.ptp(points, axis=0).max())
+    if not scale > 0 or area < 1e-9 * scale**2:
         raise InputError(f"{name} are collinear or coincident: {points.tolist()}")
 
 
