@@ -251,7 +251,10 @@ def _codegen_args(p: argparse.ArgumentParser) -> None:
 @command("codegen", "standalone C sources of the tracker (+ a shared library)", _codegen_args)
 def _codegen(args: argparse.Namespace) -> int:
     from .codegen.generate import compile_library, generate
+    from .kernels.compile import compiler_command
 
+    if not args.no_shared:
+        compiler_command()  # a missing compiler ends the command before any work
     model = load(args)
     src = generate(model, args.out, args.prefix)
     library = None
