@@ -90,6 +90,7 @@ def test_save_and_load_round_trip(tmp_path):
         model.frame,
     )
     np.testing.assert_allclose(again.home.y, model.home.y, atol=1e-14)
+    assert again.length_unit == model.length_unit == "cm"  # the paper's unit, kept
     cfg_a, cfg_b = model.inverse_kinematics([1, -1, 0.3]), again.inverse_kinematics([1, -1, 0.3])
     np.testing.assert_allclose(cfg_a.theta, cfg_b.theta, atol=1e-12)
     # loading through the YAML path gives the same model

@@ -69,6 +69,7 @@ def planar_3rrr(
     home_x=None,
     working_modes=(-1, -1, -1),
     name: str = "planar_3rrr",
+    length_unit: str = "m",
 ) -> Model:
     """Planar 3-RRR parallel robot modelled with full chains (the paper's HEXA-type robot).
 
@@ -84,6 +85,7 @@ def planar_3rrr(
         home_x: (3,) home pose [x, y, phi] ([length, length, rad]), default zero.
         working_modes: per leg, -1 or +1: theta = atan2(d) + mode * acos(...) at home.
         name: robot name.
+        length_unit: unit of the lengths above (``length_unit`` of the saved YAML).
 
     Returns:
         The loaded model; ``theta`` = the three arm angles, ``x = [x, y, phi]``.
@@ -123,6 +125,7 @@ def planar_3rrr(
         platform="platform",
         workspace=("x", "y", "phi"),
         home=home,
+        length_unit=length_unit,
     )
     return model_from_tree(b.build(), spec)
 
@@ -135,6 +138,7 @@ def planar_3rrr_reduced(
     home_x=None,
     working_modes=(-1, -1, -1),
     name: str = "planar_3rrr_reduced",
+    length_unit: str = "m",
 ) -> Model:
     """The paper's own formulation of a planar 3-RRR robot: the unknowns are the platform pose.
 
@@ -169,6 +173,7 @@ def planar_3rrr_reduced(
         platform="platform",
         workspace=("x", "y", "phi"),
         home=home,
+        length_unit=length_unit,
     )
     return model_from_tree(b.build(), spec)
 
@@ -186,6 +191,7 @@ def seed_geometry() -> dict:
         "platform_points": unit * 10.0 / math.sqrt(3.0),
         "arm": 7.0,
         "rod": 7.0,
+        "length_unit": "cm",
     }
 
 
