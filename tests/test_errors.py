@@ -306,3 +306,15 @@ def test_plot_without_matplotlib_says_how_to_install(monkeypatch, capsys, tmp_pa
     assert 'pip install "scdk_sym[plot]"' in line
     assert list(tmp_path.iterdir()) == []
     assert issubclass(PlotError, ScdkError)
+
+
+def test_save_onto_a_file(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("keep me")
+    with pytest.raises(OutputError, match="is a file, not a folder"):
+        shipped("planar_hexa").save(blocker)
+    with pytest.raises(OutputError, match="cannot save the model"):
+        shipped("planar_hexa").save(blocker / "sub")
+    assert blocker.read_text() == "keep me"
+    with pytest.raises(ModelError, match="not found: expected a model directory"):
+        sc.load_model(tmp_path / "no_such_model")

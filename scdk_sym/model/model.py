@@ -21,6 +21,7 @@ from ..errors import (
     ModelError,
     NonSquareSystemError,
     NotAssembledError,
+    OutputError,
     UnknownNameError,
     UnreachableError,
 )
@@ -553,11 +554,20 @@ class Model:
     # ------------------------------------------------------------------ saving
 
     def save(self, directory: str | Path) -> Path:
-        """Write ``robot.urdf`` and ``robot.yaml`` into ``directory`` (created if needed)."""
+        """Write ``robot.urdf`` and ``robot.yaml`` into ``directory`` (created if needed).
+
+        Raises:
+            OutputError: ``directory`` is a file or cannot be written.
+        """
         d = Path(directory)
-        d.mkdir(parents=True, exist_ok=True)
-        (d / "robot.urdf").write_text(self._urdf_text)
-        (d / "robot.yaml").write_text(self.spec.to_yaml())
+        if d.exists() and not d.is_dir():
+            raise OutputError("is a file, not a folder; choose a folder to save the model in", d)
+        try:
+            d.mkdir(parents=True, exist_ok=True)
+            (d / "robot.urdf").write_text(self._urdf_text)
+            (d / "robot.yaml").write_text(self.spec.to_yaml())
+        except OSError as exc:
+            raise OutputError(f"cannot save the model: {exc.strerror or exc}", d) from exc
         return d
 
     def __repr__(self) -> str:
@@ -592,6 +602,8 @@ def load_model(path: str | Path, frame: str | None = None) -> Model:
         urdf_path = p.with_suffix(".urdf")
         if not urdf_path.exists():
             urdf_path = p.parent / "robot.urdf"
+    elif not p.exists():
+        raise ModelError("not found: expected a model directory or a .yaml file", str(p))
     else:
         raise ModelError("expected a model directory or a .yaml file", str(p))
     for f in (yaml_path, urdf_path):
