@@ -485,6 +485,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _help_in_model_units(parser: argparse.ArgumentParser, argv: list[str]) -> None:
+    """For ``scdk COMMAND MODEL --help``: state ``--theta`` and ``--from-x`` in that model's
+    names and units (the generic help stays when the model cannot be loaded)."""
+    if not {"-h", "--help"} & set(argv):
+        return
+    words = [a for a in argv if not a.startswith("-")]
+    if len(words) < 2 or words[0] not in COMMANDS:
+        return
+    from .model.model import load_model
+
+    try:
+        model = load_model(words[1])
+    except ScdkError:
+        return
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    units = model.units
+    joints = ", ".join(f"{a} [{units[a]}]" for a in model.actuated)
+    coords = ", ".join(f"{w} [{units[w]}]" for w in model.workspace)
+    for action in sub.choices[words[0]]._actions:
+        if action.dest in ("theta", "thetas"):
+            action.help = f"{action.help}; this model: {joints}"
+        elif action.dest == "from_x":
+            action.help = f"start pose (default: home); this model: {coords}"
+
+
 #: Exit code after the reader of the output went away (128 + SIGPIPE, as Unix tools report).
 EXIT_BROKEN_PIPE = 141
 
@@ -493,6 +518,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (0 ok, 1 error of the package, 2 usage, 141 when the
     reader of the output closed it early, e.g. ``| head``, which ends the command quietly)."""
     parser = build_parser()
+    _help_in_model_units(parser, sys.argv[1:] if argv is None else list(argv))
     args = parser.parse_args(argv)
     try:
         code = int(args.run(args))

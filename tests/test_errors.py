@@ -318,3 +318,16 @@ def test_save_onto_a_file(tmp_path):
     assert blocker.read_text() == "keep me"
     with pytest.raises(ModelError, match="not found: expected a model directory"):
         sc.load_model(tmp_path / "no_such_model")
+
+
+def test_help_for_a_model_states_its_units(monkeypatch, capsys):
+    monkeypatch.setenv("COLUMNS", "400")  # no wrapping
+    with pytest.raises(SystemExit) as info:
+        main(["solve", HEXA, "--help"])
+    assert info.value.code == 0
+    out = capsys.readouterr().out
+    assert "this model: theta_1 [rad], theta_2 [rad], theta_3 [rad]" in out
+    assert "this model: x [cm], y [cm], phi [rad]" in out
+    with pytest.raises(SystemExit):
+        main(["solve", str(MODELS / "no_such_model"), "--help"])  # generic help
+    assert "this model" not in capsys.readouterr().out
