@@ -30,11 +30,23 @@ def command(name: str, help: str, arguments: Callable[[argparse.ArgumentParser],
 
 
 def floats(text: str, what: str = "value") -> np.ndarray:
-    """Parse 'a,b,c' into floats (raises InputError naming the option)."""
+    """Parse 'a,b,c' into floats.
+
+    Raises:
+        InputError: a field is empty or not a number (the option and the text named).
+    """
+    fields = text.replace(" ", "").split(",")
+    if any(f == "" for f in fields):
+        hint = "; values are separated by commas" if ";" in text else ""
+        raise InputError(
+            f"{what}: empty value in {text!r} (field {fields.index('') + 1}); expected "
+            f"comma-separated numbers such as 1.0,-2,3e-1{hint}"
+        )
     try:
-        values = [float(v) for v in text.replace(" ", "").split(",") if v != ""]
+        values = [float(v) for v in fields]
     except ValueError as exc:
-        raise InputError(f"{what}: expected comma-separated numbers, got {text!r}") from exc
+        hint = "; values are separated by commas" if ";" in text else ""
+        raise InputError(f"{what}: expected comma-separated numbers, got {text!r}{hint}") from exc
     return np.array(values)
 
 
@@ -44,18 +56,66 @@ def fmt(values, digits: int = 6) -> str:
     return "[" + ", ".join(f"{v:.{digits}g}" for v in vals) + "]"
 
 
+#: Help of ``--theta``: the units come from the model (``length_unit`` of its YAML).
+THETA_HELP = (
+    "actuated joint values a,b,c in the model's units: rad for revolute joints, the model's "
+    "length unit (robot.yaml length_unit, default m; planar_hexa: cm) for prismatic ones; "
+    "the text output states each unit"
+)
+#: Help of ``--from-x``.
+FROM_X_HELP = (
+    "start pose in workspace coordinates (default: home), lengths in the model's length unit, "
+    "angles in rad"
+)
+#: Help of the kernel backends of ``solve`` and ``modes``.
+KERNEL_BACKEND_HELP = (
+    "casadi: CasADi SX functions, nothing to compile; compiled: the same kernels generated as "
+    "C, compiled once with $CC (or gcc) and cached (faster repeated solves)"
+)
+
+
 def add_model_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("model", help="model directory (robot.urdf + robot.yaml) or its YAML file")
     p.add_argument("--frame", help="link whose pose is reported (default: the YAML's platform)")
+    p.add_argument(
+        "-v",
+        "--verbose",
+        action="store_true",
+        help="print notes about the model on stderr (e.g. how its closure system was reduced)",
+    )
 
 
 def load(args: argparse.Namespace):
     from .model.model import load_model
 
     model = load_model(args.model, frame=args.frame)
-    if model.reduction and not getattr(args, "json", False):
+    if model.reduction and getattr(args, "verbose", False):
         print(f"note: {model.reduction}", file=sys.stderr)
     return model
+
+
+def label(model) -> str:
+    """The model's robot name, and its folder when that differs."""
+    from pathlib import Path
+
+    if model.path:
+        folder = Path(model.path).absolute().parent.name
+        if folder != model.name:
+            return f"{model.name} ({folder})"
+    return model.name
+
+
+def header(model) -> str:
+    """First line of the text output: the model, its workspace coordinates and their units."""
+    units = model.units
+    ws = ", ".join(model.workspace)
+    unit_list = ", ".join(units[w] for w in model.workspace)
+    return f"model {label(model)}: x = ({ws}) [{unit_list}] of {model.frame!r}"
+
+
+def theta_line(model) -> str:
+    """The actuated joints and their units."""
+    return "theta = (" + ", ".join(f"{a} [{model.units[a]}]" for a in model.actuated) + ")"
 
 
 def start_configuration(model, args: argparse.Namespace):
@@ -73,8 +133,8 @@ def dump(obj) -> None:
 
 def _solve_args(p: argparse.ArgumentParser) -> None:
     add_model_args(p)
-    p.add_argument("--theta", required=True, help="actuated joint values a,b,c [rad or m]")
-    p.add_argument("--from-x", help="start pose in workspace coordinates (default: home)")
+    p.add_argument("--theta", required=True, help=THETA_HELP)
+    p.add_argument("--from-x", help=FROM_X_HELP)
     p.add_argument(
         "--branch",
         default="convergent",
@@ -82,7 +142,9 @@ def _solve_args(p: argparse.ArgumentParser) -> None:
         help="convergent: stay in the start's compartment; divergent: cross the singular manifold",
     )
     p.add_argument("--b", type=float, help="the paper's signed scalar b (overrides --branch)")
-    p.add_argument("--backend", default="casadi", choices=["casadi", "compiled"])
+    p.add_argument(
+        "--backend", default="casadi", choices=["casadi", "compiled"], help=KERNEL_BACKEND_HELP
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
 
@@ -134,7 +196,7 @@ def _solve(args: argparse.Namespace) -> int:
         ]
         dump(records[0] if not both else {"solutions": records})
     else:
-        print(f"model {model.name}: x = ({', '.join(model.workspace)}) of {model.frame!r}")
+        print(header(model))
         print(f"start x = {fmt(start.x)}  theta0 = {fmt(theta)}")
         for br, r in results:
             if isinstance(r, SolveError):
@@ -176,7 +238,9 @@ def _cache(args: argparse.Namespace) -> int:
 
 def _codegen_args(p: argparse.ArgumentParser) -> None:
     add_model_args(p)
-    p.add_argument("--out", required=True, help="output directory (created if needed)")
+    p.add_argument(
+        "--out", required=True, help="output directory (created if needed; its parent must exist)"
+    )
     p.add_argument("--prefix", default="scdk", help="C prefix of every name (default: scdk)")
     p.add_argument(
         "--no-shared", action="store_true", help="write the sources only (no shared library)"
@@ -187,7 +251,10 @@ def _codegen_args(p: argparse.ArgumentParser) -> None:
 @command("codegen", "standalone C sources of the tracker (+ a shared library)", _codegen_args)
 def _codegen(args: argparse.Namespace) -> int:
     from .codegen.generate import compile_library, generate
+    from .kernels.compile import compiler_command
 
+    if not args.no_shared:
+        compiler_command()  # a missing compiler ends the command before any work
     model = load(args)
     src = generate(model, args.out, args.prefix)
     library = None
@@ -197,10 +264,7 @@ def _codegen(args: argparse.Namespace) -> int:
     if args.json:
         dump({"files": [str(f) for f in files], "library": str(library) if library else None})
         return 0
-    print(
-        f"model {model.name}: y = ({', '.join(model.unknowns)}), theta = "
-        f"({', '.join(model.actuated)})"
-    )
+    print(f"model {label(model)}: y = ({', '.join(model.unknowns)}), {theta_line(model)}")
     for f in files:
         print(f"wrote {f}")
     if library:
@@ -217,11 +281,13 @@ def _codegen(args: argparse.Namespace) -> int:
 
 def _modes_args(p: argparse.ArgumentParser) -> None:
     add_model_args(p)
-    p.add_argument("--theta", required=True, help="actuated joint values a,b,c [rad or m]")
-    p.add_argument("--from-x", help="start pose in workspace coordinates (default: home)")
+    p.add_argument("--theta", required=True, help=THETA_HELP)
+    p.add_argument("--from-x", help=FROM_X_HELP)
     p.add_argument("--seed", type=int, default=0, help="seed of the random directions")
     p.add_argument("--time-budget", type=float, help="wall-time limit [s] (default: none)")
-    p.add_argument("--backend", default="casadi", choices=["casadi", "compiled"])
+    p.add_argument(
+        "--backend", default="casadi", choices=["casadi", "compiled"], help=KERNEL_BACKEND_HELP
+    )
     p.add_argument("--progress", action="store_true", help="progress bar on stderr")
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
@@ -246,7 +312,7 @@ def _modes(args: argparse.Namespace) -> int:
         sols = [dict(s.to_dict(), crossings=[], status="converged") for s in search.solutions]
         dump({"solutions": sols, "count": len(sols), "complete": search.complete})
         return 0
-    print(f"model {model.name}: x = ({', '.join(model.workspace)}) of {model.frame!r}")
+    print(header(model))
     print(
         f"theta0 = {fmt(theta)}: {len(search.solutions)} solution(s), {search.curves} curves, "
         f"{search.steps} steps, {search.elapsed:.3f} s"
@@ -276,6 +342,14 @@ def read_thetas(path: str, model) -> np.ndarray:
     lines = [ln for ln in lines if ln]
     if not lines:
         raise InputError(f"--thetas: {path!r} has no rows")
+    for n, ln in enumerate(lines[:2], 1):
+        for sep, name in ((";", "semicolons"), ("\t", "tabs")):
+            if sep in ln and "," not in ln:
+                raise InputError(
+                    f"--thetas: {path!r} line {n} is separated by {name}; expected commas "
+                    f"(one row per sample, {model.k} comma-separated values: "
+                    f"{', '.join(model.actuated)})"
+                )
     order = list(range(model.k))
     first = [c.strip() for c in lines[0].split(",")]
     if not any(_is_number(c) for c in first):  # a header of joint names
@@ -313,8 +387,14 @@ def _is_number(text: str) -> bool:
 def _track_args(p: argparse.ArgumentParser) -> None:
     add_model_args(p)
     p.add_argument("--thetas", required=True, help="CSV file of joint readings (N rows, k columns)")
-    p.add_argument("--from-x", help="start pose in workspace coordinates (default: home)")
-    p.add_argument("--backend", default="cvodes", choices=["cvodes", "c"])
+    p.add_argument("--from-x", help=FROM_X_HELP)
+    p.add_argument(
+        "--backend",
+        default="cvodes",
+        choices=["cvodes", "c"],
+        help="cvodes: CasADi's CVODES integrator driven from Python; c: the generated C tracker, "
+        "compiled once with $CC (or gcc) and cached (much faster)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
 
@@ -329,7 +409,7 @@ def _track(args: argparse.Namespace) -> int:
     if args.json:
         dump(result.to_dict())
         return 0
-    print(f"model {model.name}: x = ({', '.join(model.workspace)}) of {model.frame!r}")
+    print(header(model))
     crossed = {c.index: c for c in result.crossings}
     for i, x in enumerate(result.x):
         print(f"{i:>5}: x = {fmt(x)}")
@@ -345,9 +425,13 @@ def _track(args: argparse.Namespace) -> int:
 def _plot_args(p: argparse.ArgumentParser) -> None:
     add_model_args(p)
     what = p.add_mutually_exclusive_group(required=True)
-    what.add_argument("--theta", help="solve at a,b,c on both branches: the paper's Figs. 4-6")
+    what.add_argument(
+        "--theta",
+        help="solve at a,b,c on both branches: the paper's Figs. 4-6 (rad for revolute joints, "
+        "the model's length unit for prismatic ones)",
+    )
     what.add_argument("--thetas", help="track the CSV joint readings: pose against time")
-    p.add_argument("--from-x", help="start pose in workspace coordinates (default: home)")
+    p.add_argument("--from-x", help=FROM_X_HELP)
     p.add_argument("--out", default=".", help="output directory (default: .)")
     p.add_argument("--prefix", help="file name prefix (default: the model name)")
 
@@ -358,6 +442,7 @@ def _plot(args: argparse.Namespace) -> int:
 
     from . import plot
 
+    plot.require_matplotlib()  # before any work
     model = load(args)
     start = start_configuration(model, args)
     prefix = args.prefix or model.name
@@ -461,10 +546,22 @@ def _plot_atlas(args: argparse.Namespace) -> int:
 # ---------------------------------------------------------------------------- main
 
 
+def version() -> str:
+    """The installed package's version (from its metadata)."""
+    from importlib.metadata import PackageNotFoundError
+    from importlib.metadata import version as metadata_version
+
+    try:
+        return metadata_version("scdk_sym")
+    except PackageNotFoundError:  # pragma: no cover - run from a source tree
+        return "unknown (not installed)"
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="scdk", description="Singularity-consistent direct kinematics of parallel robots."
     )
+    parser.add_argument("--version", action="version", version=f"scdk_sym {version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     for name, (help_text, arguments, run) in COMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
@@ -473,15 +570,62 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _help_in_model_units(parser: argparse.ArgumentParser, argv: list[str]) -> None:
+    """For ``scdk COMMAND MODEL --help``: state ``--theta`` and ``--from-x`` in that model's
+    names and units (the generic help stays when the model cannot be loaded)."""
+    if not {"-h", "--help"} & set(argv):
+        return
+    words = [a for a in argv if not a.startswith("-")]
+    if len(words) < 2 or words[0] not in COMMANDS:
+        return
+    from .model.model import load_model
+
+    try:
+        model = load_model(words[1])
+    except ScdkError:
+        return
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    units = model.units
+    joints = ", ".join(f"{a} [{units[a]}]" for a in model.actuated)
+    coords = ", ".join(f"{w} [{units[w]}]" for w in model.workspace)
+    for action in sub.choices[words[0]]._actions:
+        if action.dest in ("theta", "thetas"):
+            action.help = f"{action.help}; this model: {joints}"
+        elif action.dest == "from_x":
+            action.help = f"start pose (default: home); this model: {coords}"
+
+
+#: Exit code after the reader of the output went away (128 + SIGPIPE, as Unix tools report).
+EXIT_BROKEN_PIPE = 141
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI; returns the exit code (0 ok, 1 error of the package, 2 usage)."""
+    """Run the CLI; returns the exit code (0 ok, 1 error of the package, 2 usage, 141 when the
+    reader of the output closed it early, e.g. ``| head``, which ends the command quietly)."""
     parser = build_parser()
+    _help_in_model_units(parser, sys.argv[1:] if argv is None else list(argv))
     args = parser.parse_args(argv)
     try:
-        return int(args.run(args))
+        code = int(args.run(args))
+        sys.stdout.flush()
+        return code
+    except BrokenPipeError:
+        _silence_stdout()
+        return EXIT_BROKEN_PIPE
     except ScdkError as exc:
-        print(f"scdk {args.command}: error: {exc}", file=sys.stderr)
+        print(f"scdk {args.command}: error: {_one_line(exc)}", file=sys.stderr)
         return 1
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so the interpreter's final flush does not fail again."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # not a real file (e.g. captured)
+        pass
 
 
 if __name__ == "__main__":  # pragma: no cover

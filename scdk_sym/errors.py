@@ -28,14 +28,25 @@ class UnknownNameError(ModelError):
         kind: what was looked up ("frame", "joint", ...).
         name: the name that was not found.
         valid: the valid names.
+        reason: why ``name`` is refused when it exists but does not fit (e.g. a fixed joint
+            named as actuated); ``None`` when it does not exist.
     """
 
-    def __init__(self, kind: str, name: str, valid: Iterable[str], path: str | None = None):
+    def __init__(
+        self,
+        kind: str,
+        name: str,
+        valid: Iterable[str],
+        path: str | None = None,
+        reason: str | None = None,
+    ):
         self.kind = kind
         self.name = name
         self.valid = tuple(valid)
+        self.reason = reason
         listed = ", ".join(self.valid) if self.valid else "(none)"
-        super().__init__(f"unknown {kind} {name!r}; {kind}s: {listed}", path)
+        what = f"{name!r} {reason}" if reason else f"unknown {kind} {name!r}"
+        super().__init__(f"{what}; {kind}s: {listed}", path)
 
 
 class NonSquareSystemError(ModelError):
@@ -137,3 +148,19 @@ class AtlasError(ScdkError):
 
 class StoreMismatchError(AtlasError):
     """An existing atlas store was written for another model, grid or set of options."""
+
+
+class OutputError(ScdkError):
+    """An output file or folder cannot be written.
+
+    Attributes:
+        path: the file or folder that was asked for.
+    """
+
+    def __init__(self, message: str, path: str) -> None:
+        self.path = str(path)
+        super().__init__(f"{self.path}: {message}")
+
+
+class PlotError(ScdkError):
+    """A figure could not be made (matplotlib missing, nothing to draw, unwritable path)."""

@@ -8,7 +8,7 @@
 * :func:`plot_track`: the pose components of a track against the sample index, with the
   singular-manifold crossings marked.
 
-matplotlib is imported lazily (``pip install 'scdk_sym[plot]'``) and used without pyplot, on
+matplotlib is imported lazily (``pip install "scdk_sym[plot]"``) and used without pyplot, on
 its Agg canvas, so it never changes the caller's backend.
 """
 
@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError, ScdkError
+from .errors import InputError, PlotError
 from .model.chart import rot_exp
 from .model.model import Model, as_vector
 from .results import Configuration, SolveResult, TrackResult
@@ -28,18 +28,34 @@ from .results import Configuration, SolveResult, TrackResult
 COLORS = {"convergent": "tab:blue", "divergent": "tab:orange", "singular": "tab:red"}
 
 
-class PlotError(ScdkError):
-    """A figure could not be made (matplotlib missing, nothing to draw, unwritable path)."""
+#: How to get the optional plotting dependency.
+INSTALL_HINT = 'pip install "scdk_sym[plot]"'
+
+
+def require_matplotlib() -> None:
+    """Check that matplotlib can be imported.
+
+    Raises:
+        PlotError: it cannot (the message gives the install command).
+    """
+    try:
+        import matplotlib  # noqa: F401
+        from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: F401
+        from matplotlib.figure import Figure  # noqa: F401
+        from matplotlib.lines import Line2D  # noqa: F401
+        from matplotlib.patches import Polygon  # noqa: F401
+    except ImportError as exc:
+        raise PlotError(
+            f"figures need matplotlib, which is not installed: {INSTALL_HINT} "
+            "(or pip install matplotlib)"
+        ) from exc
 
 
 def _figure(width: float = 6.0, height: float = 4.5):
-    try:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-    except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise PlotError(
-            "figures need matplotlib: pip install 'scdk_sym[plot]' (or pip install matplotlib)"
-        ) from exc
+    require_matplotlib()
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(width, height), dpi=120)
     FigureCanvasAgg(fig)
     return fig
@@ -187,6 +203,7 @@ def plot_configurations(
     """
     if not configurations:
         raise PlotError("no configuration to draw")
+    require_matplotlib()
     from matplotlib.lines import Line2D
     from matplotlib.patches import Polygon
 
@@ -323,6 +340,7 @@ def plot_solve(
     """
     from .solvers.sc import solve
 
+    require_matplotlib()
     theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
     start = model.home if start is None else start
     results = [

@@ -36,3 +36,24 @@ def hexapod() -> sc.Model:
     A = np.c_[0.5 * np.cos(ang_b), 0.5 * np.sin(ang_b), np.zeros(6)]
     B = np.c_[0.3 * np.cos(ang_p), 0.3 * np.sin(ang_p), np.zeros(6)]
     return sc.builders.stewart_gough(A, B, home_x=[0, 0, 0.6, 0, 0, 0])
+
+
+def compiler_missing() -> str | None:
+    """Why compile tests must be skipped (no usable C compiler, as the package finds it), or
+    ``None`` when a compiler is there."""
+    from scdk_sym.errors import BuildError
+    from scdk_sym.kernels.compile import compiler_command
+
+    try:
+        compiler_command()
+    except BuildError as exc:
+        return f"no C compiler: {exc}"
+    return None
+
+
+def needs_compiler():
+    """A ``skipif`` mark for tests that compile C (the reason says what is missing)."""
+    import pytest
+
+    reason = compiler_missing()
+    return pytest.mark.skipif(reason is not None, reason=reason or "")

@@ -191,3 +191,16 @@ def test_cache_command(capsys, tmp_path, monkeypatch):
     assert main(["cache", "--clear"]) == 0
     assert "removed 1 cached item(s)" in capsys.readouterr().out
     assert list(tmp_path.iterdir()) == []
+
+
+def test_readme_quick_start_prints_what_the_readme_says(capsys):
+    """The first command of the README and the output it shows, line for line."""
+    from factories import ROOT
+
+    text = (ROOT / "README.md").read_text()
+    command = text.split("pip install . && scdk ", 1)[1].split("\n", 1)[0]
+    shown = text.split("on both branches and prints:\n\n```\n", 1)[1].split("```", 1)[0]
+    argv = command.split()
+    argv[1] = str(ROOT / argv[1])
+    assert main(argv) == 0
+    assert capsys.readouterr().out == shown

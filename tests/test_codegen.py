@@ -6,7 +6,7 @@ import subprocess
 
 import numpy as np
 import pytest
-from factories import ROOT, shipped
+from factories import ROOT, needs_compiler, shipped
 
 from scdk_sym.cli import main
 from scdk_sym.codegen.generate import generate
@@ -17,10 +17,10 @@ EXAMPLE = ROOT / "examples" / "c"
 CFLAGS = ["-std=c99", "-O2", "-Wall"]
 STANDARD_HEADERS = {"math.h", "stddef.h", "string.h", "stdio.h", "time.h"}
 
-pytestmark = pytest.mark.skipif(
-    not (shutil.which("make") and (shutil.which("gcc") or shutil.which("cc"))),
-    reason="needs make and a C compiler",
-)
+pytestmark = [
+    needs_compiler(),
+    pytest.mark.skipif(shutil.which("make") is None, reason="needs make (the C example)"),
+]
 
 
 @pytest.fixture(scope="module")

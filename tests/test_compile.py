@@ -1,17 +1,16 @@
 """Compiled kernels (scdk_sym.kernels.compile) against the CasADi SX Functions."""
 
-import shutil
 from dataclasses import fields
 
 import numpy as np
 import pytest
-from factories import hexapod, shipped
+from factories import hexapod, needs_compiler, shipped
 
 from scdk_sym.errors import BuildError
 from scdk_sym.kernels import compile as comp
 from scdk_sym.kernels.cache import cache_dir
 
-pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="no C compiler")
+pytestmark = needs_compiler()
 
 
 @pytest.mark.parametrize(

@@ -90,3 +90,29 @@ def test_nearest_singular_configuration_is_singular_and_assembled():
     sing = nearest_singular(model, model.home)
     cfg = model.configuration(sing.y, sing.theta)
     assert abs(ref.det_ratio(ref.coords(cfg), cfg.theta)) < 1e-6
+
+
+def test_a_turn_of_s_inside_one_step_is_refined_not_stepped_over():
+    """Two crossings of s = 1 on either side of a fold, both within the first step."""
+    from scdk_sym.follower.curve import _hidden_pair
+
+    # s goes 0.9 -> 0.9 over a step of length 1, rising then falling: above 1 in between
+    assert _hidden_pair(0.9, 0.9, 1.0, -1.0, 1.0, 1.0) is True
+    assert _hidden_pair(0.9, 0.9, 0.05, -0.05, 1.0, 1.0) is False  # the peak stays below 1
+    assert _hidden_pair(0.9, 1.1, 1.0, 1.0, 1.0, 1.0) is False  # no turn: one plain crossing
+    # the seed robot's fold (the paper's phi = 0.5754) put at s = 1.01 of a line from the start
+    model = shipped("planar_hexa")
+    start = model.inverse_kinematics(SEED_X1)
+    fold = sc.solve(model, SEED_THETA0, start=start, branch="divergent").crossings[0]
+    theta0 = start.theta + (fold.theta - start.theta) / 1.01
+    line = Line(start.theta, theta0 - start.theta)
+    walks = [follow(model, line, start.y, 0.0, d, predictor="rk4", max_hits=2, step=0.5,
+                    max_arc=5.0) for d in (1.0, -1.0)]  # fmt: skip
+    walk = max(walks, key=lambda w: len(w.hits))
+    assert len(walk.hits) == 2
+    a, b = (model.configuration(h.y, theta0) for h in walk.hits)
+    assert max(a.residual, b.residual) <= model.tolerance
+    # the two solutions on either side of the fold, close to it and distinct
+    assert abs(a.x[2] - fold.x[2]) < 0.1 and abs(b.x[2] - fold.x[2]) < 0.1
+    assert abs(a.x[2] - b.x[2]) > 1e-3
+    assert (a.x[2] - fold.x[2]) * (b.x[2] - fold.x[2]) < 0

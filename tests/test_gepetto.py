@@ -180,8 +180,10 @@ def test_cli_solve_with_frame_effector(name: str, capsys) -> None:
     T = placements.data.oMf[placements.effector].homogeneous
     np.testing.assert_allclose(out["platform_pose"], T, rtol=0, atol=1e-12)
     np.testing.assert_allclose(out["x"], T[:3, 3], rtol=0, atol=1e-12)
-    # without --json: the reduction is stated in one line on stderr
+    # the reduction is stated in one line on stderr with --verbose, not on every call
     assert main([*argv, "--frame", "effector"]) == 0
+    assert "note:" not in capsys.readouterr().err
+    assert main([*argv, "--frame", "effector", "--verbose"]) == 0
     err = capsys.readouterr().err
     notes = [line for line in err.splitlines() if line.startswith("note: reduced")]
     assert len(notes) == (1 if name in REDUCED else 0)

@@ -90,6 +90,7 @@ def test_save_and_load_round_trip(tmp_path):
         model.frame,
     )
     np.testing.assert_allclose(again.home.y, model.home.y, atol=1e-14)
+    assert again.length_unit == model.length_unit == "cm"  # the paper's unit, kept
     cfg_a, cfg_b = model.inverse_kinematics([1, -1, 0.3]), again.inverse_kinematics([1, -1, 0.3])
     np.testing.assert_allclose(cfg_a.theta, cfg_b.theta, atol=1e-12)
     # loading through the YAML path gives the same model
@@ -170,3 +171,26 @@ def test_inverse_kinematics_bad_input():
         model.inverse_kinematics([0, float("nan"), 0])
     with pytest.raises(UnreachableError, match="not reachable in the home working mode"):
         model.inverse_kinematics([30.0, 0, 0])
+
+
+SLIDERS = """<robot name="sliders">
+  <link name="base"/><link name="a"/><link name="b"/>
+  <joint name="p" type="prismatic"><parent link="base"/><child link="a"/>
+    <axis xyz="{axis}"/><limit lower="-1" upper="1" effort="0" velocity="0"/></joint>
+  <joint name="q" type="prismatic"><parent link="base"/><child link="b"/>
+    <axis xyz="{axis}"/><limit lower="-1" upper="1" effort="0" velocity="0"/></joint>
+</robot>
+"""
+
+
+@pytest.mark.parametrize(("axis", "same", "moving"), [("0 1 0", "x", "y"), ("1 0 0", "y", "x")])
+def test_reduction_names_the_2d_row_it_drops(tmp_path, axis, same, moving):
+    """Two sliders along one axis joined by a 2d closure: the row of the other axis is
+    identically zero and is the one dropped; the note names it by its component."""
+    d = tmp_path / f"sliders_{same}"
+    d.mkdir()
+    (d / "robot.urdf").write_text(SLIDERS.format(axis=axis))
+    (d / "robot.yaml").write_text("closed_loop: [[a, b]]\ntype: [2d]\nname_mot: [p]\n")
+    model = sc.load_model(d)
+    assert model.unknowns == ("q",) and model.rows == ({"x": 0, "y": 1}[moving],)
+    assert f"dropped 1 redundant row(s) ['2d(a,b).{same}']" in model.reduction

@@ -17,7 +17,7 @@ from functools import cache
 
 import numpy as np
 import pytest
-from factories import shipped
+from factories import needs_compiler, shipped
 from numpy.polynomial import Polynomial
 from stewart import (
     DIETMAIER_BASE,
@@ -304,6 +304,7 @@ def test_random_6_6_platforms_against_random_start_reference(platform, count):
 # ---------------------------------------------------------------------------- options
 
 
+@needs_compiler()
 def test_deterministic_for_a_seed_and_backends_agree():
     A, C, rho = rpr_geometries_with_six()[0]
     model = sc.builders.planar_3rpr(A, C)

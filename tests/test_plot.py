@@ -109,6 +109,6 @@ def test_plot_errors_are_package_errors(tmp_path, monkeypatch):
     with pytest.raises(plot.PlotError, match="cannot write"):
         plot.plot_configurations(model, [("home", model.home, "gray")], blocker / "x.png")
     monkeypatch.setitem(sys.modules, "matplotlib.figure", None)
-    with pytest.raises(plot.PlotError, match=r"pip install 'scdk_sym\[plot\]'"):
+    with pytest.raises(plot.PlotError, match=r'pip install "scdk_sym\[plot\]"'):
         plot.plot_configurations(model, [("home", model.home, "gray")], tmp_path / "y.png")
     assert issubclass(plot.PlotError, sc.ScdkError)

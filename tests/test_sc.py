@@ -1,10 +1,8 @@
 """The singularity-consistent solver on the paper's example (scdk_sym.solvers.sc)."""
 
-import shutil
-
 import numpy as np
 import pytest
-from factories import SEED_THETA0, SEED_X1, seed_models, shipped
+from factories import SEED_THETA0, SEED_X1, compiler_missing, seed_models, shipped
 
 from scdk_sym.errors import InputError, NotAssembledError, PathError, ScdkError
 from scdk_sym.results import Configuration
@@ -97,8 +95,8 @@ def test_path_samples_follow_the_paper_figures(seed):
 
 @pytest.mark.parametrize("backend", ["casadi", "compiled"])
 def test_fast_path_and_backends_agree_with_the_full_path(backend):
-    if backend == "compiled" and shutil.which("gcc") is None:
-        pytest.skip("no C compiler")
+    if backend == "compiled" and compiler_missing():
+        pytest.skip(compiler_missing())
     model = shipped("planar_hexa_reduced")
     rng = np.random.default_rng(5)
     for _ in range(10):
@@ -237,3 +235,28 @@ def test_divergent_returns_dietmaiers_posture_across_a_near_singular_surface():
             if not found:
                 missed.append((i, j))
     assert len(missed) <= 1, missed
+
+
+@pytest.mark.parametrize("name", ["planar_hexa", "planar_hexa_reduced"])
+def test_warm_fast_path_reports_the_branch_sign_of_the_full_path(name, monkeypatch):
+    """``b`` of a convergent solve is the sign of det J_p at the start (``b det J_p > 0``),
+    whether the warm kernel answers or the path is integrated; the two modelings of the seed
+    robot have opposite signs there (DESIGN section 2)."""
+    import scdk_sym.solvers.sc as sc_module
+
+    model = shipped(name)
+    start = model.inverse_kinematics(SEED_X1)
+    theta0 = start.theta + np.array([0.01, -0.02, 0.015])
+    y, c = model.chart.to_local(start.y)
+    det = float(np.linalg.det(np.array(model.kernels.jac(y, start.theta, c)[0])))
+    full = solve(model, theta0, start=start, record_path=True)
+    assert full.b == (1.0 if det > 0 else -1.0) and full.b * det > 0
+
+    def no_path(*args, **kwargs):
+        raise AssertionError("the warm fast path should have answered")
+
+    monkeypatch.setattr(sc_module, "_along_line", no_path)
+    fast = solve(model, theta0, start=start, record_path=False)
+    assert fast.path is None and fast.branch == "convergent"
+    assert fast.b == full.b
+    np.testing.assert_allclose(fast.x, full.x, atol=1e-9)

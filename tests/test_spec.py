@@ -55,6 +55,7 @@ def test_extensions_round_trip():
         (GEPETTO + "workspace: [x, w]\n", "unknown workspace coordinate 'w'"),
         (GEPETTO + "home: {mot1: .nan}\n", "finite"),
         (GEPETTO + "format_version: 2\n", "format_version"),
+        (GEPETTO + "length_unit: 1\n", "'length_unit' must name the unit"),
     ],
 )
 def test_bad_yaml_is_refused_with_its_cause(text, message):
@@ -62,3 +63,10 @@ def test_bad_yaml_is_refused_with_its_cause(text, message):
         parse_spec(text, "robot.yaml")
     assert str(info.value).startswith("robot.yaml: ")
     assert "\n" not in str(info.value)
+
+
+def test_length_unit_is_kept_and_defaults_to_metres():
+    assert parse_spec(GEPETTO).length_unit == "m"
+    assert "length_unit" not in parse_spec(GEPETTO).to_yaml()
+    spec = parse_spec(GEPETTO + "length_unit: cm\n")
+    assert spec.length_unit == "cm" and parse_spec(spec.to_yaml()).length_unit == "cm"

@@ -200,3 +200,31 @@ def test_c_backend_is_dispatched_to_track_c(monkeypatch):
     assert sc.track(model, thetas, start=model.home, backend="c") == "from track_c"
     assert calls[0][0] is model and calls[0][2] is model.home
     assert np.array_equal(calls[0][1], thetas)
+
+
+def test_the_choice_rule_orders_by_miss_and_refuses_near_ties():
+    """R4 on its own: the best candidate is the least miss (the first of equal ones), taken
+    only when the runner-up misses MARGIN times more and the best agrees with the motion."""
+    from scdk_sym.solvers.track import ACCEPT, MARGIN, choose
+
+    tol = 1e-12
+    # clearly nearer and within ACCEPT of the step: taken, wherever it is in the list
+    for miss in ([0.01, 0.5], [0.5, 0.01], [0.5, 0.3, 0.01]):
+        order, taken = choose(miss, 0.1, 0.0, tol)
+        assert order[0] == int(np.argmin(miss)) and taken
+    assert choose([0.01, 0.5, 0.3], 0.1, 0.0, tol)[0] == [0, 2, 1]
+    # equal misses: the first listed is c1, and the tie is refused, never broken
+    assert choose([0.3, 0.1, 0.1], 0.5, 0.0, tol) == ([1, 2, 0], False)
+    assert choose([0.1, 0.1], 0.5, 0.0, tol) == ([0, 1], False)
+    # a near tie (runner-up within MARGIN) is refused
+    assert choose([0.01, 0.9 * MARGIN * 0.01], 0.1, 0.0, tol)[1] is False
+    # the prediction's own error widens the margin
+    assert choose([0.01, 0.05], 0.1, 0.0, tol)[1] is True
+    assert choose([0.01, 0.05], 0.1, 0.02, tol)[1] is False
+    # the best must agree with the predicted step, unless it is the regular cheap step
+    assert choose([0.1, 1.0], 0.1 / ACCEPT * 0.9, 0.0, tol)[1] is False
+    assert choose([0.1, 1.0], 0.1 / ACCEPT * 0.9, 0.0, tol, regular=0)[1] is True
+    assert choose([0.1, 1.0], 0.1 / ACCEPT * 0.9, 0.0, tol, regular=1)[1] is False
+    # no motion known (infinite step): nearest to the previous sample, if clearly nearest
+    assert choose([0.2, 0.01], np.inf, 0.0, tol) == ([1, 0], True)
+    assert choose([0.7], 0.1, 0.0, tol) == ([0], False)

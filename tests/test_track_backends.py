@@ -10,12 +10,10 @@ crossings are checked against a closed-form singularity condition of each mechan
 
 from __future__ import annotations
 
-import shutil
-
 import numpy as np
 import pytest
 import stewart
-from factories import MODELS, shipped
+from factories import MODELS, needs_compiler, shipped
 from stewart import fold_path
 
 from scdk_sym.codegen import library as clib
@@ -24,9 +22,7 @@ from scdk_sym.model.urdf import rpy_matrix
 from scdk_sym.solvers import track as rule
 from scdk_sym.solvers.track import track
 
-pytestmark = pytest.mark.skipif(
-    not (shutil.which("gcc") or shutil.which("cc")), reason="needs a C compiler"
-)
+pytestmark = needs_compiler()
 
 BACKENDS = ("cvodes", "c")
 FOLLOW = 1e-6  # a backend follows the motion when max |x - x_commanded| stays below this

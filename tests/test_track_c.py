@@ -1,11 +1,9 @@
 """Trajectory tracking with the generated C tracker (scdk_sym.solvers.track_c)."""
 
-import shutil
-
 import numpy as np
 import pytest
 import stewart
-from factories import MODELS, shipped
+from factories import MODELS, needs_compiler, shipped
 from stewart import fold_path
 
 import scdk_sym as sc
@@ -16,9 +14,7 @@ from scdk_sym.model.urdf import rpy_matrix
 from scdk_sym.solvers.sc import solve
 from scdk_sym.solvers.track_c import TrackError, track_c
 
-pytestmark = pytest.mark.skipif(
-    not (shutil.which("gcc") or shutil.which("cc")), reason="needs a C compiler"
-)
+pytestmark = needs_compiler()
 
 
 A, B = stewart.anchors(MODELS / "stewart_gough")

@@ -32,6 +32,11 @@ def rrr_leg_angles(
     """
     d = vertex - base
     dist = float(np.hypot(*d))
+    if not dist > 1e-12 * max(arm, rod):
+        raise InputError(
+            f"vertex {vertex.tolist()} coincides with the leg's base joint {base.tolist()}: the "
+            "leg's angles are undefined; move the platform point or the home pose"
+        )
     c = (dist**2 + arm**2 - rod**2) / (2 * arm * dist)
     if not -1.0 <= c <= 1.0:
         raise InputError(
@@ -47,8 +52,8 @@ def rrr_leg_angles(
 def _check_triangle(points: np.ndarray, name: str) -> None:
     a, b, c = points
     area = 0.5 * abs((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]))
-    scale = max(np.ptp(points, axis=0).max(), 1e-300)
-    if area < 1e-9 * scale**2:
+    scale = float(np.ptp(points, axis=0).max())
+    if not scale > 0 or area < 1e-9 * scale**2:
         raise InputError(f"{name} are collinear or coincident: {points.tolist()}")
 
 
@@ -64,6 +69,7 @@ def planar_3rrr(
     home_x=None,
     working_modes=(-1, -1, -1),
     name: str = "planar_3rrr",
+    length_unit: str = "m",
 ) -> Model:
     """Planar 3-RRR parallel robot modelled with full chains (the paper's HEXA-type robot).
 
@@ -79,6 +85,7 @@ def planar_3rrr(
         home_x: (3,) home pose [x, y, phi] ([length, length, rad]), default zero.
         working_modes: per leg, -1 or +1: theta = atan2(d) + mode * acos(...) at home.
         name: robot name.
+        length_unit: unit of the lengths above (``length_unit`` of the saved YAML).
 
     Returns:
         The loaded model; ``theta`` = the three arm angles, ``x = [x, y, phi]``.
@@ -118,6 +125,7 @@ def planar_3rrr(
         platform="platform",
         workspace=("x", "y", "phi"),
         home=home,
+        length_unit=length_unit,
     )
     return model_from_tree(b.build(), spec)
 
@@ -130,6 +138,7 @@ def planar_3rrr_reduced(
     home_x=None,
     working_modes=(-1, -1, -1),
     name: str = "planar_3rrr_reduced",
+    length_unit: str = "m",
 ) -> Model:
     """The paper's own formulation of a planar 3-RRR robot: the unknowns are the platform pose.
 
@@ -164,6 +173,7 @@ def planar_3rrr_reduced(
         platform="platform",
         workspace=("x", "y", "phi"),
         home=home,
+        length_unit=length_unit,
     )
     return model_from_tree(b.build(), spec)
 
@@ -181,6 +191,7 @@ def seed_geometry() -> dict:
         "platform_points": unit * 10.0 / math.sqrt(3.0),
         "arm": 7.0,
         "rod": 7.0,
+        "length_unit": "cm",
     }
 
 

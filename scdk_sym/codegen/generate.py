@@ -18,15 +18,15 @@ alone.
 from __future__ import annotations
 
 import hashlib
+import os
 import re
-import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import BuildError, InputError
-from ..kernels.compile import compiler, write_c
+from ..errors import InputError, OutputError
+from ..kernels.compile import run_compiler, write_c
 from . import templates
 from .kernels import build_tracker_kernels
 
@@ -97,6 +97,32 @@ def source_key(sources: GeneratedSources) -> str:
     return h.hexdigest()[:24]
 
 
+def output_directory(directory: str | Path) -> Path:
+    """The folder to write into, created if needed (its parent must exist).
+
+    Raises:
+        OutputError: ``directory`` is a file, its parent folder does not exist, or it cannot be
+            created or written.
+    """
+    out = Path(directory)
+    if out.exists() and not out.is_dir():
+        raise OutputError("is a file, not a folder; choose a folder to write into", out)
+    parent = out.absolute().parent
+    if not out.exists() and not parent.is_dir():
+        raise OutputError(
+            f"its parent folder {str(parent)!r} does not exist; create it first or choose "
+            "another folder",
+            out,
+        )
+    try:
+        out.mkdir(exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"cannot create the folder: {exc.strerror or exc}", out) from exc
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise OutputError("the folder is not writable; choose another folder", out)
+    return out
+
+
 def generate(model, directory: str | Path, prefix: str = "scdk") -> GeneratedSources:
     """Write the C sources and headers of the model's tracker into ``directory``.
 
@@ -107,10 +133,21 @@ def generate(model, directory: str | Path, prefix: str = "scdk") -> GeneratedSou
 
     Returns:
         The paths of the generated files.
+
+    Raises:
+        InputError: ``prefix`` is not a C identifier.
+        OutputError: ``directory`` cannot be created or written (see :func:`output_directory`).
     """
     prefix = check_prefix(prefix)
-    out = Path(directory)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_directory(directory)
+    try:
+        return _generate(model, out, prefix)
+    except OSError as exc:
+        name = exc.filename or out
+        raise OutputError(f"cannot write: {exc.strerror or exc}", name) from exc
+
+
+def _generate(model, out: Path, prefix: str) -> GeneratedSources:
     kern = build_tracker_kernels(model.symbolic, model.chart.rotations, prefix)
     _quiet_unused_parameters(write_c(kern.all(), f"{prefix}_kernels", out, with_header=True))
     funcs = kern.all()
@@ -224,9 +261,5 @@ def compile_library(sources: GeneratedSources, target: str | Path) -> Path:
     """
     target = Path(target).resolve()
     files = [str(Path(p).resolve()) for p in sources.sources]
-    cmd = [compiler(), *SHARED_FLAGS, *files, "-o", str(target), "-lm"]
-    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=sources.directory)
-    if proc.returncode != 0:
-        first = (proc.stderr.strip().splitlines() or ["?"])[0]
-        raise BuildError(f"C compilation failed ({' '.join(cmd)}): {first}")
+    run_compiler([*SHARED_FLAGS, *files, "-o", target, "-lm"], cwd=sources.directory)
     return target

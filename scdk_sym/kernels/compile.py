@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import shlex
 import shutil
 import subprocess
 import tempfile
@@ -25,12 +26,57 @@ from .functions import Kernels
 CFLAGS = ("-O3", "-shared", "-fPIC")
 
 
-def compiler() -> str:
-    """The C compiler (``$CC`` or gcc/cc on the PATH)."""
-    cc = os.environ.get("CC") or shutil.which("gcc") or shutil.which("cc")
-    if not cc:
+def compiler_command() -> list[str]:
+    """The C compiler command: ``$CC`` split like a shell (it may carry flags), else gcc or cc
+    on the PATH.
+
+    Raises:
+        BuildError: ``$CC`` names no executable, or no compiler is on the PATH.
+    """
+    cc = os.environ.get("CC", "").strip()
+    if cc:
+        try:
+            cmd = shlex.split(cc)
+        except ValueError as exc:
+            raise BuildError(f"$CC={cc!r} cannot be split into a command: {exc}") from exc
+        if shutil.which(cmd[0]) is None:
+            raise BuildError(
+                f"C compiler {cmd[0]!r} (from $CC={cc!r}) not found; set CC to an installed "
+                "compiler (e.g. CC=gcc) or unset it"
+            )
+        return cmd
+    found = shutil.which("gcc") or shutil.which("cc")
+    if not found:
         raise BuildError("no C compiler found: install gcc (e.g. apt-get install gcc) or set $CC")
-    return cc
+    return [found]
+
+
+def compiler() -> str:
+    """The C compiler command as one string (``$CC`` or gcc/cc on the PATH)."""
+    return shlex.join(compiler_command())
+
+
+def run_compiler(args: Sequence[str], cwd: Path | None = None) -> None:
+    """Run the C compiler with ``args`` (sources, flags, ``-o target``).
+
+    Raises:
+        BuildError: no compiler, it cannot be started, or it failed (its first error line
+            quoted, with the command).
+    """
+    cmd = [*compiler_command(), *map(str, args)]
+    try:
+        proc = subprocess.run(cmd, capture_output=True, text=True, cwd=cwd)
+    except OSError as exc:
+        raise BuildError(
+            f"cannot run the C compiler ({shlex.join(cmd)}): {exc.strerror or exc}; "
+            "set CC to an installed compiler"
+        ) from exc
+    if proc.returncode != 0:
+        lines = [ln for ln in proc.stderr.strip().splitlines() if "error" in ln.lower()]
+        first = (lines or proc.stderr.strip().splitlines() or ["?"])[0].strip()
+        raise BuildError(
+            f"C compilation failed ({shlex.join(cmd)}): {first}; check $CC and its flags"
+        )
 
 
 def write_c(
@@ -74,12 +120,12 @@ def _compile_into(source: Path, target: Path) -> None:
 
 
 def compile_shared(source: Path, target: Path) -> Path:
-    """Compile a C source into a shared library."""
-    cmd = [compiler(), *CFLAGS, str(source), "-o", str(target), "-lm"]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    if proc.returncode != 0:
-        first = (proc.stderr.strip().splitlines() or ["?"])[0]
-        raise BuildError(f"C compilation failed ({' '.join(cmd)}): {first}")
+    """Compile a C source into a shared library.
+
+    Raises:
+        BuildError: see :func:`run_compiler`.
+    """
+    run_compiler([*CFLAGS, source, "-o", target, "-lm"])
     return target
 
 

@@ -10,6 +10,7 @@ import hashlib
 from collections.abc import Sequence
 from dataclasses import replace
 from functools import cached_property
+from os import PathLike
 from pathlib import Path
 
 import casadi as ca
@@ -20,6 +21,7 @@ from ..errors import (
     ModelError,
     NonSquareSystemError,
     NotAssembledError,
+    OutputError,
     UnknownNameError,
     UnreachableError,
 )
@@ -28,12 +30,16 @@ from .chart import Chart, rot_exp, rot_log
 from .spec import Spec, parse_spec
 from .urdf import Tree, parse_urdf, rpy_matrix, tree_to_urdf
 
+#: Workspace coordinates that are angles [rad].
+ANGLE_COORDINATES = ("phi", "roll", "pitch", "yaw")
 #: Relative tolerance of the assembled-configuration checks (scaled by the model size).
 RESIDUAL_TOL = 1e-9
 
 
 def as_vector(value, size: int, what: str) -> np.ndarray:
     """Validate a finite 1-D array of a given size (raises :class:`InputError`)."""
+    if value is None or isinstance(value, (str, bytes, dict)):
+        raise InputError(f"{what} must be {size} numbers, got {value!r}")
     try:
         arr = np.asarray(value, dtype=float).reshape(-1)
     except (TypeError, ValueError) as exc:
@@ -101,8 +107,15 @@ class Model:
             for f in (c.frame_a, c.frame_b):
                 if f not in links and f not in joint_frames:
                     raise UnknownNameError("frame", f, frames, path)
+        kinds = {j.name: j.type for j in tree.joints}
         for a in spec.actuated:
             if a not in single:
+                if kinds.get(a) in ("fixed", "floating"):
+                    reason = (
+                        f"in 'name_mot' is a {kinds[a]} joint: only a movable joint with one "
+                        "coordinate can be actuated"
+                    )
+                    raise UnknownNameError("movable joint", a, single, path, reason)
                 raise UnknownNameError("joint", a, single, path)
         for c in spec.closures:
             if c.length_joint is not None and c.length_joint not in single:
@@ -183,6 +196,7 @@ class Model:
                     ca.jacobian(full.g_all, full.y),
                     full.g_check,
                     ca.jacobian(full.g_check, full.y),
+                    ca.jacobian(full.g_all, full.theta),
                 )
             ],
         )
@@ -221,6 +235,7 @@ class Model:
                 self.path,
             )
         labels = self._row_labels()
+        self._check_actuation(G, np.array(f_all(y0, th0)[4]), rank, labels)
         if not (rank == nrows == ncols):
             rows = _pivoted_selection(G.T, rank)
             keep = _pivoted_selection(G[rows], rank)
@@ -273,6 +288,35 @@ class Model:
         self._home_y = chart.to_canonical(y0, c0)[keep]
         self._home_theta = th0
 
+    def _check_actuation(self, G: np.ndarray, G_theta: np.ndarray, rank: int, labels) -> None:
+        """Refuse more actuators than the mechanism has freedoms (rows that bind theta alone).
+
+        With ``rank [G, G_theta] > rank G`` at home, some closure rows constrain the actuated
+        joints whatever the unknowns: the actuators cannot be set independently and almost
+        every ``theta`` has no assembly.
+        """
+        both = np.hstack([G, G_theta])
+        sv = np.linalg.svd(both, compute_uv=False)
+        full = int(np.sum(sv > 1e-8 * max(1.0, sv[0] if sv.size else 1.0)))
+        if full <= rank:
+            return
+        nrows, ncols = G.shape
+        dof = ncols + self.k - full
+        # the rows outside the span of G's rows that involve theta
+        U, _, _ = np.linalg.svd(G)
+        left = U[:, rank:]  # combinations of rows free of y
+        bound = [labels[r] for r in range(nrows) if np.abs(left[r]).max() > 1e-6]
+        raise NonSquareSystemError(
+            f"over-actuated: {self.k} actuated joints {list(self.actuated)} but the mechanism "
+            f"has {dof} degree(s) of freedom ({ncols} unknown + {self.k} actuated coordinates, "
+            f"{full} independent closure rows, {full - rank} binding the actuators alone: "
+            f"{bound}); remove {self.k - dof} joint(s) from 'name_mot'",
+            nrows,
+            ncols,
+            rank,
+            self.path,
+        )
+
     def _row_labels(self) -> list[str]:
         labels = []
         for c in self.spec.closures:
@@ -303,7 +347,7 @@ class Model:
         the skew part alone also vanishes at a half turn, a false minimum.
         """
         mu = 1e-3
-        _, _, g, J = (np.array(v) for v in f_all(y, theta))
+        _, _, g, J, _ = (np.array(v) for v in f_all(y, theta))
         g = g.ravel()
         cost = g @ g
         for _ in range(200):
@@ -312,7 +356,7 @@ class Model:
             A = J.T @ J
             dy = np.linalg.solve(A + mu * (np.diag(np.diag(A)) + 1e-12 * np.eye(len(y))), -J.T @ g)
             yn = y + dy
-            _, _, gn, Jn = (np.array(v) for v in f_all(yn, theta))
+            _, _, gn, Jn, _ = (np.array(v) for v in f_all(yn, theta))
             gn = gn.ravel()
             if gn @ gn < cost:
                 y, g, J, cost = yn, gn, Jn, gn @ gn
@@ -349,6 +393,20 @@ class Model:
         from ..kernels.functions import build_kernels
 
         return build_kernels(self.symbolic)
+
+    @property
+    def length_unit(self) -> str:
+        """Unit of every length of the model (``length_unit`` in the YAML, default m)."""
+        return self.spec.length_unit
+
+    @property
+    def units(self) -> dict[str, str]:
+        """Unit of each workspace coordinate and actuated joint: rad for angles and revolute
+        joints, :attr:`length_unit` for positions and prismatic joints."""
+        out = {w: ("rad" if w in ANGLE_COORDINATES else self.length_unit) for w in self.workspace}
+        for a in self.actuated:
+            out[a] = self.length_unit if self.tree.joint(a).type == "prismatic" else "rad"
+        return out
 
     @property
     def m(self) -> int:
@@ -496,11 +554,20 @@ class Model:
     # ------------------------------------------------------------------ saving
 
     def save(self, directory: str | Path) -> Path:
-        """Write ``robot.urdf`` and ``robot.yaml`` into ``directory`` (created if needed)."""
+        """Write ``robot.urdf`` and ``robot.yaml`` into ``directory`` (created if needed).
+
+        Raises:
+            OutputError: ``directory`` is a file or cannot be written.
+        """
         d = Path(directory)
-        d.mkdir(parents=True, exist_ok=True)
-        (d / "robot.urdf").write_text(self._urdf_text)
-        (d / "robot.yaml").write_text(self.spec.to_yaml())
+        if d.exists() and not d.is_dir():
+            raise OutputError("is a file, not a folder; choose a folder to save the model in", d)
+        try:
+            d.mkdir(parents=True, exist_ok=True)
+            (d / "robot.urdf").write_text(self._urdf_text)
+            (d / "robot.yaml").write_text(self.spec.to_yaml())
+        except OSError as exc:
+            raise OutputError(f"cannot save the model: {exc.strerror or exc}", d) from exc
         return d
 
     def __repr__(self) -> str:
@@ -522,6 +589,11 @@ def load_model(path: str | Path, frame: str | None = None) -> Model:
     Raises:
         ModelError: missing files, malformed URDF/YAML, unknown names, non-square systems.
     """
+    if not isinstance(path, (str, PathLike)):
+        raise InputError(
+            f"load_model: path must be a model directory or its YAML file (str or path), got "
+            f"{path!r} of type {type(path).__name__}"
+        )
     p = Path(path)
     if p.is_dir():
         yaml_path, urdf_path = p / "robot.yaml", p / "robot.urdf"
@@ -530,15 +602,29 @@ def load_model(path: str | Path, frame: str | None = None) -> Model:
         urdf_path = p.with_suffix(".urdf")
         if not urdf_path.exists():
             urdf_path = p.parent / "robot.urdf"
+    elif not p.exists():
+        raise ModelError("not found: expected a model directory or a .yaml file", str(p))
     else:
         raise ModelError("expected a model directory or a .yaml file", str(p))
     for f in (yaml_path, urdf_path):
         if not f.exists():
             raise ModelError("file not found", str(f))
-    urdf_text = urdf_path.read_text()
+    urdf_text = _read(urdf_path)
     tree = parse_urdf(urdf_text, str(urdf_path))
-    spec = parse_spec(yaml_path.read_text(), str(yaml_path))
+    spec = parse_spec(_read(yaml_path), str(yaml_path))
     return Model(tree, spec, str(yaml_path), frame, urdf_text)
+
+
+def _read(path: Path) -> str:
+    """The text of a model file (UTF-8), or a :class:`ModelError` saying why not."""
+    try:
+        return path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise ModelError(
+            f"not a UTF-8 text file ({exc.reason} at byte {exc.start})", str(path)
+        ) from exc
+    except OSError as exc:
+        raise ModelError(f"cannot read: {exc.strerror or exc}", str(path)) from exc
 
 
 def model_from_tree(tree: Tree, spec: Spec, frame: str | None = None) -> Model:

@@ -2,7 +2,8 @@
 
 A strict superset of the Gepetto "extended URDF" YAML (``closed_loop``, ``type``,
 ``name_mot``) with the extensions ``format_version``, ``platform``, ``workspace``, ``home``,
-the closure types ``2d`` and ``distance`` and the per-closure ``length`` list.
+``length_unit`` (default m), the closure types ``2d`` and ``distance`` and the per-closure
+``length`` list.
 """
 
 from __future__ import annotations
@@ -28,7 +29,10 @@ KNOWN_KEYS = (
     "workspace",
     "home",
     "length",
+    "length_unit",
 )
+#: Length unit of a model that does not state one (URDF lengths are in metres).
+DEFAULT_LENGTH_UNIT = "m"
 
 
 @dataclass(frozen=True)
@@ -70,6 +74,7 @@ class Spec:
     workspace: tuple[str, ...] | None = None
     home: dict[str, float] = field(default_factory=dict)
     raw: dict[str, Any] = field(default_factory=dict)
+    length_unit: str = DEFAULT_LENGTH_UNIT
 
     def to_yaml(self) -> str:
         data: dict[str, Any] = {
@@ -87,6 +92,8 @@ class Spec:
             data["platform"] = self.platform
         if self.workspace is not None:
             data["workspace"] = list(self.workspace)
+        if self.length_unit != DEFAULT_LENGTH_UNIT:
+            data["length_unit"] = self.length_unit
         if self.home:
             data["home"] = {k: float(v) for k, v in self.home.items()}
         return yaml.safe_dump(data, sort_keys=False, default_flow_style=None)
@@ -180,6 +187,11 @@ def parse_spec(text: str, path: str | None = None) -> Spec:
     for k, v in home.items():
         if not isinstance(v, (int, float)) or not math.isfinite(v):
             raise ModelError(f"home value of {k!r} must be a finite number, got {v!r}", path)
+    unit = data.get("length_unit", DEFAULT_LENGTH_UNIT)
+    if not isinstance(unit, str) or not unit.strip():
+        raise ModelError(
+            f"'length_unit' must name the unit of lengths (e.g. m, cm, mm), got {unit!r}", path
+        )
     return Spec(
         tuple(closures),
         tuple(actuated),
@@ -187,4 +199,5 @@ def parse_spec(text: str, path: str | None = None) -> Spec:
         workspace,
         {str(k): float(v) for k, v in home.items()},
         data,
+        unit.strip(),
     )

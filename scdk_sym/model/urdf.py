@@ -102,6 +102,44 @@ class Tree:
         return None
 
 
+def _check_structure(text: str, path: str | None) -> None:
+    """Refuse text that is not a URDF document before yourdfpy reads it: empty, not XML, not a
+    ``<robot>``, or joints without their name, type, parent or child."""
+    import xml.etree.ElementTree as ET
+
+    if not text.strip():
+        raise ModelError("malformed URDF: the file is empty; expected a <robot> XML document", path)
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as exc:
+        raise ModelError(
+            f"malformed URDF: not valid XML ({exc}); expected a <robot> XML document", path
+        ) from exc
+    if root.tag != "robot":
+        raise ModelError(f"root element is <{root.tag}>, expected <robot> (URDF)", path)
+    if not root.get("name"):
+        raise ModelError('<robot> has no name attribute: write <robot name="...">', path)
+    for i, link in enumerate(root.findall("link")):
+        if not link.get("name"):
+            raise ModelError(f"<link> number {i + 1} has no name attribute", path)
+    for i, joint in enumerate(root.findall("joint")):
+        name = joint.get("name")
+        if not name:
+            raise ModelError(f"<joint> number {i + 1} has no name attribute", path)
+        if not joint.get("type"):
+            raise ModelError(
+                f"joint {name!r} has no type attribute; types: {', '.join(SUPPORTED_TYPES)}", path
+            )
+        for end in ("parent", "child"):
+            element = joint.find(end)
+            if element is None or not element.get("link"):
+                raise ModelError(
+                    f'joint {name!r} has no <{end} link="..."/>: every joint needs a parent '
+                    "and a child link",
+                    path,
+                )
+
+
 def parse_urdf(text: str, path: str | None = None) -> Tree:
     """Parse URDF text into a :class:`Tree`.
 
@@ -116,6 +154,7 @@ def parse_urdf(text: str, path: str | None = None) -> Tree:
 
     import yourdfpy
 
+    _check_structure(text, path)
     logging.getLogger("yourdfpy").setLevel(logging.ERROR)
     try:
         urdf = yourdfpy.URDF.load(

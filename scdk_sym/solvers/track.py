@@ -483,13 +483,9 @@ class _Tracker:
         if not cands:
             raise self._no_solution(theta, index)
         miss = [_inf(y - pred.y) for y, _ in cands]
-        order = sorted(range(len(cands)), key=lambda i: miss[i])
-        e1 = miss[order[0]]
-        e2 = miss[order[1]] if len(order) > 1 else math.inf
-        agrees = e1 <= ACCEPT * pred.step + 10.0 * self.tol or (
-            order[0] == cheap_idx and self.cheap_regular
-        )
-        if agrees and e2 > MARGIN * max(e1, pred.accuracy) + 10.0 * self.tol:
+        regular = cheap_idx if self.cheap_regular else -1
+        order, taken = choose(miss, pred.step, pred.accuracy, self.tol, regular)
+        if taken:
             return cands[order[0]]
         shown = [cands[i][0] for i in order[:2]]
         raise self._undecidable(theta, index, shown, miss, order, pred)
@@ -512,6 +508,29 @@ class _Tracker:
         self.y, self.c = self._recentre(y, self.c)
         self.det_prev = self.det
         self.det = det if det != 0.0 else self._det(self.y, self.theta)
+
+
+def choose(
+    miss: Sequence[float], step: float, accuracy: float, tol: float, regular: int = -1
+) -> tuple[list[int], bool]:
+    """R4: the candidates best first and whether the best one is the answer.
+
+    Args:
+        miss: each candidate's miss ``e`` of the prediction (max norm).
+        step: the predicted step ``L`` (``inf`` without a known motion).
+        accuracy: the prediction's accuracy ``E``.
+        tol: the model's residual tolerance.
+        regular: index of the cheap continuation ``y_c`` when it is regular (R2), else -1.
+
+    Returns:
+        The candidate indices by increasing miss (the first of equal ones first: ``c1``,
+        ``c2``, ...) and whether ``c1`` is taken (else the readings are too coarse to decide).
+    """
+    order = sorted(range(len(miss)), key=lambda i: miss[i])
+    e1 = miss[order[0]]
+    e2 = miss[order[1]] if len(order) > 1 else math.inf
+    agrees = e1 <= ACCEPT * step + 10.0 * tol or order[0] == regular
+    return order, bool(agrees and e2 > MARGIN * max(e1, accuracy) + 10.0 * tol)
 
 
 @dataclass(frozen=True)

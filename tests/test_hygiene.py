@@ -1,0 +1,66 @@
+"""The test session itself: a private kernel cache, compile tests skipped without a compiler."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from factories import compiler_missing, needs_compiler
+
+from scdk_sym.kernels import compile as comp
+from scdk_sym.kernels.cache import cache_dir
+
+
+def test_cache_is_private_to_the_session(private_cache):
+    user = Path(os.path.expanduser("~")) / ".cache" / "scdk_sym"
+    assert cache_dir() == private_cache
+    assert private_cache.resolve() != user.resolve()
+    assert user.resolve() not in private_cache.resolve().parents
+    # processes started by tests (the scdk command) see it too
+    out = subprocess.run(
+        [sys.executable, "-c", "from scdk_sym.kernels.cache import cache_dir; print(cache_dir())"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=True,
+    ).stdout.strip()
+    assert out == str(private_cache)
+
+
+def test_skip_helper_names_a_missing_compiler(monkeypatch):
+    monkeypatch.setenv("CC", "/nonexistent/cc")
+    reason = compiler_missing()
+    assert reason is not None and "/nonexistent/cc" in reason and "not found" in reason
+    mark = needs_compiler()
+    assert mark.name == "skipif" and mark.args == (True,) and mark.kwargs["reason"] == reason
+    # without $CC and nothing on the PATH
+    monkeypatch.delenv("CC")
+    monkeypatch.setattr(comp.shutil, "which", lambda name: None)
+    assert "no C compiler found" in compiler_missing()
+
+
+def test_skip_helper_lets_compile_tests_run_with_a_compiler(monkeypatch):
+    monkeypatch.setenv("CC", sys.executable)  # any executable passes the check
+    assert compiler_missing() is None
+    assert needs_compiler().args == (False,)
+
+
+@pytest.mark.parametrize("module", ["test_compile", "test_codegen", "test_track_c"])
+def test_compile_modules_use_the_helper(module):
+    text = (Path(__file__).parent / f"{module}.py").read_text()
+    assert "needs_compiler()" in text
+
+
+def test_compile_tests_skip_when_cc_is_missing(tmp_path):
+    env = dict(os.environ, CC="/nonexistent/cc")
+    proc = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-rs", "-p", "no:cacheprovider",
+         str(Path(__file__).parent / "test_compile.py")],
+        capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stdout[-2000:]
+    assert "failed" not in proc.stdout and "passed" not in proc.stdout
+    assert "SKIPPED" in proc.stdout and "/nonexistent/cc" in proc.stdout
