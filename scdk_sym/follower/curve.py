@@ -38,9 +38,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from ..kernels.fastcall import model_calls
 from ..results import Crossing, PathSamples
 from .geometry import features, in_chart, local_features, periodic
-from .kernels import follower_kernels
+from .kernels import follower_calls
 
 #: A predictor-corrector step is accepted when its first correction is below this fraction of
 #: the step, its last below NEWTON_TOL model sizes, and the tangent turned by < acos(MIN_COS).
@@ -323,7 +324,7 @@ def follow(
     """
     if predictor not in PREDICTORS:
         raise InputError(f"unknown predictor {predictor!r}; predictors: {', '.join(PREDICTORS)}")
-    kern = follower_kernels(model, backend)
+    kern = follower_calls(model, backend)
     m = model.m
     scale = max(1.0, float(model.length_scale))
     tol = float(model.tolerance)
@@ -339,7 +340,7 @@ def follow(
         y_loc, c = np.array(y_start, dtype=float), np.array(chart, dtype=float)
     q = np.append(y_loc, float(s_start))
     if tangent is None:
-        Jp, Js = (np.array(a) for a in model.kernels.jac(y_loc, line.at(s_start), c))
+        Jp, Js = (np.array(a) for a in model_calls(model).jac(y_loc, line.at(s_start), c))
         v0 = direction * null_direction(Jp, Js @ dtheta)
     else:
         v0 = np.asarray(tangent, float)
@@ -622,7 +623,7 @@ def _samples(model, line: Line, rec: dict, direction: float) -> PathSamples:
     Y = np.array([model.chart.to_canonical(r[:-1], cc) for r, cc in zip(Q, rec["c"], strict=True)])
     X = []
     for r, cc in zip(Q, rec["c"], strict=True):
-        X.append(np.array(model.kernels.pose(r[:-1], line.at(r[-1]), cc)[1]).ravel())
+        X.append(np.array(model_calls(model).pose(r[:-1], line.at(r[-1]), cc)[1]).ravel())
     det = np.array(rec["det"])
     return PathSamples(
         s=Q[:, -1], y=Y, x=np.array(X), det_jp=det, sdot=direction * det, arc=np.array(rec["arc"])
@@ -746,7 +747,7 @@ def _finish(model, kern, line, qa, qb, ta, tb, h, level, c, tol) -> np.ndarray |
 def _rank_ratio(model, cr: Crossing, dtheta: np.ndarray) -> float:
     """sigma_min / sigma_max of H' = [J_p, -J_s dtheta / |dtheta|] at a point."""
     y, c = model.chart.to_local(cr.y)
-    Jp, Js = (np.array(a) for a in model.kernels.jac(y, cr.theta, c))
+    Jp, Js = (np.array(a) for a in model_calls(model).jac(y, cr.theta, c))
     js = Js @ dtheta / max(float(np.linalg.norm(dtheta)), 1e-300)
     S = np.linalg.svd(np.hstack([Jp, -js[:, None]]), compute_uv=False)
     return float(S[-1] / S[0])

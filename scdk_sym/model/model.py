@@ -23,6 +23,7 @@ from ..errors import (
     UnknownNameError,
     UnreachableError,
 )
+from ..kernels.fastcall import model_calls
 from ..results import Configuration
 from .chart import Chart, rot_exp, rot_log
 from .spec import Spec, parse_spec
@@ -386,7 +387,7 @@ class Model:
         """
         if c is None:
             y, c = self.chart.to_local(y)
-        return float(np.max(np.abs(np.array(self.kernels.check(y, theta, c)))))
+        return float(np.max(np.abs(model_calls(self).check(y, theta, c))))
 
     def configuration(
         self, y: Sequence[float], theta: Sequence[float], c: np.ndarray | None = None
@@ -404,11 +405,10 @@ class Model:
             y_loc, c = self.chart.to_local(y)
         else:
             y_loc, y = y, self.chart.to_canonical(y, c)
-        T, x = self.kernels.pose(y_loc, theta, c)
-        residual = float(np.max(np.abs(np.array(self.kernels.check(y_loc, theta, c)))))
-        return Configuration(
-            theta, y, np.array(x).ravel(), np.array(T), self.joint_values(y, theta), residual
-        )
+        calls = model_calls(self)
+        T, x = calls.pose(y_loc, theta, c)
+        residual = float(np.max(np.abs(calls.check(y_loc, theta, c))))
+        return Configuration(theta, y, x.ravel(), T, self.joint_values(y, theta), residual)
 
     def joint_values(self, y: np.ndarray, theta: np.ndarray) -> dict[str, float]:
         """Every joint coordinate (URDF order, locked ones included) from canonical y, theta."""

@@ -28,6 +28,7 @@ from ..errors import (
 )
 from ..follower.curve import Hit, Line, Walk, follow, null_direction  # noqa: F401
 from ..follower.cvodes import BACKENDS, GRID, Engine, engine  # noqa: F401
+from ..kernels.fastcall import model_calls
 from ..model.model import Model, as_vector
 from ..results import Configuration, Crossing, PathSamples, SolveResult
 
@@ -60,7 +61,7 @@ def start_direction(
 ):
     """(nu unit vector, det J_p) at the start of the path towards ``theta0``."""
     y_loc, c = model.chart.to_local(start.y)
-    Jp, Js = (np.array(a) for a in model.kernels.jac(y_loc, start.theta, c))
+    Jp, Js = (np.array(a) for a in model_calls(model).jac(y_loc, start.theta, c))
     return null_direction(Jp, Js @ (theta0 - start.theta)), float(np.linalg.det(Jp))
 
 
@@ -191,7 +192,7 @@ def _same_theta(a: np.ndarray, b: np.ndarray) -> bool:
 
 def _singular_start(model: Model, start: Configuration) -> bool:
     y_loc, c = model.chart.to_local(start.y)
-    S = np.linalg.svd(np.array(model.kernels.jac(y_loc, start.theta, c)[0]), compute_uv=False)
+    S = np.linalg.svd(np.array(model_calls(model).jac(y_loc, start.theta, c)[0]), compute_uv=False)
     return not S[-1] > 1e-10 * S[0]
 
 
@@ -228,9 +229,9 @@ def _along_line(model, theta0, start, direction, name, backend, max_arc, record_
 def _touching(model, theta0, tr) -> tuple[np.ndarray, int] | None:
     """A fold of the curve at ``s = 1`` (``theta0`` on the singular surface): the singular
     solution there, polished at ``theta0``, and the number of crossings before it."""
-    from ..follower.kernels import follower_kernels
+    from ..follower.kernels import follower_calls
 
-    polish = follower_kernels(model).polish
+    polish = follower_calls(model).polish
     for i, cr in enumerate(tr.singular):
         if cr.kind != "fold" or abs(cr.s - 1.0) > 1e-6:
             continue
@@ -441,7 +442,7 @@ def _result(model, y, theta0, crossings, branch, direction, start, path) -> Solv
 def _is_singular(model: Model, cfg: Configuration) -> bool:
     """J_p singular to 1e-6 relative at a configuration."""
     y_loc, c = model.chart.to_local(cfg.y)
-    S = np.linalg.svd(np.array(model.kernels.jac(y_loc, cfg.theta, c)[0]), compute_uv=False)
+    S = np.linalg.svd(np.array(model_calls(model).jac(y_loc, cfg.theta, c)[0]), compute_uv=False)
     return not S[-1] > 1e-6 * S[0]
 
 
@@ -450,7 +451,7 @@ def _is_same_side(model: Model, a: Configuration, b) -> bool:
     dets = []
     for cfg in (a, b):
         y, c = model.chart.to_local(cfg.y)
-        dets.append(float(np.linalg.det(np.array(model.kernels.jac(y, cfg.theta, c)[0]))))
+        dets.append(float(np.linalg.det(np.array(model_calls(model).jac(y, cfg.theta, c)[0]))))
     return dets[0] * dets[1] > 0
 
 
