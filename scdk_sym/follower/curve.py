@@ -432,10 +432,12 @@ def follow(
         Q, T, D = ch.Q, ch.T, ch.D
         n = ch.ok
         # walk the accepted segments in order; stop at the first that needs a smaller step
+        # (only segments where s turns, det J_p changes sign or a level is crossed can act
+        # below: a rule acting on other segments must add its condition to _eventful)
         refine_at = None
         replaced = None
         last = n
-        for j in range(n):
+        for j in _eventful(Q, T, D, n, levels, len(out.hits) >= max_hits):
             seg = Q[:, j + 1] - Q[:, j]
             before_segment = len(out.singular)
             turn = T[-1, j] * T[-1, j + 1] < 0
@@ -609,6 +611,20 @@ def follow(
     if record and rec["q"]:
         out.path = _samples(model, line, rec, direction)
     return out
+
+
+def _eventful(Q, T, D, n: int, levels, stop: bool) -> range | list[int]:
+    """The segments ``j`` (of samples ``j`` and ``j + 1``, ``j < n``) of a chunk on which
+    something may happen: ``s`` turns (``t_s`` changes sign), ``det J_p`` changes sign, or
+    ``s`` meets a level; every segment when ``stop`` (the walk has its hits already). The
+    same products and comparisons as the walk makes per segment, for all segments at once."""
+    if stop or n == 0:
+        return range(n)
+    s, ts, det = Q[-1, : n + 1], T[-1, : n + 1], D[: n + 1]
+    event = (ts[:-1] * ts[1:] < 0) | (det[:-1] * det[1:] < 0)
+    for L in levels:
+        event |= (s[:-1] - L) * (s[1:] - L) <= 0
+    return np.flatnonzero(event).tolist()
 
 
 def _record(rec, q, c, det, arc) -> None:

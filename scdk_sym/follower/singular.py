@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 
@@ -70,12 +71,20 @@ def _descent(model, kern, y_loc, theta, c) -> tuple[np.ndarray, float, float]:
     g_theta = grad[m:] + grad[:m] @ np.linalg.solve(Jp, Js)
     # a symmetric robot aimed along a symmetric line meets pitchforks (two branches crossing)
     # where a generic line meets folds: tilt the aim by a fixed small random direction
-    tilt = np.random.default_rng(TILT_SEED).normal(size=g_theta.size)
+    tilt = _tilt(g_theta.size)
     g_theta = g_theta + TILT * float(np.linalg.norm(g_theta)) * tilt / np.linalg.norm(tilt)
     n = float(np.linalg.norm(g_theta))
     if not (n > 0 and math.isfinite(n)):
         return np.zeros_like(theta), det, math.inf
     return -g_theta / n, det, float(S[-1]) / n
+
+
+@cache
+def _tilt(size: int) -> np.ndarray:
+    """The fixed random direction of the aims (the seeded draw, drawn once; read-only)."""
+    tilt = np.random.default_rng(TILT_SEED).normal(size=size)
+    tilt.setflags(write=False)
+    return tilt
 
 
 def across(
@@ -109,7 +118,10 @@ def across(
     tol = float(model.tolerance)
     scale = max(1.0, float(model.length_scale))
     y_loc, c = model.chart.to_local(start.y)
-    d, det0, reach = _descent(model, kern, y_loc, np.array(start.theta, dtype=float), c)
+    if paper_only:  # no aim: det J_p as _descent evaluates it
+        det0 = float(np.linalg.det(kern.singular(y_loc, start.theta, c)[1]))
+    else:
+        d, det0, reach = _descent(model, kern, y_loc, np.array(start.theta, dtype=float), c)
     sign0 = math.copysign(1.0, det0)
     if first is not None and np.any(first):
         line = Line(np.array(start.theta, dtype=float), np.asarray(first, float))

@@ -36,6 +36,11 @@ class Buffered:
         self._run()
         return self.res
 
+    def run(self) -> list[np.ndarray]:
+        """Evaluate with the arguments as they stand in ``self.args`` (filled in place)."""
+        self._run()
+        return self.res
+
 
 class Dense:
     """A CasADi Function called through zero-copy buffers, returning what a plain call returns.
