@@ -96,9 +96,15 @@ class Dense:
         return v
 
     def __call__(self, *args):
-        if len(args) != len(self._inputs):
-            raise TypeError(f"{self.function.name()}: {len(self._inputs)} arguments expected")
-        res = self._call(*map(self._argument, args, self._inputs))
+        buf = self._call
+        if len(args) != len(buf.args):
+            raise TypeError(f"{self.function.name()}: {len(buf.args)} arguments expected")
+        for a, v, shape in zip(buf.args, args, self._inputs, strict=True):
+            try:
+                a[:] = v  # a vector, or a scalar repeated (as a plain call does)
+            except ValueError:
+                a[:] = self._argument(v, shape)
+        res = buf.run()
         out = []
         for r, (kind, shape, where) in zip(res, self._outputs, strict=True):
             if kind == "scalar":

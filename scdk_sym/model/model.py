@@ -351,6 +351,11 @@ class Model:
 
         return build_kernels(self.symbolic)
 
+    @cached_property
+    def _coordinates(self) -> tuple[str, ...]:
+        """Every joint coordinate name of the tree (``tree.coordinates``), computed once."""
+        return self.tree.coordinates
+
     @property
     def m(self) -> int:
         """Number of unknowns (= independent closure rows)."""
@@ -387,7 +392,7 @@ class Model:
         """
         if c is None:
             y, c = self.chart.to_local(y)
-        return float(np.max(np.abs(model_calls(self).check(y, theta, c))))
+        return float(np.abs(model_calls(self).check(y, theta, c)).max())
 
     def configuration(
         self, y: Sequence[float], theta: Sequence[float], c: np.ndarray | None = None
@@ -407,7 +412,7 @@ class Model:
             y_loc, y = y, self.chart.to_canonical(y, c)
         calls = model_calls(self)
         T, x = calls.pose(y_loc, theta, c)
-        residual = float(np.max(np.abs(calls.check(y_loc, theta, c))))
+        residual = float(np.abs(calls.check(y_loc, theta, c)).max())
         return Configuration(theta, y, x.ravel(), T, self.joint_values(y, theta), residual)
 
     def joint_values(self, y: np.ndarray, theta: np.ndarray) -> dict[str, float]:
@@ -415,7 +420,7 @@ class Model:
         joints = dict(self.locked)
         joints.update(zip(self.unknowns, y.tolist(), strict=True))
         joints.update(zip(self.actuated, theta.tolist(), strict=True))
-        return {j: joints[j] for j in self.tree.coordinates}
+        return {j: joints[j] for j in self._coordinates}
 
     def target_pose(self, x: Sequence[float]) -> np.ndarray:
         """The 4x4 placement with workspace coordinates ``x`` (other components from home)."""
