@@ -38,9 +38,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from ..kernels.fastcall import model_calls
 from ..results import Crossing, PathSamples
 from .geometry import features, in_chart, local_features, periodic
-from .kernels import follower_kernels
+from .kernels import follower_calls
 
 #: A predictor-corrector step is accepted when its first correction is below this fraction of
 #: the step, its last below NEWTON_TOL model sizes, and the tangent turned by < acos(MIN_COS).
@@ -334,7 +335,7 @@ def follow(
     """
     if predictor not in PREDICTORS:
         raise InputError(f"unknown predictor {predictor!r}; predictors: {', '.join(PREDICTORS)}")
-    kern = follower_kernels(model, backend)
+    kern = follower_calls(model, backend)
     m = model.m
     scale = max(1.0, float(model.length_scale))
     tol = float(model.tolerance)
@@ -350,7 +351,7 @@ def follow(
         y_loc, c = np.array(y_start, dtype=float), np.array(chart, dtype=float)
     q = np.append(y_loc, float(s_start))
     if tangent is None:
-        Jp, Js = (np.array(a) for a in model.kernels.jac(y_loc, line.at(s_start), c))
+        Jp, Js = (np.array(a) for a in model_calls(model).jac(y_loc, line.at(s_start), c))
         v0 = direction * null_direction(Jp, Js @ dtheta)
     else:
         v0 = np.asarray(tangent, float)
@@ -442,10 +443,12 @@ def follow(
         Q, T, D = ch.Q, ch.T, ch.D
         n = ch.ok
         # walk the accepted segments in order; stop at the first that needs a smaller step
+        # (only segments where s turns, det J_p changes sign or a level is crossed can act
+        # below: a rule acting on other segments must add its condition to _eventful)
         refine_at = None
         replaced = None
         last = n
-        for j in range(n):
+        for j in _eventful(Q, T, D, n, levels, len(out.hits) >= max_hits):
             seg = Q[:, j + 1] - Q[:, j]
             before_segment = len(out.singular)
             turn = T[-1, j] * T[-1, j + 1] < 0
@@ -621,6 +624,20 @@ def follow(
     return out
 
 
+def _eventful(Q, T, D, n: int, levels, stop: bool) -> range | list[int]:
+    """The segments ``j`` (of samples ``j`` and ``j + 1``, ``j < n``) of a chunk on which
+    something may happen: ``s`` turns (``t_s`` changes sign), ``det J_p`` changes sign, or
+    ``s`` meets a level; every segment when ``stop`` (the walk has its hits already). The
+    same products and comparisons as the walk makes per segment, for all segments at once."""
+    if stop or n == 0:
+        return range(n)
+    s, ts, det = Q[-1, : n + 1], T[-1, : n + 1], D[: n + 1]
+    event = (ts[:-1] * ts[1:] < 0) | (det[:-1] * det[1:] < 0)
+    for L in levels:
+        event |= (s[:-1] - L) * (s[1:] - L) <= 0
+    return np.flatnonzero(event).tolist()
+
+
 def _record(rec, q, c, det, arc) -> None:
     rec["q"].append(np.array(q, dtype=float))
     rec["c"].append(np.array(c, dtype=float))
@@ -633,7 +650,7 @@ def _samples(model, line: Line, rec: dict, direction: float) -> PathSamples:
     Y = np.array([model.chart.to_canonical(r[:-1], cc) for r, cc in zip(Q, rec["c"], strict=True)])
     X = []
     for r, cc in zip(Q, rec["c"], strict=True):
-        X.append(np.array(model.kernels.pose(r[:-1], line.at(r[-1]), cc)[1]).ravel())
+        X.append(np.array(model_calls(model).pose(r[:-1], line.at(r[-1]), cc)[1]).ravel())
     det = np.array(rec["det"])
     return PathSamples(
         s=Q[:, -1], y=Y, x=np.array(X), det_jp=det, sdot=direction * det, arc=np.array(rec["arc"])
@@ -757,7 +774,7 @@ def _finish(model, kern, line, qa, qb, ta, tb, h, level, c, tol) -> np.ndarray |
 def _rank_ratio(model, cr: Crossing, dtheta: np.ndarray) -> float:
     """sigma_min / sigma_max of H' = [J_p, -J_s dtheta / |dtheta|] at a point."""
     y, c = model.chart.to_local(cr.y)
-    Jp, Js = (np.array(a) for a in model.kernels.jac(y, cr.theta, c))
+    Jp, Js = (np.array(a) for a in model_calls(model).jac(y, cr.theta, c))
     js = Js @ dtheta / max(float(np.linalg.norm(dtheta)), 1e-300)
     S = np.linalg.svd(np.hstack([Jp, -js[:, None]]), compute_uv=False)
     return float(S[-1] / S[0])

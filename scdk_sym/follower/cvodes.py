@@ -49,18 +49,20 @@ class Engine:
     def integrate(self, q: np.ndarray, p: np.ndarray) -> np.ndarray:
         """(m+1, GRID) samples of one chunk of the SC field from ``q``; p = (params, chart)."""
         f = self.integrator
-        out = f(
-            *[
-                q if n == "x0" else p if n == "p" else a
-                for n, a in zip(f.names, f.args, strict=True)
-            ]
-        )
+        f.args[f.names.index("x0")][:] = q
+        f.args[f.names.index("p")][:] = p
+        out = f.run()
         return out[0].reshape(self.m + 1, GRID, order="F").copy()
 
     def probe_samples(self, Q: np.ndarray, p: np.ndarray, c: np.ndarray):
         """(tangents (m+1, N), vec J_p (m*m, N), x (n, N)) at the N = GRID + 1 samples Q."""
         n = GRID + 1
-        T, J, X = self.probe(Q.ravel(order="F"), np.tile(p, n), np.tile(c, n))
+        f = self.probe
+        f.args[0][:] = Q.ravel(order="F")
+        f.args[1].reshape(n, -1)[:] = p  # the same p in every column
+        if f.args[2].size:
+            f.args[2].reshape(n, -1)[:] = c
+        T, J, X = f.run()
         return (
             T.reshape(-1, n, order="F").copy(),
             J.reshape(-1, n, order="F").copy(),

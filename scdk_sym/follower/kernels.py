@@ -24,6 +24,7 @@ from dataclasses import dataclass, fields
 import casadi as ca
 
 from ..errors import InputError
+from ..kernels.fastcall import Dense
 
 #: Predictor-corrector steps evaluated per call of the step function.
 STEPS = 16
@@ -309,4 +310,34 @@ def follower_kernels(model, backend: str = "casadi") -> FollowerKernels:
             target = cached_library(kern.all(), "scdk_follow")
             kern = FollowerKernels(*(ca.external(f.name(), str(target)) for f in kern.all()))
         store[backend] = kern
+    return store[backend]
+
+
+@dataclass(frozen=True)
+class FollowerCalls:
+    """Zero-copy callers of :class:`FollowerKernels` (:class:`~scdk_sym.kernels.fastcall.Dense`):
+    the same signatures and values as the plain calls, outputs as numpy arrays (the residuals
+    of ``plane`` and ``polish`` as floats)."""
+
+    steps: Dense
+    tangent: Dense
+    plane: Dense
+    fold: Dense
+    polish: Dense
+    singular: Dense
+
+
+def follower_calls(model, backend: str = "casadi") -> FollowerCalls:
+    """The (cached) zero-copy callers of :func:`follower_kernels` (same arguments)."""
+    store = model.__dict__.setdefault("_follower_calls", {})
+    if backend not in store:
+        kern = follower_kernels(model, backend)
+        store[backend] = FollowerCalls(
+            Dense(kern.steps),
+            Dense(kern.tangent),
+            Dense(kern.plane, scalars=(1,)),
+            Dense(kern.fold),
+            Dense(kern.polish, scalars=(1,)),
+            Dense(kern.singular),
+        )
     return store[backend]

@@ -16,12 +16,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 
+from ..kernels.fastcall import model_calls
 from ..results import Configuration, Crossing, PathSamples
 from .curve import Line, follow
-from .kernels import follower_kernels
+from .kernels import follower_calls
 
 #: Lines aimed at the singular surface before giving up.
 AIMS = 12
@@ -69,12 +71,20 @@ def _descent(model, kern, y_loc, theta, c) -> tuple[np.ndarray, float, float]:
     g_theta = grad[m:] + grad[:m] @ np.linalg.solve(Jp, Js)
     # a symmetric robot aimed along a symmetric line meets pitchforks (two branches crossing)
     # where a generic line meets folds: tilt the aim by a fixed small random direction
-    tilt = np.random.default_rng(TILT_SEED).normal(size=g_theta.size)
+    tilt = _tilt(g_theta.size)
     g_theta = g_theta + TILT * float(np.linalg.norm(g_theta)) * tilt / np.linalg.norm(tilt)
     n = float(np.linalg.norm(g_theta))
     if not (n > 0 and math.isfinite(n)):
         return np.zeros_like(theta), det, math.inf
     return -g_theta / n, det, float(S[-1]) / n
+
+
+@cache
+def _tilt(size: int) -> np.ndarray:
+    """The fixed random direction of the aims (the seeded draw, drawn once; read-only)."""
+    tilt = np.random.default_rng(TILT_SEED).normal(size=size)
+    tilt.setflags(write=False)
+    return tilt
 
 
 def across(
@@ -104,11 +114,14 @@ def across(
     Returns:
         The configuration across it, or None when no singular surface was reached.
     """
-    kern = follower_kernels(model, backend)
+    kern = follower_calls(model, backend)
     tol = float(model.tolerance)
     scale = max(1.0, float(model.length_scale))
     y_loc, c = model.chart.to_local(start.y)
-    d, det0, reach = _descent(model, kern, y_loc, np.array(start.theta, dtype=float), c)
+    if paper_only:  # no aim: det J_p as _descent evaluates it
+        det0 = float(np.linalg.det(kern.singular(y_loc, start.theta, c)[1]))
+    else:
+        d, det0, reach = _descent(model, kern, y_loc, np.array(start.theta, dtype=float), c)
     sign0 = math.copysign(1.0, det0)
     if first is not None and np.any(first):
         line = Line(np.array(start.theta, dtype=float), np.asarray(first, float))
@@ -167,7 +180,7 @@ def across(
 
 def _det_sign(model, cfg: Configuration) -> float:
     y, c = model.chart.to_local(cfg.y)
-    return 1.0 if np.linalg.det(np.array(model.kernels.jac(y, cfg.theta, c)[0])) > 0 else -1.0
+    return 1.0 if np.linalg.det(np.array(model_calls(model).jac(y, cfg.theta, c)[0])) > 0 else -1.0
 
 
 def from_fold(
@@ -199,7 +212,7 @@ def from_fold(
     Returns:
         (canonical unknowns at ``theta0``, singular points met after the fold), or None.
     """
-    kern = follower_kernels(model, backend)
+    kern = follower_calls(model, backend)
     m = model.m
     tol = float(model.tolerance)
     theta_f = np.asarray(fold.theta, float)
@@ -210,7 +223,7 @@ def from_fold(
     p = np.concatenate([theta_f, dtheta])
     y_loc, c = model.chart.to_local(fold.y)
     q_f = np.append(y_loc, 0.0)
-    Jp, Js = (np.array(a) for a in model.kernels.jac(y_loc, theta_f, c))
+    Jp, Js = (np.array(a) for a in model_calls(model).jac(y_loc, theta_f, c))
     H = np.hstack([Jp, -(Js @ dtheta)[:, None]])
     _, S, Vt = np.linalg.svd(H)
     w2 = float(dtheta @ dtheta)
@@ -283,7 +296,7 @@ def nearest_singular(model, start: Configuration, backend: str = "casadi") -> Cr
         branches cross there, else "fold"), or None when the descent stopped at a non-singular
         point.
     """
-    kern = follower_kernels(model, backend)
+    kern = follower_calls(model, backend)
     m = model.m
     y, c = model.chart.to_local(start.y)
     tol = float(model.tolerance)
@@ -376,7 +389,7 @@ def across_fold(
     """
     from .geometry import difference, features
 
-    kern = follower_kernels(model, backend)
+    kern = follower_calls(model, backend)
     tol = float(model.tolerance)
     sign0 = _det_sign(model, start)
     candidates: list[tuple[np.ndarray, list[Crossing]]] = []
@@ -390,7 +403,7 @@ def across_fold(
     # opposite signs of t: Newton at theta0 from points on the other sheet's side, at multiples
     # of the start's |t| and at fixed distances
     y_f, c = model.chart.to_local(fold.y)
-    Jp, Js = (np.array(a) for a in model.kernels.jac(y_f, fold.theta, c))
+    Jp, Js = (np.array(a) for a in model_calls(model).jac(y_f, fold.theta, c))
     u = np.linalg.svd(Jp)[2][-1]
     Jp_pinv = np.linalg.pinv(Jp, rcond=1e-10)
     d = difference(model, start.y, fold.y) - Jp_pinv @ Js @ (start.theta - fold.theta)

@@ -3,10 +3,14 @@
 A plain ``f(numpy...)`` converts every argument to a ``DM`` and back (tens of microseconds
 per call); a :class:`Buffered` function writes into preallocated numpy arrays instead
 (about a microsecond). Outputs are the buffers themselves: copy what must outlive the next
-call.
+call. A :class:`Dense` function is called the same way but returns fresh dense arrays shaped
+like ``numpy.array(f(...))``, so it replaces a plain call without changing any value.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -31,3 +35,105 @@ class Buffered:
             a[:] = v
         self._run()
         return self.res
+
+    def run(self) -> list[np.ndarray]:
+        """Evaluate with the arguments as they stand in ``self.args`` (filled in place)."""
+        self._run()
+        return self.res
+
+
+class Dense:
+    """A CasADi Function called through zero-copy buffers, returning what a plain call returns.
+
+    ``Dense(f)(*args)`` evaluates the same Function as ``f(*args)`` (the same values, bit for
+    bit) and returns each output as a new dense, C-ordered array of the output's shape
+    (structural zeros filled in), like ``numpy.array`` of the ``DM`` a plain call returns (the
+    memory order matters too: numpy's products sum in an order that depends on it); a single
+    output is returned alone, several as a tuple. Outputs listed in ``scalars`` (1 x 1) are
+    returned as floats. Arguments are dense, column-major (vectors as they are); one column
+    is repeated across an input of several columns. Not thread-safe: one instance shares its
+    buffers between calls.
+
+    Args:
+        f: the Function (inputs dense).
+        scalars: indices of 1 x 1 outputs to return as floats.
+    """
+
+    def __init__(self, f: ca.Function, scalars: Sequence[int] = ()) -> None:
+        for i in range(f.n_in()):
+            if not f.sparsity_in(i).is_dense():
+                raise ValueError(f"{f.name()}: input {f.name_in(i)} is not dense")
+        self.function = f
+        self._call = Buffered(f)
+        self._outputs = []
+        for i in range(f.n_out()):
+            sp = f.sparsity_out(i)
+            shape = (sp.size1(), sp.size2())
+            if i in scalars:
+                if shape != (1, 1):
+                    raise ValueError(f"{f.name()}: output {f.name_out(i)} is not a scalar")
+                kind = "scalar"
+                where = None
+            elif sp.is_dense():
+                kind, where = "dense", None
+            else:
+                rows, cols = sp.get_triplet()
+                kind = "sparse"
+                where = np.asarray(rows, dtype=np.intp) * shape[1] + np.asarray(cols, np.intp)
+            self._outputs.append((kind, shape, where))
+        self._single = f.n_out() == 1
+        self._inputs = [f.sparsity_in(i).shape for i in range(f.n_in())]
+
+    @staticmethod
+    def _argument(v, shape: tuple[int, int]):
+        """An argument as the buffer takes it: column-major, and a column repeated across an
+        input of several columns (as a plain call does, e.g. the parameters of a map)."""
+        if np.ndim(v) > 1:
+            v = np.ravel(v, order="F")
+        rows, cols = shape
+        if cols > 1 and rows > 1 and np.size(v) == rows:
+            v = np.tile(v, cols)
+        return v
+
+    def __call__(self, *args):
+        buf = self._call
+        if len(args) != len(buf.args):
+            raise TypeError(f"{self.function.name()}: {len(buf.args)} arguments expected")
+        for a, v, shape in zip(buf.args, args, self._inputs, strict=True):
+            try:
+                a[:] = v  # a vector, or a scalar repeated (as a plain call does)
+            except ValueError:
+                a[:] = self._argument(v, shape)
+        res = buf.run()
+        out = []
+        for r, (kind, shape, where) in zip(res, self._outputs, strict=True):
+            if kind == "scalar":
+                out.append(float(r[0]) if r.size else 0.0)
+            elif kind == "dense":
+                out.append(r.reshape(shape, order="F").copy(order="C"))
+            else:
+                a = np.zeros(shape[0] * shape[1])
+                a[where] = r
+                out.append(a.reshape(shape))
+        return out[0] if self._single else tuple(out)
+
+
+@dataclass(frozen=True)
+class ModelCalls:
+    """Zero-copy callers of a model's kernels (:class:`Dense` of ``model.kernels``)."""
+
+    g: Dense
+    check: Dense
+    jac: Dense
+    pose: Dense
+
+
+def model_calls(model) -> ModelCalls:
+    """The (cached) zero-copy callers of ``model.kernels``: same signatures and values as the
+    plain calls, outputs as numpy arrays."""
+    calls = model.__dict__.get("_model_calls")
+    if calls is None:
+        kern = model.kernels
+        calls = ModelCalls(Dense(kern.g), Dense(kern.check), Dense(kern.jac), Dense(kern.pose))
+        model.__dict__["_model_calls"] = calls
+    return calls

@@ -25,6 +25,7 @@ from ..errors import (
     UnknownNameError,
     UnreachableError,
 )
+from ..kernels.fastcall import model_calls
 from ..results import Configuration
 from .chart import Chart, rot_exp, rot_log
 from .spec import Spec, parse_spec
@@ -394,6 +395,11 @@ class Model:
 
         return build_kernels(self.symbolic)
 
+    @cached_property
+    def _coordinates(self) -> tuple[str, ...]:
+        """Every joint coordinate name of the tree (``tree.coordinates``), computed once."""
+        return self.tree.coordinates
+
     @property
     def length_unit(self) -> str:
         """Unit of every length of the model (``length_unit`` in the YAML, default m)."""
@@ -444,7 +450,7 @@ class Model:
         """
         if c is None:
             y, c = self.chart.to_local(y)
-        return float(np.max(np.abs(np.array(self.kernels.check(y, theta, c)))))
+        return float(np.abs(model_calls(self).check(y, theta, c)).max())
 
     def configuration(
         self, y: Sequence[float], theta: Sequence[float], c: np.ndarray | None = None
@@ -462,18 +468,17 @@ class Model:
             y_loc, c = self.chart.to_local(y)
         else:
             y_loc, y = y, self.chart.to_canonical(y, c)
-        T, x = self.kernels.pose(y_loc, theta, c)
-        residual = float(np.max(np.abs(np.array(self.kernels.check(y_loc, theta, c)))))
-        return Configuration(
-            theta, y, np.array(x).ravel(), np.array(T), self.joint_values(y, theta), residual
-        )
+        calls = model_calls(self)
+        T, x = calls.pose(y_loc, theta, c)
+        residual = float(np.abs(calls.check(y_loc, theta, c)).max())
+        return Configuration(theta, y, x.ravel(), T, self.joint_values(y, theta), residual)
 
     def joint_values(self, y: np.ndarray, theta: np.ndarray) -> dict[str, float]:
         """Every joint coordinate (URDF order, locked ones included) from canonical y, theta."""
         joints = dict(self.locked)
         joints.update(zip(self.unknowns, y.tolist(), strict=True))
         joints.update(zip(self.actuated, theta.tolist(), strict=True))
-        return {j: joints[j] for j in self.tree.coordinates}
+        return {j: joints[j] for j in self._coordinates}
 
     def target_pose(self, x: Sequence[float]) -> np.ndarray:
         """The 4x4 placement with workspace coordinates ``x`` (other components from home)."""

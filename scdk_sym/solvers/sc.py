@@ -28,6 +28,7 @@ from ..errors import (
 )
 from ..follower.curve import Hit, Line, Walk, follow, null_direction  # noqa: F401
 from ..follower.cvodes import BACKENDS, GRID, Engine, engine  # noqa: F401
+from ..kernels.fastcall import model_calls
 from ..model.model import Model, as_vector
 from ..results import Configuration, Crossing, PathSamples, SolveResult
 
@@ -59,9 +60,16 @@ def start_direction(
     model: Model, theta0: np.ndarray, start: Configuration, backend: str = "casadi"
 ):
     """(nu unit vector, det J_p) at the start of the path towards ``theta0``."""
+    nu, det, _Jp = _at_start(model, theta0, start)
+    return nu, det
+
+
+def _at_start(model: Model, theta0: np.ndarray, start: Configuration):
+    """(nu unit vector, det J_p, J_p) at the start: one evaluation of the Jacobians for the
+    branch, the singularity check and the first tangent of the path."""
     y_loc, c = model.chart.to_local(start.y)
-    Jp, Js = (np.array(a) for a in model.kernels.jac(y_loc, start.theta, c))
-    return null_direction(Jp, Js @ (theta0 - start.theta)), float(np.linalg.det(Jp))
+    Jp, Js = model_calls(model).jac(y_loc, start.theta, c)
+    return null_direction(Jp, Js @ (theta0 - start.theta)), float(np.linalg.det(Jp)), Jp
 
 
 def trace(
@@ -75,6 +83,7 @@ def trace(
     backend: str = "casadi",
     record_path: bool = False,
     predictor: str = "cvodes",
+    tangent: np.ndarray | None = None,
 ) -> Walk:
     """Follow the SC solution curve from ``start`` towards ``theta0`` and collect what it meets.
 
@@ -92,6 +101,8 @@ def trace(
         backend: kernel backend.
         record_path: keep the sampled curve.
         predictor: "cvodes" or "rk4" (see :mod:`scdk_sym.follower.curve`).
+        tangent: (m+1,) the first tangent's orientation when already known (``direction``
+            times the unit ``nu`` at the start, e.g. from :func:`start_direction`).
 
     Returns:
         The :class:`~scdk_sym.follower.curve.Walk`: ``hits`` (``s = 1`` crossings),
@@ -100,7 +111,8 @@ def trace(
     theta1 = np.array(start.theta, dtype=float)
     line = Line(theta1, np.asarray(theta0, float) - theta1)
     return follow(model, line, start.y, 0.0, direction, predictor=predictor, backend=backend,
-                  max_hits=max_hits, max_arc=max_arc, record=record_path)  # fmt: skip
+                  max_hits=max_hits, max_arc=max_arc, record=record_path,
+                  tangent=tangent)  # fmt: skip
 
 
 def solve(
@@ -158,21 +170,24 @@ def solve(
         raise InputError(f"b must be a non-zero finite number, got {b!r}")
     if max_arc is not None and not (max_arc > 0):
         raise InputError(f"max_arc must be a positive arc length, got {max_arc!r}")
+    checked = False
     if fast and not record_path and b is None and branch == "convergent":
         start = validate_start(model, start, check_residual=False)
         res = _fast_convergent(model, theta0, start, backend)
         if res is not None:
             return res
-    start = validate_start(model, start)
-    nu, det0 = start_direction(model, theta0, start, backend)
+        checked = True  # the warm kernel checked the start's residual (it raises otherwise)
+    start = validate_start(model, start, check_residual=not checked)
+    nu, det0, Jp = _at_start(model, theta0, start)
     same = _same_theta(theta0, start.theta)
     if b is not None:
         if same:
             return _result(model, start.y, theta0, (), "convergent", 1.0, start, None)
         direction = 1.0 if b > 0 else -1.0
         name = "convergent" if direction * det0 > 0 else "divergent"
-        return _along_line(model, theta0, start, direction, name, backend, max_arc, record_path)
-    if _singular_start(model, start):
+        return _along_line(model, theta0, start, direction, name, backend, max_arc, record_path,
+                           nu)  # fmt: skip
+    if _singular_start(model, start, Jp):
         raise SolveError(
             f"the start configuration is singular (J_p singular, det {det0:.3g}): the branch "
             "is undefined; pass b=+1 or b=-1, or start from a nearby non-singular configuration"
@@ -181,28 +196,33 @@ def solve(
     if branch == "convergent":
         if same:
             return _result(model, start.y, theta0, (), "convergent", sign, start, None)
-        return _along_line(model, theta0, start, sign, "convergent", backend, max_arc, record_path)
-    return _divergent(model, theta0, start, sign, backend, max_arc, record_path)
+        return _along_line(model, theta0, start, sign, "convergent", backend, max_arc, record_path,
+                           nu)  # fmt: skip
+    return _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu)
 
 
 def _same_theta(a: np.ndarray, b: np.ndarray) -> bool:
     return float(np.linalg.norm(a - b)) <= 1e-14 * max(1.0, float(np.linalg.norm(a)))
 
 
-def _singular_start(model: Model, start: Configuration) -> bool:
-    y_loc, c = model.chart.to_local(start.y)
-    S = np.linalg.svd(np.array(model.kernels.jac(y_loc, start.theta, c)[0]), compute_uv=False)
+def _singular_start(model: Model, start: Configuration, Jp: np.ndarray | None = None) -> bool:
+    if Jp is None:
+        y_loc, c = model.chart.to_local(start.y)
+        Jp = model_calls(model).jac(y_loc, start.theta, c)[0]
+    S = np.linalg.svd(Jp, compute_uv=False)
     return not S[-1] > 1e-10 * S[0]
 
 
-def _along_line(model, theta0, start, direction, name, backend, max_arc, record_path):
+def _along_line(model, theta0, start, direction, name, backend, max_arc, record_path, nu=None):
     """The first ``s = 1`` crossing along the straight path in one direction (or the singular
-    solution where the curve only touches ``s = 1``)."""
+    solution where the curve only touches ``s = 1``); ``nu``: the unit SC vector at the start
+    (:func:`start_direction`), when known."""
+    tangent = _first_tangent(theta0, start, direction, nu)
     tr = trace(model, theta0, start, direction, max_arc=max_arc, backend=backend,
-               record_path=record_path)  # fmt: skip
+               record_path=record_path, tangent=tangent)  # fmt: skip
     if not tr.hits and tr.stalled:  # CVODES stalled: the explicit predictor-corrector
         tr = trace(model, theta0, start, direction, max_arc=max_arc, backend=backend,
-                   record_path=record_path, predictor="rk4")  # fmt: skip
+                   record_path=record_path, predictor="rk4", tangent=tangent)  # fmt: skip
     if tr.hits:
         hit = tr.hits[0]
         crossings = tuple(tr.singular[: hit.crossings])
@@ -225,12 +245,25 @@ def _along_line(model, theta0, start, direction, name, backend, max_arc, record_
     )
 
 
+def _first_tangent(theta0, start, direction, nu) -> np.ndarray | None:
+    """``direction * nu``: the orientation the follower computes at the start of the line from
+    ``start`` to ``theta0``, where ``nu`` was evaluated at the same point (the line's
+    ``theta(0)`` equal to ``start.theta`` bit for bit), else None."""
+    if nu is None:
+        return None
+    theta1 = np.array(start.theta, dtype=float)
+    line = Line(theta1, np.asarray(theta0, float) - theta1)
+    if line.at(0.0).tobytes() != theta1.tobytes():
+        return None
+    return direction * nu
+
+
 def _touching(model, theta0, tr) -> tuple[np.ndarray, int] | None:
     """A fold of the curve at ``s = 1`` (``theta0`` on the singular surface): the singular
     solution there, polished at ``theta0``, and the number of crossings before it."""
-    from ..follower.kernels import follower_kernels
+    from ..follower.kernels import follower_calls
 
-    polish = follower_kernels(model).polish
+    polish = follower_calls(model).polish
     for i, cr in enumerate(tr.singular):
         if cr.kind != "fold" or abs(cr.s - 1.0) > 1e-6:
             continue
@@ -245,7 +278,7 @@ def _touching(model, theta0, tr) -> tuple[np.ndarray, int] | None:
     return None
 
 
-def _divergent(model, theta0, start, sign, backend, max_arc, record_path) -> SolveResult:
+def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=None) -> SolveResult:
     """The solution across the nearest singular surface (see :func:`solve`).
 
     Ways tried in order, the first answer kept that is verified, crossed at least one
@@ -354,7 +387,7 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path) -> Sol
     if not _same_theta(theta0, start.theta):
         try:
             res = _along_line(model, theta0, start, -sign, "divergent", backend, max_arc,
-                              record_path)  # fmt: skip
+                              record_path, nu)  # fmt: skip
         except PathError as exc:
             tried.append(f"along the straight path: {exc}")
         else:
@@ -441,7 +474,7 @@ def _result(model, y, theta0, crossings, branch, direction, start, path) -> Solv
 def _is_singular(model: Model, cfg: Configuration) -> bool:
     """J_p singular to 1e-6 relative at a configuration."""
     y_loc, c = model.chart.to_local(cfg.y)
-    S = np.linalg.svd(np.array(model.kernels.jac(y_loc, cfg.theta, c)[0]), compute_uv=False)
+    S = np.linalg.svd(np.array(model_calls(model).jac(y_loc, cfg.theta, c)[0]), compute_uv=False)
     return not S[-1] > 1e-6 * S[0]
 
 
@@ -450,7 +483,7 @@ def _is_same_side(model: Model, a: Configuration, b) -> bool:
     dets = []
     for cfg in (a, b):
         y, c = model.chart.to_local(cfg.y)
-        dets.append(float(np.linalg.det(np.array(model.kernels.jac(y, cfg.theta, c)[0]))))
+        dets.append(float(np.linalg.det(np.array(model_calls(model).jac(y, cfg.theta, c)[0]))))
     return dets[0] * dets[1] > 0
 
 

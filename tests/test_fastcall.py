@@ -1,0 +1,72 @@
+"""Zero-copy kernel calls (scdk_sym.kernels.fastcall): the values and layout of a plain call."""
+
+import casadi as ca
+import numpy as np
+import pytest
+from factories import shipped
+
+from scdk_sym.follower.kernels import follower_calls, follower_kernels
+from scdk_sym.kernels.fastcall import Dense, model_calls
+
+
+def _plain(f, *args):
+    out = f(*args)
+    return [np.array(o) for o in (out if isinstance(out, tuple) else (out,))]
+
+
+def test_dense_matches_a_plain_call_bit_for_bit():
+    x = ca.SX.sym("x", 3)
+    P = ca.SX.sym("P", 3, 2)
+    sparse = ca.vertcat(ca.horzcat(x[0] * x[1], 0), ca.horzcat(0, ca.sin(x[2])))
+    f = ca.Function("f", [x, P], [P.T @ x, sparse, ca.dot(x, x)])
+    d = Dense(f, scalars=(2,))
+    rng = np.random.default_rng(0)
+    M = rng.normal(size=(3, 2))
+    for args in [
+        (rng.normal(size=3), M),
+        (rng.normal(size=(3, 1)), M),
+        (rng.normal(size=3), M[:, 0]),
+    ]:
+        plain = _plain(f, *args)
+        ours = d(*args)
+        for a, b in zip(plain[:2], ours[:2], strict=True):
+            assert b.shape == a.shape and b.flags["C_CONTIGUOUS"]
+            np.testing.assert_array_equal(b, a)
+        assert isinstance(ours[2], float) and ours[2] == float(plain[2][0, 0])
+    with pytest.raises(TypeError):
+        d(np.ones(3))
+    with pytest.raises(ValueError):
+        Dense(f, scalars=(0,))
+
+
+def test_outputs_are_new_arrays():
+    x = ca.SX.sym("x", 2)
+    d = Dense(ca.Function("g", [x], [2 * x]))
+    first = d(np.ones(2))
+    d(np.zeros(2))
+    np.testing.assert_array_equal(first, [[2.0], [2.0]])
+
+
+def test_model_and_follower_calls_match_the_plain_kernels():
+    model = shipped("planar_hexa")
+    y, c = model.chart.to_local(model.home.y)
+    theta = np.array(model.home.theta)
+    calls = model_calls(model)
+    assert not model.kernels.jac.sparsity_out(0).is_dense()
+    for name in ("g", "check", "jac", "pose"):
+        plain = _plain(getattr(model.kernels, name), y, theta, c)
+        ours = getattr(calls, name)(y, theta, c)
+        ours = ours if isinstance(ours, tuple) else (ours,)
+        for a, b in zip(plain, ours, strict=True):
+            np.testing.assert_array_equal(b, a)
+    kern, fast = follower_kernels(model), follower_calls(model)
+    q = np.append(y, 0.0)
+    p = np.concatenate([theta, 0.1 * np.ones(model.k)])
+    t, _J = fast.tangent(q, np.ones(model.m + 1), p, c)
+    x = np.concatenate([q, t.ravel()])
+    for a, b in zip(_plain(kern.steps, x, 1e-3, p, c), fast.steps(x, 1e-3, p, c), strict=True):
+        np.testing.assert_array_equal(b, a)
+    y_new, res = fast.polish(y, theta, c)
+    y_plain, res_plain = kern.polish(y, theta, c)
+    np.testing.assert_array_equal(y_new, np.array(y_plain))
+    assert res == float(res_plain)
