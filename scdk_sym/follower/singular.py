@@ -432,3 +432,49 @@ def _branches_cross(Jp: np.ndarray, Js: np.ndarray) -> bool:
     U, S, _ = np.linalg.svd(Jp)
     w = U[:, -1]
     return bool(np.linalg.norm(w @ Js) <= 1e-6 * max(float(np.linalg.norm(Js)), 1e-300))
+
+
+#: A fold is grazed when the line meets the singular surface at less than this sine of the
+#: angle between the line and the surface's tangent plane (in theta).
+GRAZING = 0.05
+
+
+def inward_normal(model, fold: Crossing, backend: str = "casadi") -> np.ndarray | None:
+    """Unit normal of the singular surface at a fold, in theta, towards the side where the two
+    solutions meeting there exist (None where branches cross or the fold is degenerate).
+
+    About the fold ``(y_f, theta_f)`` (``J_p u = 0``, ``w^T J_p = 0``) the solutions at
+    ``theta_f + d`` are ``y_f + a u + ...`` with ``a^2 = 2 w^T J_s d / q``,
+    ``q = w^T (dJ_p/dy . u) u``: two real ones where ``sign(q) w^T J_s d > 0``.
+
+    Args:
+        model: the model.
+        fold: a fold (a located crossing).
+        backend: kernel backend.
+
+    Returns:
+        (k,) unit vector [rad or model length unit, normalised], or None.
+    """
+    kern = follower_kernels(model, backend)
+    m = model.m
+    y, c = model.chart.to_local(fold.y)
+    _g, Jp, Js, dJ = (np.array(a) for a in kern.singular(y, np.asarray(fold.theta, float), c))
+    U, S, Vt = np.linalg.svd(Jp)
+    w, u = U[:, -1], Vt[-1]
+    n = Js.T @ w
+    q = float(w @ (dJ[:, :m] @ u).reshape(m, m, order="F") @ u)
+    size = float(np.linalg.norm(n))
+    if not (size > 1e-6 * max(float(np.linalg.norm(Js)), 1e-300) and abs(q) > 0):
+        return None
+    return math.copysign(1.0, q) * n / size
+
+
+def grazes(model, fold: Crossing, dtheta: np.ndarray) -> bool:
+    """Whether the line along ``dtheta`` meets the singular surface at ``fold`` nearly
+    tangentially (sine of the angle below ``GRAZING``): there it leaves the start's side only
+    briefly, and where it goes after the fold depends on a tiny bend of the line."""
+    y, c = model.chart.to_local(fold.y)
+    Jp, Js = (np.array(a) for a in model.kernels.jac(y, fold.theta, c))
+    n = Js.T @ np.linalg.svd(Jp)[0][:, -1]
+    size = float(np.linalg.norm(n)) * float(np.linalg.norm(dtheta))
+    return bool(size > 0 and abs(float(n @ dtheta)) < GRAZING * size)
