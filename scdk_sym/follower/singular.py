@@ -263,6 +263,17 @@ def _signed_sigma(Jp: np.ndarray, dJ: np.ndarray) -> tuple[float, np.ndarray, fl
     return sign * float(S[-1]), sign * grad, float(S[-1] / S[0])
 
 
+def _signed_det(Jp: np.ndarray, dJ: np.ndarray) -> tuple[float, np.ndarray, float]:
+    """(det J_p, its gradient over (y, theta), sigma_min / sigma_max); the cofactors from the
+    SVD, regular on the singular manifold."""
+    U, S, Vt = np.linalg.svd(Jp)
+    sign = float(np.linalg.det(U) * np.linalg.det(Vt))
+    others = np.array([np.prod(np.delete(S, i)) for i in range(S.size)])
+    adj = sign * (Vt.T * others) @ U.T  # adj(J_p) = det(J_p) J_p^-1
+    grad = dJ.T @ adj.T.ravel(order="F")
+    return sign * float(np.prod(S)), grad, float(S[-1] / S[0])
+
+
 def nearest_singular(model, start: Configuration, backend: str = "casadi") -> Crossing | None:
     """A singular configuration near ``start`` on the assembled manifold (or None).
 
@@ -271,7 +282,10 @@ def nearest_singular(model, start: Configuration, backend: str = "casadi") -> Cr
     minimum-norm Newton step of ``f`` in the tangent space (at most ``MAX_STEP`` model
     sizes), projected back by minimum-norm Gauss-Newton on ``g`` and halved until ``|f|``
     decreases. Near the surface this is Newton on ``[g; f] = 0``: quadratic convergence to a
-    fold.
+    fold. Where the smallest singular value does not move on the manifold (e.g. Gepetto's
+    5-bar closed by a 6d weld: 0.126 everywhere near home, while another one vanishes at the
+    five-bar's singularity) that descent stops short, and it is repeated with ``f = det J_p``,
+    which every vanishing singular value drives to zero.
 
     Args:
         model: the model.
@@ -304,33 +318,38 @@ def nearest_singular(model, start: Configuration, backend: str = "casadi") -> Cr
             z = z - np.linalg.lstsq(np.hstack([Jp, -Js]), g, rcond=None)[0]
         return z if float(np.max(np.abs(evaluate(z)[0]))) <= 0.1 * tol else None
 
-    _g, Jp, Js, dJ = evaluate(z)
-    f, grad, rel = _signed_sigma(Jp, dJ)
-    for _ in range(DESCENT_ITERATIONS):
-        if rel <= 1e-13:
-            break
-        G = np.hstack([Jp, -Js])
-        gt = grad - G.T @ np.linalg.lstsq(G @ G.T, G @ grad, rcond=None)[0]
-        n2 = float(gt @ gt)
-        if not n2 > 0:
-            return None
-        dz = -(f / n2) * gt
-        size = float(np.linalg.norm(dz))
-        if size > cap:
-            dz *= cap / size
-        for _halving in range(12):
-            z_new = project(z + dz)
-            if z_new is not None:
-                _g, Jp_n, Js_n, dJ_n = evaluate(z_new)
-                f_n, grad_n, rel_n = _signed_sigma(Jp_n, dJ_n)
-                if abs(f_n) < abs(f):
-                    break
-            dz *= 0.5
-        else:
-            break
-        z, Jp, Js, f, grad, rel = z_new, Jp_n, Js_n, f_n, grad_n, rel_n
-    if not rel <= 1e-9:
+    def descend(z, objective):
+        _g, Jp, Js, dJ = evaluate(z)
+        f, grad, rel = objective(Jp, dJ)
+        for _ in range(DESCENT_ITERATIONS):
+            if rel <= 1e-13:
+                break
+            G = np.hstack([Jp, -Js])
+            gt = grad - G.T @ np.linalg.lstsq(G @ G.T, G @ grad, rcond=None)[0]
+            n2 = float(gt @ gt)
+            if not n2 > 0:
+                return None
+            dz = -(f / n2) * gt
+            size = float(np.linalg.norm(dz))
+            if size > cap:
+                dz *= cap / size
+            for _halving in range(12):
+                z_new = project(z + dz)
+                if z_new is not None:
+                    _g, Jp_n, Js_n, dJ_n = evaluate(z_new)
+                    f_n, grad_n, rel_n = objective(Jp_n, dJ_n)
+                    if abs(f_n) < abs(f):
+                        break
+                dz *= 0.5
+            else:
+                break
+            z, Jp, Js, f, grad, rel = z_new, Jp_n, Js_n, f_n, grad_n, rel_n
+        return (z, Jp, Js) if rel <= 1e-9 else None
+
+    found = descend(z, _signed_sigma) or descend(z, _signed_det)
+    if found is None:
         return None
+    z, Jp, Js = found
     cfg = model.configuration(z[:m], z[m:], c)
     if not cfg.residual <= tol:
         return None
