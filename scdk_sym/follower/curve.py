@@ -281,6 +281,7 @@ def follow(
     backend: str = "casadi",
     levels: tuple[float, ...] = (1.0,),
     max_hits: int | float = math.inf,
+    max_singular: int | float = math.inf,
     max_arc: float | None = None,
     max_steps: int = 20000,
     deadline: float = math.inf,
@@ -307,6 +308,7 @@ def follow(
         levels: levels of ``s`` whose crossings are reported (and finished at
             ``line.at(level)``).
         max_hits: stop after this many level crossings.
+        max_singular: stop after this many singular points (folds and bifurcations).
         max_arc: arc-length budget (default: 60 arc lengths per unit of ``s`` at the start
             plus 20 model sizes).
         max_steps: stop after this many accepted steps.
@@ -612,6 +614,8 @@ def follow(
                 _record(rec, q, c, det, out.arc)
         t = t / math.sqrt(float(weight @ (t * t)))
         if out.closed or out.repeated or len(out.hits) >= max_hits:
+            break
+        if len(out.singular) >= max_singular:
             break
         if rots and np.max(np.abs(q[rot_idx])) > RECENTRE:
             y_new, c = model.chart.recentre(q[:-1], c)

@@ -202,15 +202,17 @@ def _along_line(model, theta0, start, direction, name, backend, max_arc, record_
     solution where the curve only touches ``s = 1``).
 
     With ``detour`` (the convergent branch): where the path leaves the start's side at a fold
-    that it grazes, the solution reached on the start's side along a bent path (see
-    :func:`_detour`) is returned when there is one."""
+    before ``theta0`` that it grazes, or leaves it and never reaches ``s = 1``, the solution
+    reached on the start's side along a bent path (see :func:`_detour`) is returned when there
+    is one."""
     tr = trace(model, theta0, start, direction, max_arc=max_arc, backend=backend,
                record_path=record_path)  # fmt: skip
     if not tr.hits and tr.stalled:  # CVODES stalled: the explicit predictor-corrector
         tr = trace(model, theta0, start, direction, max_arc=max_arc, backend=backend,
                    record_path=record_path, predictor="rk4")  # fmt: skip
     if detour and tr.singular and (not tr.hits or tr.hits[0].crossings):
-        res = _detour(model, theta0, start, direction, tr.singular[0], backend, max_arc)
+        res = _detour(model, theta0, start, direction, tr.singular[0], backend, max_arc,
+                      any_fold=not tr.hits)  # fmt: skip
         if res is not None:
             return res
     if tr.hits:
@@ -239,7 +241,9 @@ def _along_line(model, theta0, start, direction, name, backend, max_arc, record_
 DETOUR_OFFSETS = (0.01, 0.03, 0.1, 0.3)
 
 
-def _detour(model, theta0, start, direction, fold, backend, max_arc) -> SolveResult | None:
+def _detour(
+    model, theta0, start, direction, fold, backend, max_arc, any_fold=False
+) -> SolveResult | None:
     """The convergent answer past a fold that the straight path grazes, or None.
 
     Where the line from the start meets the singular surface nearly tangentially it leaves
@@ -251,10 +255,15 @@ def _detour(model, theta0, start, direction, fold, backend, max_arc) -> SolveRes
     each leg along the convergent direction; it is taken only if neither leg meets a singular
     point (the answer is on the start's side, reached continuously), at the smallest of the
     ``DETOUR_OFFSETS`` that works. ``result.path`` is None (the path is not one line).
+    With ``any_fold`` (the straight path never reached ``s = 1``) the fold need not be grazed,
+    only met before ``theta0``: a line cutting a small cap off the start's side (e.g. Gepetto's
+    5-bar with ``theta0`` just before a singular surface) leaves it and comes back just after.
     """
     from ..follower.singular import grazes, inward_normal
 
-    if fold.kind != "fold" or not grazes(model, fold, theta0 - start.theta):
+    if fold.kind != "fold" or not 0.0 < fold.s <= 1.0:
+        return None
+    if not (any_fold or grazes(model, fold, theta0 - start.theta)):
         return None
     n = inward_normal(model, fold, backend)
     if n is None:
@@ -263,7 +272,9 @@ def _detour(model, theta0, start, direction, fold, backend, max_arc) -> SolveRes
     for offset in DETOUR_OFFSETS:
         cfg = start
         for target in (np.asarray(fold.theta, float) + offset * span * n, theta0):
-            tr = trace(model, target, cfg, direction, max_arc=max_arc, backend=backend)
+            line = Line(np.array(cfg.theta, dtype=float), target - cfg.theta)
+            tr = follow(model, line, cfg.y, 0.0, direction, predictor="cvodes", backend=backend,
+                        max_hits=1, max_singular=1, max_arc=max_arc)  # fmt: skip
             if not tr.hits or tr.hits[0].crossings:
                 cfg = None
                 break
