@@ -486,7 +486,16 @@ def follow(
             if flip and not turn:
                 # det J_p changed sign without a turn of s: two branches crossing (H' drops
                 # rank at the point) or a step that jumped across a fold (then H' keeps its
-                # rank, and smaller steps show the turn)
+                # rank, and smaller steps show the turn); first at fixed s on the incoming
+                # branch (which also locates the point on it), else straight
+                past = [*hist, *(Q[:, i] for i in range(1, j + 1))][-3:]
+                got = _step_over_in_s(model, kern, line, p, weight, past, T[:, j], c, D[j],
+                                      levels, tol)  # fmt: skip
+                if got is not None and _is_bifurcation(model, got[4], dtheta):
+                    replaced = (j, got[0], got[1], got[2])
+                    out.singular.append(got[4])
+                    out.singular_arcs.append(out.arc + h * (j + 0.5))
+                    break
                 length = float(math.sqrt(weight @ (seg * seg)))
                 q_str = _straight(kern, p, Q[:, j], T[:, j], length, c, tol)
                 if q_str is not None and _wdist(weight, q_str, Q[:, j + 1]) > 0.05 * length:
