@@ -394,6 +394,7 @@ def follow(
     skip_level_at_start = True
     backup_left = 0
     hist = [q.copy()]  # the last accepted points (same chart), for extrapolation
+    advancing = False  # the last call accepted some steps
     while out.arc < budget and out.steps < max_steps:
         if halvings >= STALL_HALVINGS or h < h_min:
             # the step keeps shrinking (next to crossing branches no tangent field is smooth
@@ -404,6 +405,9 @@ def follow(
                 cr = stepped[4]
             else:
                 stepped = _step_over(model, kern, p, weight, q, t, c, det, h_good, tol)
+                if stepped is None and advancing:
+                    halvings = 0  # calls still advance (e.g. at a tight fold): keep going
+                    continue
                 if stepped is None:
                     out.stalled = True
                     break
@@ -446,6 +450,7 @@ def follow(
                 # for the next few calls
                 ch = backup.advance(q, t, h, c, det)
                 backup_left = BACKUP_CALLS if ch.ok else 0
+        advancing = ch.ok > 0
         if ch.ok == 0:
             out.rejected += 1
             halvings += 1
