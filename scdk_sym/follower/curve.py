@@ -10,10 +10,13 @@ an assembled point along the oriented singularity-consistent tangent (see
   verified;
 - **folds** (``s`` turns: ``t_s`` and ``det J_p`` change sign together), located by Newton on
   ``[g; t_s] = 0``;
-- **bifurcations** (two branches cross: ``H' = [J_p, -j_s]`` drops rank, ``det J_p`` changes
-  sign while ``t_s`` does not), stepped over along the incoming tangent with a corrector on the
-  plane normal to it, so the walk continues on the branch whose tangent continues the
-  incoming one, and located by bisection of ``det J_p`` on the curve.
+- **bifurcations** (two branches cross: ``H' = [J_p, -j_s]`` drops rank because the left null
+  vector of ``J_p`` is one of ``J_s`` too, ``det J_p`` changes sign while ``t_s`` does not),
+  stepped over one at a time at fixed ``s`` from the extrapolation of the incoming branch
+  (Newton at fixed ``theta``: the walk continues the incoming branch even where the other one
+  has nearly the same tangent) or, failing that, along the incoming tangent with a corrector
+  on the plane normal to it, and located by bisection of ``det J_p``. Where ``H'`` nearly
+  drops rank only because the line is tangent to the singular surface, the point is a fold.
 
 Two predictors produce the samples, judged by the same rules:
 
@@ -24,8 +27,9 @@ Two predictors produce the samples, judged by the same rules:
 
 Step control: a rejected step halves ``h`` (a quarter where an event needs resolution: a
 level crossing and a fold in one step, a turning point that could hide two crossings of a
-level, a finish that left the curve); a smooth chunk grows it by 1.6. When ``h`` has shrunk
-``STALL_HALVINGS`` times in a row the follower tries to step over (a bifurcation, where no
+level, a finish that left the curve, a turn of ``s`` without a sign change of ``det J_p``); a
+smooth chunk grows it by 1.6. When ``h`` has shrunk ``STALL_HALVINGS`` times in a row (calls
+rejected in whole or in part) the follower tries to step over (a bifurcation, where no
 tangent field is smooth); failing that the walk ends ``stalled``.
 """
 
@@ -62,8 +66,12 @@ STALL_HALVINGS = 6
 #: A stepped-over point must continue the incoming tangent within acos(STEP_OVER_COS).
 STEP_OVER_COS = 0.9
 #: det J_p changing sign without a turn of s is a bifurcation where H' = [J_p, -j_s] has
-#: sigma_min / sigma_max below this (else the step jumped across a fold and is refined).
+#: sigma_min / sigma_max below this (else the step jumped across a fold and is refined) ...
 BIFURCATION_RANK = 1e-3
+#: ... and the left null vector w of J_p there is one of J_s too, |w^T J_s| / |J_s| below this
+#: (the singularity does not depend on the actuators). Where only w^T J_s dtheta vanishes the
+#: line grazes the singular surface: two folds close together, not two branches crossing.
+STRUCTURAL = 1e-4
 #: Largest initial step [model sizes].
 FIRST_STEP = 0.01
 #: Rejected steps after which a walk ends as stalled.
@@ -285,6 +293,7 @@ def follow(
     backend: str = "casadi",
     levels: tuple[float, ...] = (1.0,),
     max_hits: int | float = math.inf,
+    max_singular: int | float = math.inf,
     max_arc: float | None = None,
     max_steps: int = 20000,
     deadline: float = math.inf,
@@ -311,6 +320,7 @@ def follow(
         levels: levels of ``s`` whose crossings are reported (and finished at
             ``line.at(level)``).
         max_hits: stop after this many level crossings.
+        max_singular: stop after this many singular points (folds and bifurcations).
         max_arc: arc-length budget (default: 60 arc lengths per unit of ``s`` at the start
             plus 20 model sizes).
         max_steps: stop after this many accepted steps.
@@ -395,7 +405,42 @@ def follow(
         rec["arc"].append(0.0)
     skip_level_at_start = True
     backup_left = 0
+    hist = [q.copy()]  # the last accepted points (same chart), for extrapolation
+    advancing = False  # the last call accepted some steps
     while out.arc < budget and out.steps < max_steps:
+        if halvings >= STALL_HALVINGS or h < h_min:
+            # the step keeps shrinking (next to crossing branches no tangent field is smooth
+            # and the predictors creep towards the point): step over it
+            stepped = _step_over_in_s(model, kern, line, p, weight, hist, t, c, det, levels,
+                                      tol)  # fmt: skip
+            if stepped is not None:
+                cr = stepped[4]
+            else:
+                stepped = _step_over(model, kern, p, weight, q, t, c, det, h_good, tol)
+                if stepped is None and advancing:
+                    halvings = 0  # calls still advance (e.g. at a tight fold): keep going
+                    continue
+                if stepped is None:
+                    out.stalled = True
+                    break
+                cr = None
+                if stepped[2] * det < 0:
+                    cr = _locate_bifurcation(model, kern, line, p, weight, q, stepped[0], c, det)
+            q_new, t_new, det_new, length = stepped[:4]
+            out.step_overs += 1
+            if cr is not None:
+                out.singular.append(cr)
+                out.singular_arcs.append(out.arc + 0.5 * length)
+            q, t, det = q_new, t_new, det_new
+            hist = [*hist[-2:], q.copy()]
+            out.arc += length
+            out.steps += 1
+            h, halvings = h_good, 0
+            reject_limit = max(reject_limit, out.rejected + CVODES_REJECTIONS)
+            skip_level_at_start = False
+            if record:
+                _record(rec, q, c, det, out.arc)
+            continue
         if out.rejected > reject_limit:
             out.stalled = True
             break
@@ -417,28 +462,11 @@ def follow(
                 # for the next few calls
                 ch = backup.advance(q, t, h, c, det)
                 backup_left = BACKUP_CALLS if ch.ok else 0
+        advancing = ch.ok > 0
         if ch.ok == 0:
             out.rejected += 1
             halvings += 1
             h /= 2
-            if halvings >= STALL_HALVINGS or h < h_min:
-                stepped = _step_over(model, kern, p, weight, q, t, c, det, h_good, tol)
-                if stepped is None:
-                    out.stalled = True
-                    break
-                q_new, t_new, det_new, length = stepped
-                out.step_overs += 1
-                if det_new * det < 0:
-                    cr = _locate_bifurcation(model, kern, line, p, weight, q, q_new, c, det)
-                    out.singular.append(cr)
-                    out.singular_arcs.append(out.arc + 0.5 * length)
-                q, t, det = q_new, t_new, det_new
-                out.arc += length
-                out.steps += 1
-                h, halvings = h_good, 0
-                skip_level_at_start = False
-                if record:
-                    _record(rec, q, c, det, out.arc)
             continue
         Q, T, D = ch.Q, ch.T, ch.D
         n = ch.ok
@@ -465,13 +493,28 @@ def follow(
             )
             # leaving a level and turning back through it within one step
             hidden |= bool(turn and skip_level_at_start and j == 0 and Q[-1, 0] in levels)
+            if turn and not flip and h / 4 >= h_min:
+                # s turned while det J_p kept its sign: not a fold (there both change sign
+                # together) but a step that jumped onto a nearby branch (e.g. across the gap
+                # where the line grazes the singular surface); smaller steps stay on the curve
+                refine_at = j
+                break
             if (hidden or (crossing_levels and turn)) and h / 4 >= h_min:
                 refine_at = j
                 break
             if flip and not turn:
                 # det J_p changed sign without a turn of s: two branches crossing (H' drops
                 # rank at the point) or a step that jumped across a fold (then H' keeps its
-                # rank, and smaller steps show the turn)
+                # rank, and smaller steps show the turn); first at fixed s on the incoming
+                # branch (which also locates the point on it), else straight
+                past = [*hist, *(Q[:, i] for i in range(1, j + 1))][-3:]
+                got = _step_over_in_s(model, kern, line, p, weight, past, T[:, j], c, D[j],
+                                      levels, tol)  # fmt: skip
+                if got is not None and _is_bifurcation(model, got[4], dtheta):
+                    replaced = (j, got[0], got[1], got[2])
+                    out.singular.append(got[4])
+                    out.singular_arcs.append(out.arc + h * (j + 0.5))
+                    break
                 length = float(math.sqrt(weight @ (seg * seg)))
                 q_str = _straight(kern, p, Q[:, j], T[:, j], length, c, tol)
                 if q_str is not None and _wdist(weight, q_str, Q[:, j + 1]) > 0.05 * length:
@@ -479,7 +522,7 @@ def follow(
                     replaced = (j, q_str, t_str, det_str)
                 q_b = replaced[1] if replaced is not None else Q[:, j + 1]
                 cr = _locate_bifurcation(model, kern, line, p, weight, Q[:, j], q_b, c, D[j])
-                if _rank_ratio(model, cr, dtheta) > BIFURCATION_RANK and h / 4 >= h_min:
+                if not _is_bifurcation(model, cr, dtheta) and h / 4 >= h_min:
                     replaced = None
                     refine_at = j
                     break
@@ -494,7 +537,7 @@ def follow(
                 else:
                     cr = _interpolated_fold(model, line, Q[:, j], Q[:, j + 1], T[:, j],
                                             T[:, j + 1], c)  # fmt: skip
-                if locate and _rank_ratio(model, cr, dtheta) < BIFURCATION_RANK:
+                if locate and _is_bifurcation(model, cr, dtheta):
                     # not a fold: two branches cross there and the predictor swung onto the
                     # other one; step straight over the point from the sample before it
                     length = float(math.sqrt(weight @ (seg * seg)))
@@ -585,11 +628,13 @@ def follow(
                     _record(rec, Q[:, j], c, float(D[j]), out.arc + h * j)
             out.steps += used
             out.arc += h * used
+            hist = [*hist, *(Q[:, i].copy() for i in range(1, used + 1))][-3:]
             q, t, det = Q[:, used].copy(), T[:, used].copy(), float(D[used])
         if replaced is not None:
             j, q_str, t_str, det_str = replaced
             length = float(math.sqrt(weight @ ((q_str - q) ** 2)))
             q, t, det = q_str, t_str, det_str
+            hist = [*hist[-2:], q.copy()]
             out.arc += length
             out.steps += 1
             skip_level_at_start = False
@@ -598,9 +643,12 @@ def follow(
         t = t / math.sqrt(float(weight @ (t * t)))
         if out.closed or out.repeated or len(out.hits) >= max_hits:
             break
+        if len(out.singular) >= max_singular:
+            break
         if rots and np.max(np.abs(q[rot_idx])) > RECENTRE:
             y_new, c = model.chart.recentre(q[:-1], c)
             q = np.append(y_new, q[-1])
+            hist = [q.copy()]
             t = np.array(kern.tangent(q, t, p, c)[0]).ravel()
         if refine_at is not None:
             h /= 4
@@ -610,12 +658,13 @@ def follow(
         elif ch.partial and replaced is None:
             h /= 2
             out.rejected += 1
+            halvings += 1
         else:
             halvings = 0
             h_good = h
             if ch.smooth:
                 h = min(GROW * h, h_max)
-        if replaced is not None or used == last:
+        if replaced is not None or (used == last and not ch.partial):
             halvings = 0
     out.s_range = (s_lo, s_hi)
     out.end = (q, t, c)
@@ -697,6 +746,98 @@ def _step_over(model, kern, p, weight, q, t, c, det, h_good, tol):
     return None
 
 
+#: Steps in s of the step-over at fixed s (:func:`_step_over_in_s`): the first is this
+#: fraction of the last step's, each next one twice the previous.
+S_STEP_FIRST = 0.5
+S_STEP_TRIES = 24
+
+
+def _step_over_in_s(model, kern, line, p, weight, hist, t, c, det, levels, tol):
+    """Step over a point where two branches cross at fixed ``s``: past it, the solution of
+    ``g(y, theta(s)) = 0`` nearest to the extrapolation of the incoming branch.
+
+    At a bifurcation ``s`` keeps increasing (or decreasing) along the incoming branch, so ``s``
+    parametrises it; the quadratic in ``s`` through its last three accepted points continues
+    it to second order, while the other branch leaves along another direction: Newton at
+    fixed ``theta`` from the extrapolation stays on the incoming branch (the way a
+    continuation in the actuated joints with a secant predictor moves the robot), even where
+    the two branches have nearly the same tangent (there the tangent itself is ill-conditioned
+    and is not used). Steps in ``s`` grow from half the last one until ``det J_p`` has changed
+    sign (one crossing passed), without passing a level of ``levels``.
+
+    Args:
+        hist: the last accepted points ``q = (y, s)`` of the walk, the current one last.
+
+    Returns:
+        (q, t, det, length, crossing) or None (fewer than three points, ``s`` not monotone
+        over them, Newton strayed, or no sign change within ``S_STEP_TRIES`` steps).
+    """
+    m = model.m
+    if len(hist) < 3:
+        return None
+    P = np.array(hist[-3:])
+    q = P[-1]
+    S = P[:, -1] - q[-1]
+    ds0 = float(S[2] - S[1])
+    if not ((S[1] - S[0]) * ds0 > 0 and ds0 * float(t[-1]) > 0):
+        return None
+
+    # Lagrange quadratic through the three points, in s relative to the current one
+    def extrapolate(ds):
+        w = [
+            (ds - S[1]) * (ds - S[2]) / ((S[0] - S[1]) * (S[0] - S[2])),
+            (ds - S[0]) * (ds - S[2]) / ((S[1] - S[0]) * (S[1] - S[2])),
+            (ds - S[0]) * (ds - S[1]) / ((S[2] - S[0]) * (S[2] - S[1])),
+        ]
+        return w[0] * P[0, :m] + w[1] * P[1, :m] + w[2] * P[2, :m]
+
+    def solve_at(ds):
+        y_pred = extrapolate(ds)
+        y, res = kern.polish(y_pred, line.at(float(q[-1] + ds)), c)
+        y = np.array(y).ravel()
+        if not (np.all(np.isfinite(y)) and float(res) <= 0.1 * tol):
+            return None
+        move = float(np.linalg.norm(y - y_pred))
+        if move > 0.5 * float(np.linalg.norm(y_pred - q[:m])) + 10 * tol:
+            return None  # Newton went elsewhere (e.g. s turns ahead: no solution near)
+        q_new = np.append(y, q[-1] + ds)
+        t_new, det_new = _tangent(kern, q_new, t, p, c, m)
+        return q_new, t_new, det_new
+
+    ds = S_STEP_FIRST * ds0
+    for _ in range(S_STEP_TRIES):
+        s_new = float(q[-1] + ds)
+        if any((L - q[-1]) * (L - s_new) < 0 for L in levels):
+            return None
+        got = solve_at(ds)
+        if got is None:
+            return None
+        q_new, t_new, det_new = got
+        if det_new * det < 0:
+            if not (np.all(np.isfinite(t_new)) and t_new[-1] * ds0 > 0):
+                return None
+            # the crossing: bisection of det J_p in s on the same extrapolated branch
+            lo, hi, y_mid = 0.0, ds, q_new[:m]
+            for _ in range(40):
+                mid = 0.5 * (lo + hi)
+                got_mid = solve_at(mid)
+                if got_mid is None:
+                    break
+                y_mid = got_mid[0][:m]
+                if got_mid[2] * det > 0:
+                    lo = mid
+                else:
+                    hi = mid
+                if abs(hi - lo) <= 1e-12 * max(1.0, abs(float(q[-1]))):
+                    break
+            s_cr = float(q[-1] + 0.5 * (lo + hi))
+            cfg = model.configuration(y_mid, line.at(s_cr), c)
+            cr = Crossing(s_cr, cfg.x, cfg.y, cfg.theta, kind="bifurcation")
+            return q_new, t_new, det_new, _wdist(weight, q_new, q), cr
+        ds *= 2.0
+    return None
+
+
 def _locate_bifurcation(model, kern, line, p, weight, qa, qb, c, det_a) -> Crossing:
     """Where ``det J_p`` vanishes between two points of one branch: bisection on points of the
     curve (the chord's points corrected on planes normal to it)."""
@@ -771,13 +912,23 @@ def _finish(model, kern, line, qa, qb, ta, tb, h, level, c, tol) -> np.ndarray |
     return y
 
 
-def _rank_ratio(model, cr: Crossing, dtheta: np.ndarray) -> float:
-    """sigma_min / sigma_max of H' = [J_p, -J_s dtheta / |dtheta|] at a point."""
+def _is_bifurcation(model, cr: Crossing, dtheta: np.ndarray) -> bool:
+    """Whether two solution branches cross at a singular point: H' = [J_p, -J_s dtheta /
+    |dtheta|] drops rank (sigma_min / sigma_max < ``BIFURCATION_RANK``) for every line, i.e.
+    the left null vector w of J_p annihilates J_s (|w^T J_s| / |J_s| < ``STRUCTURAL``).
+
+    Where only ``w^T J_s dtheta`` vanishes the line is tangent to the singular surface: a
+    fold (or two folds close together where the line grazes it), on which ``det J_p`` keeps
+    the sign of the side the curve is on; stepping across would land on the other sheet.
+    """
     y, c = model.chart.to_local(cr.y)
     Jp, Js = (np.array(a) for a in model_calls(model).jac(y, cr.theta, c))
     js = Js @ dtheta / max(float(np.linalg.norm(dtheta)), 1e-300)
     S = np.linalg.svd(np.hstack([Jp, -js[:, None]]), compute_uv=False)
-    return float(S[-1] / S[0])
+    if not S[-1] < BIFURCATION_RANK * S[0]:
+        return False
+    w = np.linalg.svd(Jp)[0][:, -1]
+    return bool(np.linalg.norm(w @ Js) < STRUCTURAL * max(float(np.linalg.norm(Js)), 1e-300))
 
 
 def _met_before(singular: list[Crossing], first: int, s_a: float, level: float) -> int:

@@ -276,6 +276,17 @@ def _signed_sigma(Jp: np.ndarray, dJ: np.ndarray) -> tuple[float, np.ndarray, fl
     return sign * float(S[-1]), sign * grad, float(S[-1] / S[0])
 
 
+def _signed_det(Jp: np.ndarray, dJ: np.ndarray) -> tuple[float, np.ndarray, float]:
+    """(det J_p, its gradient over (y, theta), sigma_min / sigma_max); the cofactors from the
+    SVD, regular on the singular manifold."""
+    U, S, Vt = np.linalg.svd(Jp)
+    sign = float(np.linalg.det(U) * np.linalg.det(Vt))
+    others = np.array([np.prod(np.delete(S, i)) for i in range(S.size)])
+    adj = sign * (Vt.T * others) @ U.T  # adj(J_p) = det(J_p) J_p^-1
+    grad = dJ.T @ adj.T.ravel(order="F")
+    return sign * float(np.prod(S)), grad, float(S[-1] / S[0])
+
+
 def nearest_singular(model, start: Configuration, backend: str = "casadi") -> Crossing | None:
     """A singular configuration near ``start`` on the assembled manifold (or None).
 
@@ -284,7 +295,10 @@ def nearest_singular(model, start: Configuration, backend: str = "casadi") -> Cr
     minimum-norm Newton step of ``f`` in the tangent space (at most ``MAX_STEP`` model
     sizes), projected back by minimum-norm Gauss-Newton on ``g`` and halved until ``|f|``
     decreases. Near the surface this is Newton on ``[g; f] = 0``: quadratic convergence to a
-    fold.
+    fold. Where the smallest singular value does not move on the manifold (e.g. Gepetto's
+    5-bar closed by a 6d weld: 0.126 everywhere near home, while another one vanishes at the
+    five-bar's singularity) that descent stops short, and it is repeated with ``f = det J_p``,
+    which every vanishing singular value drives to zero.
 
     Args:
         model: the model.
@@ -317,33 +331,38 @@ def nearest_singular(model, start: Configuration, backend: str = "casadi") -> Cr
             z = z - np.linalg.lstsq(np.hstack([Jp, -Js]), g, rcond=None)[0]
         return z if float(np.max(np.abs(evaluate(z)[0]))) <= 0.1 * tol else None
 
-    _g, Jp, Js, dJ = evaluate(z)
-    f, grad, rel = _signed_sigma(Jp, dJ)
-    for _ in range(DESCENT_ITERATIONS):
-        if rel <= 1e-13:
-            break
-        G = np.hstack([Jp, -Js])
-        gt = grad - G.T @ np.linalg.lstsq(G @ G.T, G @ grad, rcond=None)[0]
-        n2 = float(gt @ gt)
-        if not n2 > 0:
-            return None
-        dz = -(f / n2) * gt
-        size = float(np.linalg.norm(dz))
-        if size > cap:
-            dz *= cap / size
-        for _halving in range(12):
-            z_new = project(z + dz)
-            if z_new is not None:
-                _g, Jp_n, Js_n, dJ_n = evaluate(z_new)
-                f_n, grad_n, rel_n = _signed_sigma(Jp_n, dJ_n)
-                if abs(f_n) < abs(f):
-                    break
-            dz *= 0.5
-        else:
-            break
-        z, Jp, Js, f, grad, rel = z_new, Jp_n, Js_n, f_n, grad_n, rel_n
-    if not rel <= 1e-9:
+    def descend(z, objective):
+        _g, Jp, Js, dJ = evaluate(z)
+        f, grad, rel = objective(Jp, dJ)
+        for _ in range(DESCENT_ITERATIONS):
+            if rel <= 1e-13:
+                break
+            G = np.hstack([Jp, -Js])
+            gt = grad - G.T @ np.linalg.lstsq(G @ G.T, G @ grad, rcond=None)[0]
+            n2 = float(gt @ gt)
+            if not n2 > 0:
+                return None
+            dz = -(f / n2) * gt
+            size = float(np.linalg.norm(dz))
+            if size > cap:
+                dz *= cap / size
+            for _halving in range(12):
+                z_new = project(z + dz)
+                if z_new is not None:
+                    _g, Jp_n, Js_n, dJ_n = evaluate(z_new)
+                    f_n, grad_n, rel_n = objective(Jp_n, dJ_n)
+                    if abs(f_n) < abs(f):
+                        break
+                dz *= 0.5
+            else:
+                break
+            z, Jp, Js, f, grad, rel = z_new, Jp_n, Js_n, f_n, grad_n, rel_n
+        return (z, Jp, Js) if rel <= 1e-9 else None
+
+    found = descend(z, _signed_sigma) or descend(z, _signed_det)
+    if found is None:
         return None
+    z, Jp, Js = found
     cfg = model.configuration(z[:m], z[m:], c)
     if not cfg.residual <= tol:
         return None
@@ -445,3 +464,49 @@ def _branches_cross(Jp: np.ndarray, Js: np.ndarray) -> bool:
     U, S, _ = np.linalg.svd(Jp)
     w = U[:, -1]
     return bool(np.linalg.norm(w @ Js) <= 1e-6 * max(float(np.linalg.norm(Js)), 1e-300))
+
+
+#: A fold is grazed when the line meets the singular surface at less than this sine of the
+#: angle between the line and the surface's tangent plane (in theta).
+GRAZING = 0.05
+
+
+def inward_normal(model, fold: Crossing, backend: str = "casadi") -> np.ndarray | None:
+    """Unit normal of the singular surface at a fold, in theta, towards the side where the two
+    solutions meeting there exist (None where branches cross or the fold is degenerate).
+
+    About the fold ``(y_f, theta_f)`` (``J_p u = 0``, ``w^T J_p = 0``) the solutions at
+    ``theta_f + d`` are ``y_f + a u + ...`` with ``a^2 = 2 w^T J_s d / q``,
+    ``q = w^T (dJ_p/dy . u) u``: two real ones where ``sign(q) w^T J_s d > 0``.
+
+    Args:
+        model: the model.
+        fold: a fold (a located crossing).
+        backend: kernel backend.
+
+    Returns:
+        (k,) unit vector [rad or model length unit, normalised], or None.
+    """
+    kern = follower_calls(model, backend)
+    m = model.m
+    y, c = model.chart.to_local(fold.y)
+    _g, Jp, Js, dJ = (np.array(a) for a in kern.singular(y, np.asarray(fold.theta, float), c))
+    U, S, Vt = np.linalg.svd(Jp)
+    w, u = U[:, -1], Vt[-1]
+    n = Js.T @ w
+    q = float(w @ (dJ[:, :m] @ u).reshape(m, m, order="F") @ u)
+    size = float(np.linalg.norm(n))
+    if not (size > 1e-6 * max(float(np.linalg.norm(Js)), 1e-300) and abs(q) > 0):
+        return None
+    return math.copysign(1.0, q) * n / size
+
+
+def grazes(model, fold: Crossing, dtheta: np.ndarray) -> bool:
+    """Whether the line along ``dtheta`` meets the singular surface at ``fold`` nearly
+    tangentially (sine of the angle below ``GRAZING``): there it leaves the start's side only
+    briefly, and where it goes after the fold depends on a tiny bend of the line."""
+    y, c = model.chart.to_local(fold.y)
+    Jp, Js = (np.array(a) for a in model_calls(model).jac(y, fold.theta, c))
+    n = Js.T @ np.linalg.svd(Jp)[0][:, -1]
+    size = float(np.linalg.norm(n)) * float(np.linalg.norm(dtheta))
+    return bool(size > 0 and abs(float(n @ dtheta)) < GRAZING * size)

@@ -197,7 +197,7 @@ def solve(
         if same:
             return _result(model, start.y, theta0, (), "convergent", sign, start, None)
         return _along_line(model, theta0, start, sign, "convergent", backend, max_arc, record_path,
-                           nu)  # fmt: skip
+                           nu, detour=True)  # fmt: skip
     return _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu)
 
 
@@ -213,16 +213,27 @@ def _singular_start(model: Model, start: Configuration, Jp: np.ndarray | None = 
     return not S[-1] > 1e-10 * S[0]
 
 
-def _along_line(model, theta0, start, direction, name, backend, max_arc, record_path, nu=None):
+def _along_line(model, theta0, start, direction, name, backend, max_arc, record_path, nu=None,
+                detour=False):  # fmt: skip
     """The first ``s = 1`` crossing along the straight path in one direction (or the singular
     solution where the curve only touches ``s = 1``); ``nu``: the unit SC vector at the start
-    (:func:`start_direction`), when known."""
+    (:func:`start_direction`), when known.
+
+    With ``detour`` (the convergent branch): where the path leaves the start's side at a fold
+    before ``theta0`` that it grazes, or leaves it and never reaches ``s = 1``, the solution
+    reached on the start's side along a bent path (see :func:`_detour`) is returned when there
+    is one."""
     tangent = _first_tangent(theta0, start, direction, nu)
     tr = trace(model, theta0, start, direction, max_arc=max_arc, backend=backend,
                record_path=record_path, tangent=tangent)  # fmt: skip
     if not tr.hits and tr.stalled:  # CVODES stalled: the explicit predictor-corrector
         tr = trace(model, theta0, start, direction, max_arc=max_arc, backend=backend,
                    record_path=record_path, predictor="rk4", tangent=tangent)  # fmt: skip
+    if detour and tr.singular and (not tr.hits or tr.hits[0].crossings):
+        res = _detour(model, theta0, start, direction, tr.singular[0], backend, max_arc,
+                      any_fold=not tr.hits)  # fmt: skip
+        if res is not None:
+            return res
     if tr.hits:
         hit = tr.hits[0]
         crossings = tuple(tr.singular[: hit.crossings])
@@ -256,6 +267,56 @@ def _first_tangent(theta0, start, direction, nu) -> np.ndarray | None:
     if line.at(0.0).tobytes() != theta1.tobytes():
         return None
     return direction * nu
+
+
+#: Offsets of the bend of a detour, in units of |theta0 - theta1|, tried in order.
+DETOUR_OFFSETS = (0.01, 0.03, 0.1, 0.3)
+
+
+def _detour(
+    model, theta0, start, direction, fold, backend, max_arc, any_fold=False
+) -> SolveResult | None:
+    """The convergent answer past a fold that the straight path grazes, or None.
+
+    Where the line from the start meets the singular surface nearly tangentially it leaves
+    the start's side only briefly (e.g. on Dietmaier's 6-6 platform from starts within
+    ``det J_p ~ 1e-6`` of a surface): the straight path turns back at the fold, while a line
+    bent by a little towards the start's side stays there. So the path goes from the start to
+    the fold's ``theta`` moved along the surface normal towards the side where the start's
+    solution exists (:func:`~scdk_sym.follower.singular.inward_normal`), then to ``theta0``,
+    each leg along the convergent direction; it is taken only if neither leg meets a singular
+    point (the answer is on the start's side, reached continuously), at the smallest of the
+    ``DETOUR_OFFSETS`` that works. ``result.path`` is None (the path is not one line).
+    With ``any_fold`` (the straight path never reached ``s = 1``) the fold need not be grazed,
+    only met before ``theta0``: a line cutting a small cap off the start's side (e.g. Gepetto's
+    5-bar with ``theta0`` just before a singular surface) leaves it and comes back just after.
+    """
+    from ..follower.singular import grazes, inward_normal
+
+    if fold.kind != "fold" or not 0.0 < fold.s <= 1.0:
+        return None
+    if not (any_fold or grazes(model, fold, theta0 - start.theta)):
+        return None
+    n = inward_normal(model, fold, backend)
+    if n is None:
+        return None
+    span = float(np.linalg.norm(theta0 - start.theta))
+    for offset in DETOUR_OFFSETS:
+        cfg = start
+        for target in (np.asarray(fold.theta, float) + offset * span * n, theta0):
+            line = Line(np.array(cfg.theta, dtype=float), target - cfg.theta)
+            tr = follow(model, line, cfg.y, 0.0, direction, predictor="cvodes", backend=backend,
+                        max_hits=1, max_singular=1, max_arc=max_arc)  # fmt: skip
+            if not tr.hits or tr.hits[0].crossings:
+                cfg = None
+                break
+            cfg = model.configuration(tr.hits[0].y, target)
+            if not cfg.residual <= model.tolerance:
+                cfg = None
+                break
+        if cfg is not None:
+            return _result(model, cfg.y, theta0, (), "convergent", direction, start, None)
+    return None
 
 
 def _touching(model, theta0, tr) -> tuple[np.ndarray, int] | None:
