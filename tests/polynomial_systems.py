@@ -254,6 +254,12 @@ class StewartGough:
             return _digest(b"stewart-gough-family", self.chart)
         return _digest(b"stewart-gough", self.A, self.B, self.chart)
 
+    def trace_map(self, z: np.ndarray) -> np.ndarray:
+        """(N, 8) -> (N, 12): translation and rotation entries, finite where the chart's q is not
+        (the functions whose trace the trace test checks)."""
+        R = rotation_numerator(z[:, 3:7]) * z[:, 7, None, None]
+        return np.concatenate([z[:, :3], R.reshape(-1, 9)], axis=1)
+
     def poses(self, z: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """(K, n) real solutions -> [(translation (3,), rotation (3, 3))]."""
         z = np.asarray(z, dtype=float)

@@ -72,14 +72,22 @@ class PathEndpoints:
     steps: np.ndarray
 
 
+def scaled_cond(J: np.ndarray) -> np.ndarray:
+    """Condition numbers (M,) of (M, n, n) matrices after scaling rows, then columns, to unit
+    max norm (so that a badly scaled chart coordinate is not taken for a singularity)."""
+    with np.errstate(all="ignore"):
+        J = J / np.abs(J).max(axis=2, keepdims=True)
+        J = J / np.abs(J).max(axis=1, keepdims=True)
+        c = np.linalg.cond(J) if len(J) else np.zeros(0)
+    return np.where(np.isfinite(c), c, np.inf)
+
+
 def _regular(system, homotopy, z, idx, cond_max) -> tuple[np.ndarray, np.ndarray]:
     """Newton-refine endpoints at t = 1; regular where it converges and J is well conditioned."""
     t1 = np.ones(len(z), dtype=complex)
     z, nu = newton(homotopy, z, t1, idx, 2)
     _, Hz, _ = homotopy(z, t1, idx)
-    with np.errstate(all="ignore"):
-        cond = np.linalg.cond(Hz) if len(z) else np.zeros(0)
-    ok = np.isfinite(z).all(axis=1) & (nu[:, -1] <= 1e-10) & (cond <= cond_max)
+    ok = np.isfinite(z).all(axis=1) & (nu[:, -1] <= 1e-10) & (scaled_cond(Hz) <= cond_max)
     return z, ok
 
 
@@ -103,7 +111,8 @@ def track_parameter_homotopy(
         options: tracker step control.
         endgame: run the Cauchy endgame on paths that do not end regular (else they fail).
         r0: the endgame starts at t = 1 - r0.
-        cond_max: largest condition number of H_z at a regular endpoint.
+        cond_max: largest condition number of H_z (rows and columns scaled) at a regular
+            endpoint.
 
     Returns:
         :class:`PathEndpoints`.

@@ -9,18 +9,24 @@ over the (irreducible) structural variety, the monodromy group acts transitively
 eventually reach every solution.
 
 Trace test (Leykin, Rodriguez, Sottile 2018): along the offset pencil
-``b(lambda) = b* + lambda v`` the sum of all solutions ``T(lambda)`` is a polynomial in
-``lambda`` (a symmetric function of the whole fibre, with no poles while no solution escapes
-to infinity), whereas the sum over a proper subset is not single valued (the monodromy of a
-general line is the full group). The test samples ``T`` at ``K`` points ``rho e^(2 pi i k/K)``
-and requires the Fourier modes ``K/2 .. K-1`` (zero for a polynomial of degree < K/2) to
-vanish relative to ``sum_j |z_j|``. A complete set passes unless a solution escapes at a
-finite ``lambda`` inside the circle (then the test fails: false negatives only).
+``b(lambda) = b* + lambda v`` the sum ``T(lambda)`` of ``f(z_j)`` over the whole fibre is a
+symmetric function of it: single valued, and a polynomial in ``lambda`` as long as ``f`` stays
+finite (no pole), whereas the sum over a proper subset is not single valued (the monodromy of
+a general line is the full group). The test samples ``T`` at ``K`` points
+``rho e^(2 pi i (k + u)/K)`` and requires its Fourier modes above ``degree`` to vanish relative
+to ``sum_j |f(z_j)|``; ``degree = 1`` is the linear trace of the paper, which holds for every
+system tested here. ``f`` must stay finite along the pencil: an affine chart is not enough
+(on a 6-6 platform the quaternion ``q`` in the chart ``a . q = 1`` goes to infinity where the
+complex rotation's quaternion crosses ``a . q = 0``, so the trace of ``z`` has poles); a
+system may therefore provide ``trace_map(z) -> (N, m)``, polynomial functions that stay
+finite there (e.g. translation and rotation matrix entries); otherwise ``f(z) = z``. A poorly
+chosen ``f`` only makes a complete set fail the test (a false negative), never the reverse.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -87,23 +93,32 @@ def trace_test(
     p: np.ndarray,
     b: np.ndarray,
     rng: np.random.Generator,
+    *,
     samples: int = 16,
+    degree: int = 1,
+    radius: float = 0.5,
+    trace_map: Callable[[np.ndarray], np.ndarray] | None = None,
     options: TrackerOptions | None = None,
 ) -> float:
-    """Relative size of the non-polynomial part of the trace along a random offset pencil.
+    """Relative size of the part of the trace above ``degree`` along a random offset pencil.
 
     Args:
         system: the polynomial system.
         solutions: (R, n) complex solutions at ``(p, b)``.
         p: (n_params,) complex base parameters.
         b: (n,) complex base offsets.
-        rng: random generator (pencil direction).
-        samples: Fourier samples ``K`` (even).
+        rng: random generator (pencil direction and sample phase).
+        samples: Fourier samples ``K`` (> degree + 1).
+        degree: the trace's degree in ``lambda`` for a complete set.
+        radius: sample circle radius, relative to ``1 + max|b|`` (or ``|p|`` without offsets).
+        trace_map: ``f``, (N, n) -> (N, m); default ``system.trace_map`` if it exists, else z.
         options: tracker step control.
 
     Returns:
-        ``max_{m >= K/2} |c_m| / mean_k sum_j |z_j(lambda_k)|``, ``inf`` if a path was lost.
+        ``max_{degree < m < K} |c_m|_inf / mean_k sum_j |f(z_j(lambda_k))|_inf``; ``inf`` if a
+        path failed or two paths met (a path jump).
     """
+    f = trace_map or getattr(system, "trace_map", None) or (lambda z: z)
     R, n = solutions.shape
     offs = np.asarray(system.offset_rows, dtype=bool)
     if offs.any():
@@ -112,7 +127,7 @@ def trace_test(
     else:
         vb = np.zeros(n, dtype=complex)
         vp = _cnormal(rng, system.n_params) * (1.0 + np.abs(p).max())
-    lam = 0.5 * np.exp(2j * np.pi * (np.arange(samples) + rng.uniform()) / samples)
+    lam = radius * np.exp(2j * np.pi * (np.arange(samples) + rng.uniform()) / samples)
     pb = p[None] + lam[:, None] * vp[None]
     bb = b[None] + lam[:, None] * vb[None]
     hom = ParameterHomotopy(
@@ -132,10 +147,10 @@ def trace_test(
     for k in range(samples):  # a path jump would merge two solutions
         if len(dedup(zk[k], 1e-8)) != R:
             return float("inf")
-    T = zk.sum(axis=1)  # (K, n)
-    c = np.fft.fft(T, axis=0) / samples
-    scale = np.abs(zk).max(axis=2).sum(axis=1).mean()
-    return float(np.abs(c[samples // 2 :]).max() / scale)
+    fk = np.asarray(f(ends.z)).reshape(samples, R, -1)
+    c = np.fft.fft(fk.sum(axis=1), axis=0) / samples
+    scale = np.abs(fk).max(axis=2).sum(axis=1).mean()
+    return float(np.abs(c[degree + 1 :]).max() / scale)
 
 
 def monodromy_solve(
@@ -145,6 +160,7 @@ def monodromy_solve(
     stable_loops: int = 5,
     max_loops: int = 200,
     trace_tol: float = 1e-8,
+    trace_map: Callable[[np.ndarray], np.ndarray] | None = None,
     options: TrackerOptions | None = None,
     progress: bool = True,
 ) -> StartSystem:
@@ -160,6 +176,7 @@ def monodromy_solve(
         stable_loops: loops without a new solution before the trace test.
         max_loops: bound on the loops.
         trace_tol: largest trace residual of a complete set.
+        trace_map: the traced functions (see :func:`trace_test`).
         options: tracker step control.
         progress: show a tqdm progress bar.
 
@@ -212,7 +229,7 @@ def monodromy_solve(
             bar.update(1)
             bar.set_postfix(solutions=len(sols))
             if stable >= stable_loops:
-                residual = trace_test(system, sols, p, b, rng, options=options)
+                residual = trace_test(system, sols, p, b, rng, trace_map=trace_map, options=options)
                 passed = residual <= trace_tol
                 if passed:
                     break

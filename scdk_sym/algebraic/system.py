@@ -4,6 +4,11 @@ A model's algebraic form and every hand-written test system satisfy
 :class:`PolynomialSystem`; the engine (:mod:`scdk_sym.algebraic.tracker`,
 :mod:`scdk_sym.algebraic.monodromy`, :mod:`scdk_sym.algebraic.homotopy`) uses nothing else.
 The homotopy family is ``F(z; p, b) = G(z, p) + b`` with ``b_i = 0`` on structural rows.
+
+Optional, outside the protocol: a system may define ``trace_map(z: (N, n)) -> (N, m)``,
+polynomial functions of the solutions that stay finite where an affine chart's coordinates do
+not (e.g. a platform's translation and rotation matrix entries); the trace test of
+:mod:`scdk_sym.algebraic.monodromy` sums those instead of ``z``.
 """
 
 from __future__ import annotations
