@@ -5,9 +5,10 @@ number ``c``. Tracking around the circle ``t = 1 - r e^(i phi)`` returns to the 
 exactly ``c`` loops, and the mean of ``z`` over ``K`` equally spaced samples per loop (the
 trapezoid rule of Cauchy's integral in the variable ``s = (1 - t)^(1/c)``) is ``a_0`` up to
 ``O((r / R)^K)``, ``R`` the distance to the nearest other branch point. The endgame runs this
-at radii ``r0, r0/4, r0/16, ...``: two successive estimates that agree give a singular
-endpoint with its winding number; a loop whose largest ``|z|`` keeps growing as the radius
-shrinks (a pole of the series, ``a_0`` is then only its constant term) is a path to infinity.
+at radii ``r0, r0/4, r0/16, ...``: two successive estimates that agree, with the samples'
+spread about them shrinking, give a singular endpoint with its winding number; a spread that
+grows at two successive radii (a pole of the series, ``a_0`` is then only its constant term)
+marks a path to infinity.
 """
 
 from __future__ import annotations
@@ -91,7 +92,7 @@ def cauchy_endgame(
     winding = np.zeros(M, dtype=int)
     radius = np.full(M, r0)
     prev_est = np.full(zc.shape, np.nan + 0j)
-    prev_max = np.full(M, np.nan)
+    spread_hist = np.zeros((M, 2))
     alive = np.ones(M, dtype=bool)
     r = r0
     for level in range(levels):
@@ -121,7 +122,7 @@ def cauchy_endgame(
         start = zc[a].copy()
         cur = start.copy()
         total = np.zeros_like(cur)
-        biggest = np.abs(cur).max(axis=1)
+        taken = [start]  # the loop's samples, to measure their spread about the estimate
         closed = np.zeros(a.size, dtype=int)
         going = np.ones(a.size, dtype=bool)
         for k in range(samples * max_winding):
@@ -142,7 +143,7 @@ def cauchy_endgame(
             bad = res.status != DONE
             going[g[bad]] = False
             closed[g[bad]] = -1
-            biggest[g] = np.maximum(biggest[g], np.abs(res.z).max(axis=1))
+            taken.append(cur.copy())
             if (k + 1) % samples == 0:
                 loops = (k + 1) // samples
                 back = (~bad) & (rel_norm(res.z - start[g], start[g]) < 1e-6)
@@ -151,19 +152,26 @@ def cauchy_endgame(
         ok = closed > 0
         est = np.where(ok[:, None], total / np.maximum(closed, 1)[:, None] / samples, np.nan)
         alive[a[closed <= 0]] = False  # failed, or no closure within max_winding loops
+        # spread of the samples about the estimate: ~ r^(1/c) at a finite endpoint (shrinks
+        # with r), ~ r^(-1/c) on a path to infinity (grows by 4^(1/c) >= 1.18 per level)
+        stack = np.stack(taken)  # (S, a.size, n)
+        upto = np.arange(len(stack))[:, None] < closed[None, :] * samples
+        dev = np.abs(stack - est[None]).max(axis=2)
+        spread = np.where(upto, dev, 0.0).max(axis=0)
         for j in np.flatnonzero(ok):
             i = a[j]
-            growing = np.isfinite(prev_max[i]) and biggest[j] > 1.1 * prev_max[i]
-            if growing and biggest[j] > 5.0 * (1.0 + np.abs(est[j]).max()):
+            s0, s1 = spread_hist[i, 0], spread_hist[i, 1]  # two levels back, one level back
+            if s1 > 0 and s0 > 0 and spread[j] > 1.1 * s1 and s1 > 1.1 * s0:
                 verdict[i], winding[i] = EG_INFINITY, closed[j]
                 alive[i] = False
             elif (
                 np.isfinite(prev_est[i]).all()
                 and rel_norm((est[j] - prev_est[i])[None], est[j][None])[0] <= tol
-                and biggest[j] <= 5.0 * (1.0 + np.abs(est[j]).max())
+                and spread[j] < s1
             ):
                 verdict[i], winding[i], out[i] = EG_SINGULAR, closed[j], est[j]
                 alive[i] = False
-            prev_est[i], prev_max[i] = est[j], biggest[j]
+            prev_est[i] = est[j]
+            spread_hist[i] = (s1, spread[j])
         r /= 4.0
     return EndgameOutcome(z=out, verdict=verdict, winding=winding, radius=radius)

@@ -180,6 +180,7 @@ class HomotopyResult:
             then among ``endpoints``.
         gamma: the complex gamma of the homotopy.
         steps: (R,) int tracker step attempts per path.
+        attempts: gammas tried (a new one while a path failed on the way).
     """
 
     endpoints: np.ndarray
@@ -189,6 +190,7 @@ class HomotopyResult:
     complete: bool
     gamma: complex
     steps: np.ndarray
+    attempts: int
 
 
 def real_endpoints(
@@ -247,6 +249,7 @@ def solve_homotopy(
     seed: int = 0,
     options: TrackerOptions | None = None,
     real_tol: float = 1e-8,
+    attempts: int = 3,
 ) -> HomotopyResult:
     """Every solution of G(z, p0) = 0 by the parameter homotopy from a start system.
 
@@ -260,9 +263,10 @@ def solve_homotopy(
         seed: seed of the random gamma.
         options: tracker step control.
         real_tol: largest ``max|Im z| / (1 + max|z|)`` of a real solution.
+        attempts: gammas tried while some path fails on the way (each attempt reruns all).
 
     Returns:
-        A :class:`HomotopyResult`.
+        A :class:`HomotopyResult` (of the last attempt).
 
     Raises:
         InputError: ``p0`` has the wrong shape or is not finite.
@@ -280,11 +284,21 @@ def solve_homotopy(
             f"n = {system.n}; recompute it with start_system(system)"
         )
     rng = np.random.default_rng(seed)
-    gamma = complex(np.exp(2j * np.pi * rng.uniform()))
     b_to = np.zeros(system.n, dtype=complex)
-    hom = ParameterHomotopy(system, start.p[None], p0[None], start.b[None], b_to[None], [gamma])
     R = len(start.solutions)
-    ends = track_parameter_homotopy(system, start.solutions, hom, np.zeros(R, dtype=int), options)
+    attempt = 0
+    while attempt < attempts:
+        attempt += 1
+        # a path that fails on the way passed close to a point where its solution escapes to
+        # infinity; another gamma moves every path away from it (all paths are rerun, so
+        # the endpoints stay one arc's complete set)
+        gamma = complex(np.exp(2j * np.pi * rng.uniform()))
+        hom = ParameterHomotopy(system, start.p[None], p0[None], start.b[None], b_to[None], [gamma])
+        ends = track_parameter_homotopy(
+            system, start.solutions, hom, np.zeros(R, dtype=int), options
+        )
+        if not (ends.status == "failed").any():
+            break
     reg = real_endpoints(system, ends.z[ends.status == "success"], p0, real_tol)
     # endgame estimates are accurate to about 1e-8 relative: looser tests for them
     sing = real_endpoints(system, ends.z[ends.status == "singular"], p0, 1e-6, 1e-6, polish=False)
@@ -297,4 +311,5 @@ def solve_homotopy(
         complete=bool(np.isin(ends.status, ("success", "singular", "at_infinity")).all()),
         gamma=gamma,
         steps=ends.steps,
+        attempts=attempt,
     )

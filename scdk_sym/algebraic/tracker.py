@@ -8,8 +8,9 @@ endgame). One iteration of :func:`track` moves every active path by its own step
 - corrector: exactly two Newton iterations at the new time, norms ``nu1, nu2`` of the
   updates (relative to ``1 + |z|``, max norm); the step is accepted when ``nu1 <= trust``
   (no jump to another path), the updates contract (``nu2 <= theta nu1`` up to a noise floor)
-  and ``nu2 <= tol``; the second iteration's factorisation also gives the velocity at the new
-  point, the next step's first RK4 stage (five evaluations per step in all);
+  and ``nu2 <= tol``, or when both updates are below ``noise`` (the rounding level); the
+  second iteration's factorisation also gives the velocity at the new point, the next step's
+  first RK4 stage (five evaluations per step in all);
 - step control: accepted, ``h *= clip(0.8 (eta / nu1)^(1/5), 0.25, 2)`` (``nu1`` is the
   predictor's local error, fifth order); rejected, ``h /= 2``.
 
@@ -49,6 +50,8 @@ class TrackerOptions:
         theta: required contraction factor of successive Newton updates.
         tol: largest last Newton update accepted.
         floor: noise level of the updates (the contraction checks allow it).
+        noise: a step whose two updates are both below this is accepted (Newton stagnates at
+            the rounding level, ``eps cond(H_z)``, which is large near a path's escape).
         max_steps: step attempts per path before ``STEP_LIMIT``.
         max_norm: ``|z|`` beyond which a path is ``DIVERGED``.
     """
@@ -61,6 +64,7 @@ class TrackerOptions:
     theta: float = 0.25
     tol: float = 1e-9
     floor: float = 1e-11
+    noise: float = 1e-7
     max_steps: int = 5000
     max_norm: float = 1e8
 
@@ -194,13 +198,9 @@ def track(
         X = solve_batched(Hz, np.stack([H, Ht * dt_new[:, None]], axis=2))
         zc, v_new = z1 - X[..., 0], -X[..., 1]
         nu1, nu2 = rel_norm(d1, zp), rel_norm(X[..., 0], z1)
-        ok = (
-            np.isfinite(zc).all(axis=1)
-            & np.isfinite(v_new).all(axis=1)
-            & (nu1 <= o.trust)
-            & (nu2 <= o.theta * nu1 + o.floor)
-            & (nu2 <= o.tol)
-        )
+        converged = (nu1 <= o.trust) & (nu2 <= o.theta * nu1 + o.floor) & (nu2 <= o.tol)
+        at_noise = np.maximum(nu1, nu2) <= o.noise
+        ok = np.isfinite(zc).all(axis=1) & np.isfinite(v_new).all(axis=1) & (converged | at_noise)
         steps[act] += 1
         factor = np.clip(0.8 * (o.eta / np.maximum(nu1, 1e-300)) ** 0.2, 0.25, 2.0)
         h_new = np.where(ok, np.minimum(hh * factor, o.h_max), 0.5 * hh)
