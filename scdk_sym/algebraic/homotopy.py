@@ -99,7 +99,7 @@ def track_parameter_homotopy(
     options: TrackerOptions | None = None,
     endgame: bool = True,
     r0: float = 0.01,
-    cond_max: float = 1e10,
+    cond_max: float = 1e13,
 ) -> PathEndpoints:
     """Track paths of a parameter homotopy from t = 0 to t = 1.
 

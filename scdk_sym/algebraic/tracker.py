@@ -78,6 +78,7 @@ class TrackOutcome:
         tau: (M,) the path variable reached.
         status: (M,) int, one of ``DONE``, ``DIVERGED``, ``UNDERFLOW``, ``STEP_LIMIT``.
         steps: (M,) int, step attempts (accepted and rejected).
+        accepted: (M,) int, accepted steps.
         h: (M,) the step size in use when the path stopped.
     """
 
@@ -85,6 +86,7 @@ class TrackOutcome:
     tau: np.ndarray
     status: np.ndarray
     steps: np.ndarray
+    accepted: np.ndarray
     h: np.ndarray
 
 
@@ -173,6 +175,7 @@ def track(
     status = np.full(M, RUNNING)
     status[tau >= tau1] = DONE
     steps = np.zeros(M, dtype=int)
+    accepted = np.zeros(M, dtype=int)
     v = _velocity(homotopy, tmap, z, tau, idx) if M else z.copy()
     for _ in range(o.max_steps):
         act = np.flatnonzero(status == RUNNING)
@@ -202,6 +205,7 @@ def track(
         at_noise = np.maximum(nu1, nu2) <= o.noise
         ok = np.isfinite(zc).all(axis=1) & np.isfinite(v_new).all(axis=1) & (converged | at_noise)
         steps[act] += 1
+        accepted[act] += ok
         factor = np.clip(0.8 * (o.eta / np.maximum(nu1, 1e-300)) ** 0.2, 0.25, 2.0)
         h_new = np.where(ok, np.minimum(hh * factor, o.h_max), 0.5 * hh)
         h[act] = h_new
@@ -215,4 +219,4 @@ def track(
         new_status = np.where((new_status == RUNNING) & (h[act] < o.h_min), UNDERFLOW, new_status)
         status[act] = new_status
     status[status == RUNNING] = STEP_LIMIT
-    return TrackOutcome(z=z, tau=tau, status=status, steps=steps, h=h)
+    return TrackOutcome(z=z, tau=tau, status=status, steps=steps, accepted=accepted, h=h)
