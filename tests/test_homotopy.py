@@ -33,6 +33,7 @@ from scdk_sym.algebraic import (
     trace_test,
 )
 from scdk_sym.algebraic.homotopy import ParameterHomotopy, track_parameter_homotopy
+from scdk_sym.algebraic.tracker import DONE, STEP_LIMIT, TrackerOptions, track
 from scdk_sym.errors import HomotopyError, InputError, ScdkError
 
 SLOW = os.environ.get("SCDK_SLOW_TESTS") == "1"
@@ -67,6 +68,36 @@ def _same_sets(a, b, tol):
     if len(a) != len(b):
         return False
     return all(np.abs(b - r).max(axis=1).min() < tol for r in a)
+
+
+# ------------------------------------------------------------------------------------ tracker
+def _sqrt_homotopy(z, t, idx):
+    """H = z^2 - (1 + 3 t) per path (two components, independent): z(t) = +-sqrt(1 + 3 t)."""
+    H = z * z - (1.0 + 3.0 * t)[:, None]
+    Hz = np.zeros((len(z), 2, 2), dtype=complex)
+    Hz[:, 0, 0], Hz[:, 1, 1] = 2 * z[:, 0], 2 * z[:, 1]
+    return H, Hz, np.full(z.shape, -3.0 + 0j)
+
+
+def _straight(tau, idx):
+    return tau + 0j, np.ones_like(tau, dtype=complex)
+
+
+def test_tracker_follows_a_closed_form_path():
+    z0 = np.array([[1.0, -1.0], [-1.0, 1.0]], dtype=complex)
+    out = track(_sqrt_homotopy, _straight, z0, np.arange(2), np.zeros(2), np.ones(2))
+    assert (out.status == DONE).all() and np.allclose(out.tau, 1.0)
+    assert np.abs(out.z - np.array([[2, -2], [-2, 2]])).max() < 1e-12
+    assert (out.accepted <= out.steps).all() and out.steps.max() < 100
+
+
+def test_tracker_loops_are_bounded():
+    z0 = np.array([[1.0, -1.0]], dtype=complex)
+    opts = TrackerOptions(max_steps=3, h0=1e-3)
+    out = track(
+        _sqrt_homotopy, _straight, z0, np.zeros(1, dtype=int), np.zeros(1), np.ones(1), opts
+    )
+    assert out.status[0] == STEP_LIMIT and out.steps[0] == 3 and 0 < out.tau[0] < 1
 
 
 # ----------------------------------------------------------------------------------- quadrics
