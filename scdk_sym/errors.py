@@ -129,3 +129,7 @@ class TrackError(SolveError):
 
 class BuildError(ScdkError):
     """Building or compiling kernels failed (e.g. no C compiler)."""
+
+
+class HomotopyError(SolveError):
+    """The homotopy engine could not produce a start system or track a parameter homotopy."""
