@@ -117,3 +117,8 @@ class TrackError(SolveError):
 
 class BuildError(ScdkError):
     """Building or compiling kernels failed (e.g. no C compiler)."""
+
+
+class AlgebraicFormError(ModelError):
+    """A model's closure system has no polynomial (algebraic) form, or a point cannot be mapped
+    between the model's coordinates and the form's unknowns."""
