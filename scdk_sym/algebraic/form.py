@@ -175,7 +175,7 @@ class AlgebraicForm:
         complex normals times the model's size; ``p``: the home actuator values plus a
         complex normal (times the model's size for lengths).
         """
-        scale = max(1.0, float(self.model.length_scale))
+        scale = float(self.model.length_scale) or 1.0
         z = np.zeros(self.n, dtype=complex)
 
         def cnormal(size=None):

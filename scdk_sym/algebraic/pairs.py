@@ -157,15 +157,11 @@ def complexify(f: ca.Function, name: str) -> ca.Function:
     (G,) = replay(f, [z, p])
     Gr = ca.vertcat(*[g.re for g in G]) if G else ca.SX(0, 1)
     Gi = ca.vertcat(*[g.im for g in G]) if G else ca.SX(0, 1)
-    # Cauchy-Riemann: the derivative along the real direction is the complex derivative
-    outs = [
-        Gr,
-        Gi,
-        ca.densify(ca.jacobian(Gr, zr)),
-        ca.densify(ca.jacobian(Gi, zr)),
-        ca.densify(ca.jacobian(Gr, pr)),
-        ca.densify(ca.jacobian(Gi, pr)),
-    ]
+    # Cauchy-Riemann: the derivative along the real direction is the complex derivative;
+    # one Jacobian of the stacked real and imaginary parts shares their common subexpressions
+    J = ca.densify(ca.jacobian(ca.vertcat(Gr, Gi), ca.vertcat(zr, pr)))
+    r = Gr.numel()
+    outs = [Gr, Gi, J[:r, :n], J[r:, :n], J[:r, n:], J[r:, n:]]
     return ca.Function(
         name,
         [zr, zi, pr, pi],
