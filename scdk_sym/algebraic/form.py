@@ -35,6 +35,7 @@ from __future__ import annotations
 import hashlib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
@@ -43,6 +44,9 @@ from ..errors import AlgebraicFormError, InputError
 from ..model.chart import cayley, rot_exp
 from .pairs import complexify
 from .polynomial import PolynomialRows, polynomial_rows
+
+if TYPE_CHECKING:
+    from ..model.model import Model
 
 #: Version of the algebraic form (part of :meth:`AlgebraicForm.content_hash`).
 FORM_VERSION = "1"
@@ -112,7 +116,7 @@ class AlgebraicForm:
             Jz_i[n,n], Jp_r[n,k], Jp_i[n,k])`` of one point (SX, or the compiled external).
     """
 
-    model: object = field(repr=False)
+    model: Model = field(repr=False)
     backend: str
     n: int
     n_params: int
@@ -120,7 +124,7 @@ class AlgebraicForm:
     rows: PolynomialRows = field(repr=False)
     G_real: ca.Function = field(repr=False)
     G_complex: ca.Function = field(repr=False)
-    _maps: dict = field(default_factory=dict, repr=False)
+    _maps: dict[int, ca.Function] = field(default_factory=dict, repr=False, compare=False)
 
     # ------------------------------------------------------------------ protocol
 
@@ -156,7 +160,8 @@ class AlgebraicForm:
             raise InputError("z and p must be finite")
         n, k = self.n, self.n_params
         if N == 0:
-            return np.zeros((0, n), complex), np.zeros((0, n, n), complex), np.zeros((0, n, k))
+            empty = np.zeros((0, n), complex)
+            return empty, np.zeros((0, n, n), complex), np.zeros((0, n, k), complex)
         out = self._mapped(N)(z.real.T, z.imag.T, p.real.T, p.imag.T)
         Gr, Gi, Jzr, Jzi, Jpr, Jpi = (np.array(o) for o in out)
         G = (Gr + 1j * Gi).T
@@ -329,7 +334,7 @@ class AlgebraicForm:
         return f
 
 
-def _build(model, backend: str) -> AlgebraicForm:
+def _build(model: Model, backend: str) -> AlgebraicForm:
     rows = polynomial_rows(model)
     G_real = ca.Function("G_real", [rows.z, rows.p], [rows.G], ["z", "p"], ["G"])
     G_complex = complexify(G_real, "algebraic_G")
@@ -350,7 +355,7 @@ def _build(model, backend: str) -> AlgebraicForm:
     )
 
 
-def algebraic_form(model, backend: str = "casadi") -> AlgebraicForm:
+def algebraic_form(model: Model, backend: str = "casadi") -> AlgebraicForm:
     """The algebraic form of a loaded model (built once per model and backend, cached on it).
 
     Args:

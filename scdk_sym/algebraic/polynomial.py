@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
@@ -33,6 +34,9 @@ import numpy as np
 from ..errors import AlgebraicFormError
 from ..model.spec import Closure
 from ..symbolic.kinematics import rotation_error, skew
+
+if TYPE_CHECKING:
+    from ..model.model import Model
 
 #: Seed of the real random affine charts of the quaternions (one 4-vector per floating joint).
 CHART_SEED = 7_250_118
@@ -134,7 +138,7 @@ def _chart_vectors(count: int) -> list[np.ndarray]:
     return out
 
 
-def _slots(model) -> tuple[tuple[Slot, ...], tuple[str, ...]]:
+def _slots(model: Model) -> tuple[tuple[Slot, ...], tuple[str, ...]]:
     slots: list[Slot] = []
     names: list[str] = []
     charts = iter(_chart_vectors(len(model.tree.floating_joints)))
@@ -167,7 +171,9 @@ def _slots(model) -> tuple[tuple[Slot, ...], tuple[str, ...]]:
     return tuple(slots), tuple(names)
 
 
-def _joint_values(model, slots: tuple[Slot, ...], z: ca.SX, p: ca.SX) -> tuple[dict, list[str]]:
+def _joint_values(
+    model: Model, slots: tuple[Slot, ...], z: ca.SX, p: ca.SX
+) -> tuple[dict, list[str]]:
     values: dict[str, object] = {}
     for name, v in model.locked.items():
         kind = model.tree.joint(name).type
@@ -217,7 +223,7 @@ def _closure_rows(closure: Closure, T_a: ca.SX, T_b: ca.SX, values: dict) -> ca.
     return ca.vertcat(d, rotation_error(T_a[:3, :3], T_b[:3, :3]))
 
 
-def polynomial_rows(model) -> PolynomialRows:
+def polynomial_rows(model: Model) -> PolynomialRows:
     """Write a loaded model's reduced closure system as the polynomial system ``G(z, p)``.
 
     Args:
