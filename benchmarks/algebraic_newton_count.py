@@ -1,16 +1,16 @@
-"""Generic root count of the algebraic form of a 6-6 platform by random-start complex Newton.
+"""Root counts of the algebraic form of 6-6 platforms by random-start complex Newton.
 
 A general 6-6 Stewart-Gough platform has 40 complex assembly modes at generic leg lengths
 (Raghavan; Lazard). This check needs no homotopy: at a random complex parameter point
-``p = random_point(rng)[1]`` of ``algebraic_form(model)``, damped complex Newton runs from
-``--starts`` random points of the structural variety (all at once, one ``evaluate`` per
-iteration); converged limits (|G| small, last step below 1e-10) are merged when they agree to
-1e-6 (relative). It prints the number of distinct roots, which must not exceed 40, per seed,
-and for Dietmaier's platform at its real leg lengths (40 real modes) how many distinct roots
-are real.
+``p = random_point(rng)[1]`` of ``algebraic_form(model)``, step-limited complex Newton runs
+from ``--starts`` random points of the structural variety (all at once, one ``evaluate`` per
+iteration) and the distinct limits that solve ``G = 0`` are counted (at most 40 for any 6-6).
+Printed for ``--model`` (default models/stewart_gough) and Dietmaier's general platform, per
+seed, then for Dietmaier's platform at its real leg lengths (40 real modes): how many of the
+roots are real, and the model's own closure residual at them.
 
-    python benchmarks/algebraic_newton_count.py [--model models/stewart_gough] [--starts 4000]
-        [--seeds 3] [--iterations 80] [--backend casadi|compiled]
+    python benchmarks/algebraic_newton_count.py [--model DIR] [--starts 1000] [--seeds 2]
+        [--iterations 150] [--backend compiled|casadi]
 """
 
 from __future__ import annotations
@@ -25,7 +25,8 @@ import numpy as np
 import scdk_sym as sc
 from scdk_sym.algebraic import algebraic_form
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
 from stewart import (  # noqa: E402  (references shared with the tests)
     DIETMAIER_BASE,
     DIETMAIER_LENGTHS,
@@ -34,79 +35,73 @@ from stewart import (  # noqa: E402  (references shared with the tests)
 
 
 def newton_roots(form, p, starts: int, iterations: int, rng) -> np.ndarray:
-    """Distinct roots (R, n) of G(., p) reached by damped Newton from random starts."""
+    """Distinct roots (R, n) of G(., p) reached by step-limited Newton from random starts.
+
+    Every start takes ``iterations`` Newton steps, each limited to 0.3 (1 + max |z|) in max
+    norm; a limit with max |G| below 1e-10 is a root; roots closer than 1e-6 (1 + max |z|)
+    are one.
+    """
     z = np.array([form.random_point(rng)[0] for _ in range(starts)])
-    alive = np.ones(starts, dtype=bool)
-    done = np.zeros(starts, dtype=bool)
-    for _ in range(iterations):
-        idx = np.flatnonzero(alive & ~done)
-        if idx.size == 0:
-            break
-        G, Jz, _ = form.evaluate(z[idx], p)
-        try:
-            step = np.linalg.solve(Jz, G[..., None])[..., 0]
-        except np.linalg.LinAlgError:
-            step = np.array(
-                [np.linalg.lstsq(J, g, rcond=None)[0] for J, g in zip(Jz, G, strict=True)]
-            )
-        size = np.abs(step).max(axis=1)
-        limit = 1.0 + np.abs(z[idx]).max(axis=1)
-        damp = np.minimum(1.0, limit / np.maximum(size, 1e-300))
-        z[idx] -= damp[:, None] * step
-        bad = ~np.all(np.isfinite(z[idx]), axis=1) | (np.abs(z[idx]).max(axis=1) > 1e8)
-        alive[idx[bad]] = False
-        done[idx[~bad & (size < 1e-10 * limit)]] = True
-    ok = np.flatnonzero(done & alive)
-    if ok.size == 0:
-        return np.zeros((0, form.n), complex)
-    G, _, _ = form.evaluate(z[ok], p)
-    ok = ok[np.abs(G).max(axis=1) < 1e-9 * (1 + np.abs(z[ok]).max(axis=1))]
+    with np.errstate(all="ignore"):
+        for _ in range(iterations):
+            ok = np.all(np.isfinite(z), axis=1)
+            G, Jz, _ = form.evaluate(z[ok], p)
+            step = np.full((ok.sum(), form.n), np.nan, complex)
+            regular = np.isfinite(np.linalg.cond(Jz))
+            step[regular] = np.linalg.solve(Jz[regular], G[regular][..., None])[..., 0]
+            size = np.abs(step).max(axis=1)
+            limit = 0.3 * (1 + np.abs(z[ok]).max(axis=1))
+            z[ok] -= np.minimum(1.0, limit / size)[:, None] * step
+        ok = np.all(np.isfinite(z), axis=1)
+        G, _, _ = form.evaluate(z[ok], p)
     roots: list[np.ndarray] = []
-    for zi in z[ok]:
+    for zi in z[ok][np.abs(G).max(axis=1) < 1e-10]:
         if not any(np.abs(zi - r).max() < 1e-6 * (1 + np.abs(r).max()) for r in roots):
             roots.append(zi)
-    return np.array(roots)
+    return np.array(roots).reshape(-1, form.n)
+
+
+def count(name: str, model, p, args, seed: int, real_theta=None) -> None:
+    form = algebraic_form(model, backend=args.backend)
+    t = time.perf_counter()
+    roots = newton_roots(form, p(form), args.starts, args.iterations, np.random.default_rng(seed))
+    dt = time.perf_counter() - t
+    line = f"  {name}: {len(roots)} distinct roots"
+    if real_theta is not None:
+        real = roots[form.is_real(roots, 1e-8)] if len(roots) else roots
+        worst = max(
+            (model.residual(y, real_theta, c) for y, c in map(form.to_model, real)),
+            default=float("nan"),
+        )
+        line += f", {len(real)} real (worst model residual {worst:.1e})"
+    print(f"{line} ({dt:.1f} s)", flush=True)
 
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument(
-        "--model", default=str(Path(__file__).resolve().parents[1] / "models" / "stewart_gough")
-    )
-    ap.add_argument("--starts", type=int, default=4000)
-    ap.add_argument("--seeds", type=int, default=3)
-    ap.add_argument("--iterations", type=int, default=80)
-    ap.add_argument("--backend", default="casadi")
+    ap.add_argument("--model", default=str(ROOT / "models" / "stewart_gough"))
+    ap.add_argument("--starts", type=int, default=1000)
+    ap.add_argument("--seeds", type=int, default=2)
+    ap.add_argument("--iterations", type=int, default=150)
+    ap.add_argument("--backend", default="compiled")
     args = ap.parse_args(argv)
+    print(f"step-limited Newton, {args.starts} random starts, {args.iterations} steps each")
     model = sc.load_model(args.model)
-    form = algebraic_form(model, backend=args.backend)
-    print(f"{model.name}: n = {form.n}, n_params = {form.n_params}, {args.starts} starts")
-    for seed in range(args.seeds):
-        rng = np.random.default_rng(seed)
-        _, p = form.random_point(rng)
-        t = time.perf_counter()
-        roots = newton_roots(form, p, args.starts, args.iterations, rng)
-        dt = time.perf_counter() - t
-        print(f"  seed {seed}: random complex p -> {len(roots)} distinct roots ({dt:.1f} s)")
     dietmaier = sc.builders.stewart_gough(DIETMAIER_BASE, DIETMAIER_PLATFORM)
-    form = algebraic_form(dietmaier, backend=args.backend)
-    rng = np.random.default_rng(100)
-    t = time.perf_counter()
-    roots = newton_roots(form, form.params(DIETMAIER_LENGTHS), args.starts, args.iterations, rng)
-    dt = time.perf_counter() - t
-    real = int(np.sum(form.is_real(roots, 1e-8))) if len(roots) else 0
-    worst = max(
-        (
-            dietmaier.residual(
-                *form.to_model(r.real)[:1], DIETMAIER_LENGTHS, form.to_model(r.real)[1]
-            )
-            for r in roots[form.is_real(roots, 1e-8)]
-        ),
-        default=float("nan"),
-    )
-    print(
-        f"Dietmaier (real legs): {len(roots)} distinct roots, {real} real "
-        f"(worst model residual of the real ones {worst:.1e}) ({dt:.1f} s)"
+    for seed in range(args.seeds):
+
+        def p(form, seed=seed):
+            return form.random_point(np.random.default_rng(seed))[1]
+
+        count(f"{model.name}, random complex p (seed {seed})", model, p, args, 100 + seed)
+        count(f"Dietmaier, random complex p (seed {seed})", dietmaier, p, args, 200 + seed)
+    count(
+        "Dietmaier, its real leg lengths",
+        dietmaier,
+        lambda form: form.params(DIETMAIER_LENGTHS),
+        args,
+        300,
+        real_theta=DIETMAIER_LENGTHS,
     )
 
 
