@@ -41,6 +41,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import AlgebraicFormError, InputError
+from ..kernels.fastcall import Buffered
 from ..model.chart import cayley, rot_exp
 from .pairs import complexify
 from .polynomial import PolynomialRows, polynomial_rows
@@ -124,7 +125,7 @@ class AlgebraicForm:
     rows: PolynomialRows = field(repr=False)
     G_real: ca.Function = field(repr=False)
     G_complex: ca.Function = field(repr=False)
-    _maps: dict[int, ca.Function] = field(default_factory=dict, repr=False, compare=False)
+    _maps: dict[int, Buffered] = field(default_factory=dict, repr=False, compare=False)
 
     # ------------------------------------------------------------------ protocol
 
@@ -162,11 +163,12 @@ class AlgebraicForm:
         if N == 0:
             empty = np.zeros((0, n), complex)
             return empty, np.zeros((0, n, n), complex), np.zeros((0, n, k), complex)
-        out = self._mapped(N)(z.real.T, z.imag.T, p.real.T, p.imag.T)
-        Gr, Gi, Jzr, Jzi, Jpr, Jpi = (np.array(o) for o in out)
-        G = (Gr + 1j * Gi).T
-        Jz = (Jzr + 1j * Jzi).reshape(n, N, n).transpose(1, 0, 2)
-        Jp = (Jpr + 1j * Jpi).reshape(n, N, k).transpose(1, 0, 2)
+        # column-major (n, N) inputs are the row-major (N, n) arrays, flattened
+        out = self._mapped(N)(z.real.ravel(), z.imag.ravel(), p.real.ravel(), p.imag.ravel())
+        Gr, Gi, Jzr, Jzi, Jpr, Jpi = out
+        G = (Gr + 1j * Gi).reshape(N, n)
+        Jz = (Jzr + 1j * Jzi).reshape(N, n, n).transpose(0, 2, 1)
+        Jp = (Jpr + 1j * Jpi).reshape(N, k, n).transpose(0, 2, 1)
         if single:
             return G[0], Jz[0], Jp[0]
         return G, Jz, Jp
@@ -325,12 +327,12 @@ class AlgebraicForm:
 
     # ------------------------------------------------------------------ internals
 
-    def _mapped(self, N: int) -> ca.Function:
+    def _mapped(self, N: int) -> Buffered:
         f = self._maps.get(N)
         if f is None:
             if len(self._maps) >= _MAPS_KEPT:
                 self._maps.pop(next(iter(self._maps)))
-            f = self._maps[N] = self.G_complex if N == 1 else self.G_complex.map(N)
+            f = self._maps[N] = Buffered(self.G_complex if N == 1 else self.G_complex.map(N))
         return f
 
 
