@@ -27,38 +27,12 @@ from scdk_sym.algebraic import algebraic_form
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
-from stewart import (  # noqa: E402  (references shared with the tests)
+from roots import newton_roots  # noqa: E402  (shared with the tests)
+from stewart import (  # noqa: E402
     DIETMAIER_BASE,
     DIETMAIER_LENGTHS,
     DIETMAIER_PLATFORM,
 )
-
-
-def newton_roots(form, p, starts: int, iterations: int, rng) -> np.ndarray:
-    """Distinct roots (R, n) of G(., p) reached by step-limited Newton from random starts.
-
-    Every start takes ``iterations`` Newton steps, each limited to 0.3 (1 + max |z|) in max
-    norm; a limit with max |G| below 1e-10 is a root; roots closer than 1e-6 (1 + max |z|)
-    are one.
-    """
-    z = np.array([form.random_point(rng)[0] for _ in range(starts)])
-    with np.errstate(all="ignore"):
-        for _ in range(iterations):
-            ok = np.all(np.isfinite(z), axis=1)
-            G, Jz, _ = form.evaluate(z[ok], p)
-            step = np.full((ok.sum(), form.n), np.nan, complex)
-            regular = np.isfinite(np.linalg.cond(Jz))
-            step[regular] = np.linalg.solve(Jz[regular], G[regular][..., None])[..., 0]
-            size = np.abs(step).max(axis=1)
-            limit = 0.3 * (1 + np.abs(z[ok]).max(axis=1))
-            z[ok] -= np.minimum(1.0, limit / size)[:, None] * step
-        ok = np.all(np.isfinite(z), axis=1)
-        G, _, _ = form.evaluate(z[ok], p)
-    roots: list[np.ndarray] = []
-    for zi in z[ok][np.abs(G).max(axis=1) < 1e-10]:
-        if not any(np.abs(zi - r).max() < 1e-6 * (1 + np.abs(r).max()) for r in roots):
-            roots.append(zi)
-    return np.array(roots).reshape(-1, form.n)
 
 
 def count(name: str, model, p, args, seed: int, real_theta=None) -> None:
