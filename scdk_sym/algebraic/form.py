@@ -6,18 +6,36 @@ the parameters ``p``), whose real solutions at ``p = params(theta0)`` correspond
 the real solutions ``y`` of ``g(y, theta0) = 0`` (angles modulo 2 pi; a rotation whose
 quaternion lies on the chart's hyperplane at infinity ``a . q = 0``, a set of measure zero,
 has no image). The returned :class:`AlgebraicForm` implements the polynomial-system protocol
-agreed with the homotopy engine (``scdk_sym.algebraic.system.PolynomialSystem``)::
+agreed with the homotopy engine (``scdk_sym.algebraic.system.PolynomialSystem``, quoted
+verbatim but for the docstring quotes)::
 
     class PolynomialSystem(Protocol):
+        '''A square family G(z, p) = 0, holomorphic in z (C^n) and in the parameters p
+        (C^n_params).'''
+
         n: int                    # number of complex unknowns z (= number of rows)
         n_params: int             # number of complex parameters p
-        offset_rows: np.ndarray   # (n,) bool: closure rows (take an offset b_i in the
-                                  # homotopy family G(z, p) + b = 0); structural rows False
-        def evaluate(self, z, p) -> (G (N, n), dG/dz (N, n, n), dG/dp (N, n, n_params))
-        def random_point(self, rng) -> (z (n,) on the structural rows, p (n_params,))
-        def content_hash(self) -> str
+        offset_rows: np.ndarray   # (n,) bool: rows that take a generic constant offset b_i in
+                                  # the homotopy family G(z, p) + b = 0 (closure rows).
+                                  # Structural rows (c^2 + s^2 - 1, a quaternion chart
+                                  # a.q - 1, w (q.q) - 1) are False: b_i = 0 there always.
 
-and adds the mapping to and from the model (:meth:`AlgebraicForm.params`,
+        def evaluate(self, z: np.ndarray, p: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            '''z: (N, n) complex, p: (N, n_params) complex ->
+            G (N, n), dG/dz (N, n, n), dG/dp (N, n, n_params), all complex.'''
+
+        def random_point(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+            '''A random complex z (n,) on which every structural row (offset_rows False)
+            vanishes, and a random complex parameter point p (n_params,).'''
+
+        def content_hash(self) -> str:
+            '''A hex digest of everything G depends on (start systems are cached under it).'''
+
+The homotopy family is ``F(z; p, b) = G(z, p) + b`` (``b_i = 0`` on structural rows); the
+target of a query is ``(params(theta0), b = 0)``. :class:`AlgebraicForm` also accepts one
+point (``z`` (n,)) and a shared ``p`` (n_params,) in :meth:`~AlgebraicForm.evaluate`, and
+adds the mapping to and from the model (:meth:`AlgebraicForm.params`,
 :meth:`~AlgebraicForm.to_model`, :meth:`~AlgebraicForm.from_model`,
 :meth:`~AlgebraicForm.is_real`) and the real restriction :attr:`AlgebraicForm.G_real` that an
 interval certifier can replay.
