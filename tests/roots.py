@@ -22,7 +22,7 @@ def newton_roots(form, p, starts: int, iterations: int, rng) -> np.ndarray:
             ok = np.all(np.isfinite(z), axis=1)
             G, Jz, _ = form.evaluate(z[ok], p)
             step = np.full((ok.sum(), form.n), np.nan, complex)
-            regular = np.isfinite(np.linalg.cond(Jz))
+            regular = np.linalg.cond(Jz) < 1e14
             step[regular] = np.linalg.solve(Jz[regular], G[regular][..., None])[..., 0]
             size = np.abs(step).max(axis=1)
             limit = 0.3 * (1 + np.abs(z[ok]).max(axis=1))

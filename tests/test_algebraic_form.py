@@ -329,6 +329,23 @@ def test_newton_finds_at_most_40_roots_at_a_random_complex_parameter():
     assert not any(form.is_real(roots, 1e-6))  # complex legs: no real pose
 
 
+@pytest.mark.parametrize("name", ["five_bar", "planar_3rpr", "delta", "planar_hexa_reduced"])
+def test_real_roots_are_the_assembly_modes(name):
+    """The real roots of G at theta0 (random-start Newton, 200 starts) are the assembly modes
+    that the SC curve follower finds (sc.assembly_modes), pose for pose."""
+    model = load(name)
+    form = algebraic_form(model)
+    theta = model.home.theta + 0.05
+    modes = sc.assembly_modes(model, theta)
+    roots = newton_roots(form, form.params(theta), 200, 60, np.random.default_rng(13))
+    real = [form.to_model(z) for z in roots[form.is_real(roots, 1e-8)]]
+    poses = [model.configuration(y, theta, c).x for y, c in real]
+    assert len(poses) == len(modes) >= 2
+    for cfg in modes:
+        gaps = [np.abs(x - cfg.x).max() for x in poses]
+        assert min(gaps) <= 1e-9 * max(1.0, model.length_scale)
+
+
 # ---------------------------------------------------------------------- mapping and errors
 
 
