@@ -158,6 +158,9 @@ class AlgebraicForm:
             ``G`` (N, n), ``dG/dz`` (N, n, n) and ``dG/dp`` (N, n, n_params), complex (without
             the leading N when ``z`` is (n,)).
 
+        The mapped Functions run through preallocated buffers (one per batch size, the last 16
+        sizes kept): call one form from one thread at a time.
+
         Raises:
             InputError: wrong shapes or non-finite values.
         """
