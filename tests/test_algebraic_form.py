@@ -11,6 +11,8 @@ cache (57 s wall on a shared 2-core machine at load 11), measured with
 
 from __future__ import annotations
 
+import copy
+from dataclasses import replace
 from functools import cache
 from pathlib import Path
 
@@ -24,6 +26,7 @@ from stewart import DIETMAIER_BASE, DIETMAIER_LENGTHS, DIETMAIER_PLATFORM, ancho
 import scdk_sym as sc
 from scdk_sym.algebraic import algebraic_form
 from scdk_sym.algebraic.pairs import complexify
+from scdk_sym.algebraic.polynomial import polynomial_rows
 from scdk_sym.errors import AlgebraicFormError, InputError
 
 FIXTURES = Path(__file__).resolve().parent / "fixtures" / "gepetto"
@@ -393,3 +396,15 @@ def test_bad_inputs_raise_scdk_errors():
     x = ca.SX.sym("x")
     with pytest.raises(AlgebraicFormError, match="no holomorphic polynomial form"):
         complexify(ca.Function("f", [x, ca.SX.sym("p", 0)], [ca.sqrt(x)]), "g")
+
+
+@pytest.mark.parametrize("role", ["unknowns", "actuated"])
+def test_a_joint_type_with_no_algebraic_form_is_refused_by_name(role):
+    model = load("five_bar")
+    joint = getattr(model, role)[0]
+    tree = model.tree
+    joints = tuple(replace(j, type="planar") if j.name == joint else j for j in tree.joints)
+    other = copy.copy(model)
+    other.tree = replace(tree, joints=joints)
+    with pytest.raises(AlgebraicFormError, match=f"joint {joint!r} of type 'planar' has no alg"):
+        polynomial_rows(other)

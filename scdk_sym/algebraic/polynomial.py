@@ -145,7 +145,7 @@ def _slots(model: Model) -> tuple[tuple[Slot, ...], tuple[str, ...]]:
     owner = {c: j for j in model.tree.joints for c in j.coordinates}
     seen: set[str] = set()
     for i, name in enumerate(model.unknowns):
-        joint = owner[name]
+        joint = owner[name] if name in owner else model.tree.joint(name)
         if joint.type == "floating":
             if joint.name in seen:
                 continue
