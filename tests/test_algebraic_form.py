@@ -433,6 +433,8 @@ def test_bad_inputs_raise_scdk_errors():
     x = ca.SX.sym("x")
     with pytest.raises(AlgebraicFormError, match="no holomorphic polynomial form"):
         complexify(ca.Function("f", [x, ca.SX.sym("p", 0)], [ca.sqrt(x)]), "g")
+    with pytest.raises(AlgebraicFormError, match="no holomorphic polynomial form"):
+        complexify(ca.Function("f", [x, ca.SX.sym("p", 0)], [x**2.5]), "g")
 
 
 @pytest.mark.parametrize("role", ["unknowns", "actuated"])

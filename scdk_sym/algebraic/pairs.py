@@ -1,11 +1,11 @@
 """Complex evaluation of a real CasADi SX Function, replayed on (real, imaginary) pairs.
 
 CasADi has no complex type. A real SX Function whose algorithm uses only +, -, *, /, integer
-powers, cos, sin and constants has exactly one holomorphic extension; :func:`complexify`
-replays its algorithm instruction by instruction on pairs of SX expressions (real part,
-imaginary part) and returns an SX Function of the real and imaginary parts of its inputs, with
-the complex Jacobians obtained from one real Jacobian block each (Cauchy-Riemann:
-``dG/dz = dRe G/dRe z + i dIm G/dRe z``).
+powers (CasADi expands them into products), cos, sin and constants has exactly one
+holomorphic extension; :func:`complexify` replays its algorithm instruction by instruction on
+pairs of SX expressions (real part, imaginary part) and returns an SX Function of the real and
+imaginary parts of its inputs, with the complex Jacobians obtained from one real Jacobian
+block (Cauchy-Riemann: ``dG/dz = dRe G/dRe z + i dIm G/dRe z``).
 """
 
 from __future__ import annotations
@@ -58,26 +58,6 @@ class Pair:
         a, b = self.re, self.im
         return Pair(ca.sin(a) * ca.cosh(b), ca.cos(a) * ca.sinh(b))
 
-    def power(self, exponent: int) -> Pair:
-        """Non-negative integer power by repeated squaring."""
-        result, base, e = Pair(ca.SX(1.0), ca.SX(0.0)), self, exponent
-        while e:
-            if e & 1:
-                result = result * base
-            base = base * base
-            e >>= 1
-        return result
-
-
-def _constant_exponent(p: Pair, op: int) -> int:
-    value = float(p.re) if p.re.is_constant() and p.im.is_zero() else float("nan")
-    if not (value == value and value >= 0 and value == int(value)):
-        raise AlgebraicFormError(
-            f"CasADi operation {op} with exponent {p.re} has no polynomial form; "
-            "write powers as products or with a non-negative integer constant"
-        )
-    return int(value)
-
 
 _BINARY: dict[int, Callable[[Pair, Pair], Pair]] = {
     ca.OP_ADD: lambda x, y: x + y,
@@ -126,8 +106,6 @@ def replay(f: ca.Function, inputs: list[list[Pair]]) -> list[list[Pair]]:
             work[res[0]] = _BINARY[op](work[args[0]], work[args[1]])
         elif op in _UNARY:
             work[res[0]] = _UNARY[op](work[args[0]])
-        elif op in (ca.OP_CONSTPOW, ca.OP_POW):
-            work[res[0]] = work[args[0]].power(_constant_exponent(work[args[1]], op))
         else:
             raise AlgebraicFormError(
                 f"CasADi operation {op} in {f.name()!r} has no holomorphic polynomial form; "
