@@ -107,6 +107,13 @@ def _quaternion_matrix(q: np.ndarray) -> np.ndarray:
     )
 
 
+def _complex(re: np.ndarray, im: np.ndarray) -> np.ndarray:
+    out = np.empty(re.shape, dtype=complex)
+    out.real = re
+    out.imag = im
+    return out
+
+
 def _source_digest() -> bytes:
     here = Path(__file__).resolve().parent
     h = hashlib.sha256()
@@ -171,14 +178,14 @@ class AlgebraicForm:
             raise InputError(f"z must be (N, {self.n}) complex, got shape {np.shape(z)}")
         N = z.shape[0]
         p = np.asarray(p, dtype=complex)
-        if p.ndim == 1:
+        if p.ndim == 1 and N > 1:
             p = np.broadcast_to(p, (N, p.size))
-        if p.shape != (N, self.n_params):
+        if p.shape != (N, self.n_params) and (N, p.shape) != (1, (self.n_params,)):
             raise InputError(
                 f"p must be ({N}, {self.n_params}) or ({self.n_params},) complex, "
                 f"got shape {p.shape}"
             )
-        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(p))):
+        if not (np.isfinite(z).all() and np.isfinite(p).all()):
             raise InputError("z and p must be finite")
         n, k = self.n, self.n_params
         if N == 0:
@@ -186,10 +193,9 @@ class AlgebraicForm:
             return empty, np.zeros((0, n, n), complex), np.zeros((0, n, k), complex)
         # column-major (n, N) inputs are the row-major (N, n) arrays, flattened
         out = self._mapped(N)(z.real.ravel(), z.imag.ravel(), p.real.ravel(), p.imag.ravel())
-        Gr, Gi, Jzr, Jzi, Jpr, Jpi = out
-        G = (Gr + 1j * Gi).reshape(N, n)
-        Jz = (Jzr + 1j * Jzi).reshape(N, n, n).transpose(0, 2, 1)
-        Jp = (Jpr + 1j * Jpi).reshape(N, k, n).transpose(0, 2, 1)
+        G = _complex(out[0], out[1]).reshape(N, n)
+        Jz = _complex(out[2], out[3]).reshape(N, n, n).transpose(0, 2, 1)
+        Jp = _complex(out[4], out[5]).reshape(N, k, n).transpose(0, 2, 1)
         if single:
             return G[0], Jz[0], Jp[0]
         return G, Jz, Jp
