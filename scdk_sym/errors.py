@@ -133,3 +133,8 @@ class BuildError(ScdkError):
 
 class HomotopyError(SolveError):
     """The homotopy engine could not produce a start system or track a parameter homotopy."""
+
+
+class AlgebraicFormError(ModelError):
+    """A model's closure system has no polynomial (algebraic) form, or a point cannot be mapped
+    between the model's coordinates and the form's unknowns."""

@@ -16,6 +16,7 @@ from .certify import (
     closure_function,
     krawczyk,
 )
+from .form import AlgebraicForm, algebraic_form
 from .homotopy import HomotopyResult, solve_homotopy
 from .interval import IntervalFunction, interval_function
 from .monodromy import ENGINE_VERSION, StartSystem, monodromy_solve, start_system, trace_test
@@ -23,6 +24,7 @@ from .system import PolynomialSystem
 from .tracker import TrackerOptions
 
 __all__ = [
+    "AlgebraicForm",
     "ENGINE_VERSION",
     "Certificate",
     "CertificateSet",
@@ -31,6 +33,7 @@ __all__ = [
     "PolynomialSystem",
     "StartSystem",
     "TrackerOptions",
+    "algebraic_form",
     "certify_all",
     "certify_configurations",
     "certify_solution",
