@@ -6,8 +6,7 @@ configurations (home, inverse kinematics, SC solves), central differences, and f
 platform and the 3-RPR the leg equations written here in numpy from the URDF anchors.
 Tolerances are explicit; every RNG is seeded. CI time: 11.7 s and 18.0 s of CPU in two runs with
 an empty compile cache (41 s and 57 s wall on a shared 2-core machine at load 11-12), measured
-with
-``SCDK_CACHE_DIR=$(mktemp -d) time pytest tests/test_algebraic_form.py``.
+with ``SCDK_CACHE_DIR=$(mktemp -d) time pytest tests/test_algebraic_form.py``.
 """
 
 from __future__ import annotations
