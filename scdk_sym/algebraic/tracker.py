@@ -59,10 +59,10 @@ class TrackerOptions:
     h0: float = 0.05
     h_min: float = 1e-13
     h_max: float = 0.25
-    eta: float = 1e-6
+    eta: float = 1e-5
     trust: float = 1e-3
     theta: float = 0.25
-    tol: float = 1e-9
+    tol: float = 1e-7
     floor: float = 1e-11
     noise: float = 1e-7
     max_steps: int = 5000
