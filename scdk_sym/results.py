@@ -204,7 +204,7 @@ class TrackResult:
         }
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class AssemblyModes(Sequence):
     """The real assembly modes at one ``theta``: a sequence of :class:`Configuration`.
 
@@ -242,15 +242,6 @@ class AssemblyModes(Sequence):
 
     def __iter__(self):
         return iter(self.solutions)
-
-    def __eq__(self, other) -> bool:
-        if isinstance(other, AssemblyModes):
-            return self.solutions == other.solutions and self.certified == other.certified
-        if isinstance(other, (list, tuple)):
-            return list(self.solutions) == list(other)
-        return NotImplemented
-
-    __hash__ = None  # type: ignore[assignment]
 
     def to_dict(self) -> dict:
         """JSON-ready: ``solutions`` (each with its ``certified`` flag), ``count``,

@@ -41,6 +41,9 @@ from ..results import AssemblyModes, Configuration
 
 #: Largest max |g| of a polished real solution [model length unit].
 RESIDUAL = 1e-9
+#: A real root of the form with max |g| above this many model sizes, before and after Newton,
+#: is no solution of the model (e.g. a weld closed with a half turn in its rotation rows).
+SPURIOUS = 1e-3
 #: Newton steps on the model's rows per real endpoint.
 NEWTON_STEPS = 8
 #: Default bound on the monodromy loops of a start system.
@@ -90,7 +93,7 @@ def frame_trace_map(form, p: np.ndarray):
         T[j.child] = M
     frames = [model.frame] + [f for cl in model.closures for f in (cl.frame_a, cl.frame_b)]
     entries = ca.vertcat(*[ca.vec(T[f][:3, :]) for f in dict.fromkeys(frames)])
-    F = complexify(ca.Function("frames", [z, ps], [entries]), "frames_c")
+    F = complexify(ca.Function("frames", [z, ps], [entries / model.length_scale]), "frames_c")
     p = np.asarray(p, dtype=complex)
 
     def trace_map(Z: np.ndarray) -> np.ndarray:
@@ -266,9 +269,10 @@ def homotopy_modes(
         AlgebraicFormError: a joint type with no algebraic form.
     """
     from ..algebraic import algebraic_form, certify_configurations, solve_homotopy
+    from ..algebraic.scaled import scaled_form
 
     theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
-    form = algebraic_form(model, _backend(backend))
+    form = scaled_form(algebraic_form(model, _backend(backend)))
     start = model_start_system(form, seed, progress=progress, max_loops=max_loops, cache=cache)
     res = solve_homotopy(form, start, form.params(theta0), seed=seed)
     reasons: list[str] = []
@@ -281,26 +285,31 @@ def homotopy_modes(
     if n_failed:
         reasons.append(f"{n_failed} of {len(res.status)} paths failed before t = 1")
     singular = res.endpoints[res.status == "singular"]
-    n_sing_real = int(np.sum(form.is_real(singular, 1e-6))) if len(singular) else 0
-    if n_sing_real:
+    if len(singular):
+        n_real = int(np.sum(form.is_real(singular, 1e-6)))
         reasons.append(
-            f"{n_sing_real} singular real endpoint(s): a multiple or non-isolated (positive-"
-            "dimensional) real solution"
+            f"{len(singular)} path(s) ended at singular points ({n_real} real): multiple or "
+            "non-isolated solutions (e.g. a positive-dimensional set), whose real points are "
+            "not all listed"
         )
     # real endpoints -> model unknowns, polished on g
     scale = max(1.0, model.length_scale)
     cfgs: list[Configuration] = []
     feats: list[np.ndarray] = []
-    dropped = 0
+    dropped = spurious = 0
     for z in res.real_solutions:
         try:
             y, c = form.to_model(np.asarray(z, dtype=float), reference=model.home.y)
         except ScdkError:
             dropped += 1
             continue
+        r0 = model.residual(y, theta0, c)
         y, r = _polish(model, y, c, theta0)
         if not r <= RESIDUAL:
-            dropped += 1
+            if r0 > SPURIOUS * scale and r > SPURIOUS * scale:
+                spurious += 1  # a root of the form that is no closure of the model
+            else:
+                dropped += 1
             continue
         cfg = model.configuration(y, theta0, c)
         f = features(model, cfg.y)[0]
@@ -329,6 +338,10 @@ def homotopy_modes(
             f"(start system trace residual {start.trace_residual:.1e}); each real one proven "
             "unique in its Krawczyk box, boxes pairwise disjoint"
         )
+        if spurious:
+            report += (
+                f"; {spurious} real root(s) of the algebraic form are no closures of the model"
+            )
     else:
         report = "not certified: " + "; ".join(reasons)
     return AssemblyModes(
