@@ -217,26 +217,25 @@ def _polish(model: Model, y: np.ndarray, c: np.ndarray, theta: np.ndarray):
 
 
 def _common_chart(model: Model, ys: np.ndarray) -> np.ndarray | None:
-    """A chart of the floating joints far from a half turn of every configuration."""
-    if not model.chart.rotations or not len(ys):
+    """A chart of the floating joints far from a half turn of every configuration.
+
+    Candidates: each configuration's own rotations and 32 random ones; the one with the
+    largest ``min 1 + trace(R_c^T R)`` over the configurations (0 at a half turn) is taken.
+    """
+    rots = model.chart.rotations
+    if not rots or not len(ys):
         return None
     rng = np.random.default_rng(0)
-    cands = [np.vstack([rot_exp(y[list(idx)]) for idx in model.chart.rotations]) for y in ys]
-    for _ in range(32):
-        w = rng.normal(size=(len(model.chart.rotations), 3))
-        cands.append(np.vstack([rot_exp(v * np.pi * rng.uniform() / np.linalg.norm(v)) for v in w]))
-    best, best_score = None, -np.inf
-    for C in cands:
-        score = np.inf
-        for y in ys:
-            for i, idx in enumerate(model.chart.rotations):
-                R, Rc = rot_exp(y[list(idx)]), C[3 * i : 3 * i + 3]
-                score = min(score, 1.0 + float(np.trace(Rc.T @ R)))
-        if score > best_score:
-            best, best_score = C, score
-    return np.concatenate(
-        [best[3 * i : 3 * i + 3].flatten(order="F") for i in range(len(model.chart.rotations))]
-    )
+    # (N, F, 3, 3) rotations of the configurations
+    R = np.array([[rot_exp(y[list(idx)]) for idx in rots] for y in ys])
+    w = rng.normal(size=(32, len(rots), 3))
+    w *= (np.pi * rng.uniform(size=(32, len(rots), 1))) / np.linalg.norm(w, axis=2, keepdims=True)
+    rand = np.array([[rot_exp(v) for v in row] for row in w])
+    cands = np.concatenate([R, rand])
+    # score[c] = min over configurations and joints of 1 + trace(C^T R)
+    score = (1.0 + np.einsum("cfij,nfij->cnf", cands, R)).min(axis=(1, 2))
+    best = cands[int(np.argmax(score))]
+    return np.concatenate([C.flatten(order="F") for C in best])
 
 
 def homotopy_modes(
