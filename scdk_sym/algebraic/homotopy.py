@@ -178,6 +178,8 @@ class HomotopyResult:
         complete: every path ended at t = 1 regular, singular with a converged endgame, or
             at infinity — with a complete start system, every isolated solution at ``p0`` is
             then among ``endpoints``.
+        start_certified: the start system passed its trace test (``complete`` and this
+            together: the list is complete).
         gamma: the complex gamma of the homotopy.
         steps: (R,) int tracker step attempts per path.
         attempts: gammas tried (a new one while a path failed on the way).
@@ -188,6 +190,7 @@ class HomotopyResult:
     winding: np.ndarray
     real_solutions: np.ndarray
     complete: bool
+    start_certified: bool
     gamma: complex
     steps: np.ndarray
     attempts: int
@@ -309,6 +312,7 @@ def solve_homotopy(
         winding=ends.winding,
         real_solutions=merged,
         complete=bool(np.isin(ends.status, ("success", "singular", "at_infinity")).all()),
+        start_certified=bool(start.trace_passed),
         gamma=gamma,
         steps=ends.steps,
         attempts=attempt,
