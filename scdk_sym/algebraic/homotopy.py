@@ -128,7 +128,10 @@ def track_parameter_homotopy(
     t_split = 1.0 - r0 if endgame else 1.0
     first = track(homotopy, tmap, z, idx, np.zeros(M), np.full(M, t_split), options)
     steps = first.steps.copy()
-    status[first.status == DIVERGED] = "at_infinity"
+    # before t = 1 a path only diverges by passing close to a solution's escape (probability
+    # zero with the gamma trick): "failed", so that the caller may retry with another gamma
+    if not endgame:
+        status[first.status == DIVERGED] = "at_infinity"
     ok1 = np.flatnonzero(first.status == DONE)
     if endgame:
         second = track(
