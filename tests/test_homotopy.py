@@ -141,6 +141,18 @@ def test_quadrics_real_solutions_match_random_start_newton(quadrics):
     assert _same_sets(res.real_solutions, ref, 1e-8)
 
 
+def test_two_paths_at_one_regular_endpoint_fail(quadrics):
+    """A start system listing a solution twice: both copies reach one regular endpoint, which
+    only a path jump can produce; they are reported failed and the result is not complete."""
+    system, start = quadrics
+    twice = StartSystem(
+        start.p, start.b, np.vstack([start.solutions, start.solutions[:1]]), 9, 0.0, True, 0, 0
+    )
+    res = solve_homotopy(system, twice, np.ones(3), attempts=1)
+    assert list(np.flatnonzero(res.status == "failed")) == [0, 8]
+    assert not res.complete and (res.status[1:8] == "success").all()
+
+
 # ------------------------------------------------------------------------- quartic pair
 @pytest.fixture(scope="module")
 def quartic():

@@ -160,6 +160,17 @@ def track_parameter_homotopy(
         zr, reg = _regular(system, homotopy, first.z[ok1], idx[ok1], cond_max)
         good = ok1[reg]
         out[good], status[good], winding[good] = zr[reg], "success", 1
+    # a regular solution ends exactly one path: two paths at one regular endpoint (of the same
+    # target) mean a path jump, both fail
+    for d in np.unique(idx):
+        ends = np.flatnonzero((status == "success") & (idx == d))
+        if ends.size > 1:
+            zs = out[ends]
+            close = np.abs(zs[:, None] - zs[None]).max(axis=2) <= 1e-8 * (
+                1.0 + np.abs(zs).max(axis=1)
+            )
+            jumped = ends[close.sum(axis=1) > 1]
+            status[jumped], out[jumped] = "failed", np.nan
     return PathEndpoints(out, status.astype(str), winding, steps)
 
 
