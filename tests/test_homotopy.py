@@ -141,6 +141,18 @@ def test_quadrics_real_solutions_match_random_start_newton(quadrics):
     assert _same_sets(res.real_solutions, ref, 1e-8)
 
 
+def test_two_paths_at_one_regular_endpoint_fail(quadrics):
+    """A start system listing a solution twice: both copies reach one regular endpoint, which
+    only a path jump can produce; they are reported failed and the result is not complete."""
+    system, start = quadrics
+    twice = StartSystem(
+        start.p, start.b, np.vstack([start.solutions, start.solutions[:1]]), 9, 0.0, True, 0, 0
+    )
+    res = solve_homotopy(system, twice, np.ones(3), attempts=1)
+    assert list(np.flatnonzero(res.status == "failed")) == [0, 8]
+    assert not res.complete and (res.status[1:8] == "success").all()
+
+
 # ------------------------------------------------------------------------- quartic pair
 @pytest.fixture(scope="module")
 def quartic():
@@ -254,11 +266,19 @@ def test_stewart_start_system_passes_trace_and_fails_without_one(family_start):
     assert trace_test(system, start.solutions[:39], start.p, start.b, rng) > 1e-4
 
 
+def test_chart_coordinates_have_trace_poles(family_start):
+    """The quaternion's affine chart escapes to infinity inside the pencil: the trace of z is
+    not linear even for the complete set; translation and rotation entries are."""
+    system, start = family_start
+    rng = np.random.default_rng(4)
+    assert trace_test(system, start.solutions, start.p, start.b, rng, trace_map=lambda z: z) > 1e-6
+
+
 def test_dietmaier_all_40_real_postures(family_start):
     system, start = family_start
     p0 = system.params(DIETMAIER_BASE, DIETMAIER_PLATFORM, DIETMAIER_LENGTHS)
     res = solve_homotopy(system, start, p0, seed=0)
-    assert res.complete and (res.status == "success").all()
+    assert res.complete and res.start_certified and (res.status == "success").all()
     ref = stewart_reference(DIETMAIER_BASE, DIETMAIER_PLATFORM, DIETMAIER_LENGTHS, 4000, 0)
     assert len(res.real_solutions) == 40
     assert _poses_match(system, res.real_solutions, ref, 1e-8)

@@ -128,7 +128,10 @@ def track_parameter_homotopy(
     t_split = 1.0 - r0 if endgame else 1.0
     first = track(homotopy, tmap, z, idx, np.zeros(M), np.full(M, t_split), options)
     steps = first.steps.copy()
-    status[first.status == DIVERGED] = "at_infinity"
+    # before t = 1 a path only diverges by passing close to a solution's escape (probability
+    # zero with the gamma trick): "failed", so that the caller may retry with another gamma
+    if not endgame:
+        status[first.status == DIVERGED] = "at_infinity"
     ok1 = np.flatnonzero(first.status == DONE)
     if endgame:
         second = track(
@@ -157,6 +160,17 @@ def track_parameter_homotopy(
         zr, reg = _regular(system, homotopy, first.z[ok1], idx[ok1], cond_max)
         good = ok1[reg]
         out[good], status[good], winding[good] = zr[reg], "success", 1
+    # a regular solution ends exactly one path: two paths at one regular endpoint (of the same
+    # target) mean a path jump, both fail
+    for d in np.unique(idx):
+        ends = np.flatnonzero((status == "success") & (idx == d))
+        if ends.size > 1:
+            zs = out[ends]
+            close = np.abs(zs[:, None] - zs[None]).max(axis=2) <= 1e-8 * (
+                1.0 + np.abs(zs).max(axis=1)
+            )
+            jumped = ends[close.sum(axis=1) > 1]
+            status[jumped], out[jumped] = "failed", np.nan
     return PathEndpoints(out, status.astype(str), winding, steps)
 
 
@@ -178,6 +192,8 @@ class HomotopyResult:
         complete: every path ended at t = 1 regular, singular with a converged endgame, or
             at infinity — with a complete start system, every isolated solution at ``p0`` is
             then among ``endpoints``.
+        start_certified: the start system passed its trace test (``complete`` and this
+            together: the list is complete).
         gamma: the complex gamma of the homotopy.
         steps: (R,) int tracker step attempts per path.
         attempts: gammas tried (a new one while a path failed on the way).
@@ -188,6 +204,7 @@ class HomotopyResult:
     winding: np.ndarray
     real_solutions: np.ndarray
     complete: bool
+    start_certified: bool
     gamma: complex
     steps: np.ndarray
     attempts: int
@@ -309,6 +326,7 @@ def solve_homotopy(
         winding=ends.winding,
         real_solutions=merged,
         complete=bool(np.isin(ends.status, ("success", "singular", "at_infinity")).all()),
+        start_certified=bool(start.trace_passed),
         gamma=gamma,
         steps=ends.steps,
         attempts=attempt,

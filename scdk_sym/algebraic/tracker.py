@@ -65,7 +65,7 @@ class TrackerOptions:
     tol: float = 1e-7
     floor: float = 1e-11
     noise: float = 1e-7
-    max_steps: int = 5000
+    max_steps: int = 2000
     max_norm: float = 1e8
 
 
