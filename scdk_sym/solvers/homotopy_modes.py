@@ -39,6 +39,11 @@ from ..model.chart import rot_exp
 from ..model.model import Model, as_vector
 from ..results import AssemblyModes, Configuration
 
+#: Largest relative imaginary part of a real endpoint (as ``solve_homotopy`` selects them).
+REAL_TOL = 1e-8
+#: Endpoints with a relative imaginary part in (REAL_TOL, UNDECIDED_TOL] leave the set
+#: uncertified: a real solution computed with that much error would be missed.
+UNDECIDED_TOL = 1e-5
 #: Largest max |g| of a polished real solution [model length unit].
 RESIDUAL = 1e-9
 #: A real root of the form with max |g| above this many model sizes, before and after Newton,
@@ -273,7 +278,7 @@ def homotopy_modes(
     theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
     form = scaled_form(algebraic_form(model, _backend(backend)))
     start = model_start_system(form, seed, progress=progress, max_loops=max_loops, cache=cache)
-    res = solve_homotopy(form, start, form.params(theta0), seed=seed)
+    res = solve_homotopy(form, start, form.params(theta0), seed=seed, real_tol=REAL_TOL)
     reasons: list[str] = []
     if not start.trace_passed:
         reasons.append(
@@ -290,6 +295,14 @@ def homotopy_modes(
             f"{len(singular)} path(s) ended at singular points ({n_real} real): multiple or "
             "non-isolated solutions (e.g. a positive-dimensional set), whose real points are "
             "not all listed"
+        )
+    ok = res.endpoints[res.status == "success"]
+    imag = np.abs(ok.imag).max(axis=1) / np.maximum(1.0, np.abs(ok).max(axis=1))
+    undecided = int(np.sum((imag > REAL_TOL) & (imag <= UNDECIDED_TOL)))
+    if undecided:
+        reasons.append(
+            f"{undecided} endpoint(s) nearly real (imaginary part between {REAL_TOL:.0e} and "
+            f"{UNDECIDED_TOL:.0e}): real or complex undecided"
         )
     # real endpoints -> model unknowns, polished on g
     scale = max(1.0, model.length_scale)
