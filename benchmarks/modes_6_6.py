@@ -1,16 +1,19 @@
-"""Assembly modes of 6-6 Stewart-Gough platforms: count and time against random-start LM.
+"""Assembly modes of 6-6 Stewart-Gough platforms: certified homotopy, curve search, LM.
 
-For each platform (Dietmaier's 40-mode platform and two random 6-6 platforms) prints, with
-the compiled kernels warm (the C library built once and cached):
+For Dietmaier's 40-mode platform and ``--platforms`` random general 6-6 platforms
+(tests/stewart.py ``random_platform``, seeds 1, 2, ...) prints, in one run:
 
-* SC: ``assembly_modes`` -- solutions found and median wall time over ``--repeat`` seeds,
-  with the curves followed and the predictor-corrector steps taken (the states computed);
-* LM: random-start Levenberg-Marquardt on the leg equations (vectorised numpy: every start
-  iterated at once; the tests' reference in tests/stewart.py), at doubling numbers of
-  starts; the smallest number of starts that found all the SC solutions in every repeat,
-  its median time and the ratio LM time / SC time.
+* the start system of each platform (monodromy + trace test): wall time, loops, root count
+  (loaded from the disk cache on a second run: ``loops`` is then the stored count);
+* ``assembly_modes`` (method "homotopy", start system in memory): median wall time per query
+  over ``--repeat`` runs, split into the parameter homotopy (all root-count paths, numpy),
+  polishing in the model and the Krawczyk certificates, the real count, ``certified`` and
+  whether the real set equals the LM reference (rotation and translation within 1e-6);
+* the curve search (method "curves", compiled kernels) on the same legs: median time, count;
+* the baseline: random-start Levenberg-Marquardt (tests/stewart.py, ``--lm-starts``
+  starts), median time and count.
 
-    python benchmarks/modes_6_6.py [--repeat 7]
+    python benchmarks/modes_6_6.py [--platforms 2] [--repeat 5] [--lm-starts 3000]
 """
 
 from __future__ import annotations
@@ -23,7 +26,9 @@ from pathlib import Path
 import numpy as np
 
 import scdk_sym as sc
-from scdk_sym.solvers.modes import explore
+from scdk_sym.algebraic import algebraic_form, certify_configurations, solve_homotopy
+from scdk_sym.algebraic.scaled import scaled_form
+from scdk_sym.solvers.homotopy_modes import model_start_system
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from stewart import (  # noqa: E402  (references shared with the tests)
@@ -34,63 +39,77 @@ from stewart import (  # noqa: E402  (references shared with the tests)
     stewart_reference,
 )
 
-DIETMAIER = (DIETMAIER_BASE, DIETMAIER_PLATFORM, DIETMAIER_LENGTHS)
+
+def same_set(found, reference, tol: float = 1e-6) -> bool:
+    poses = [(c.platform_pose[:3, 3], c.platform_pose[:3, :3]) for c in found]
+    return len(poses) == len(reference) and all(
+        min(max(np.abs(p - q).max(), np.abs(R - S).max()) for q, S in poses) < tol
+        for p, R in reference
+    )
 
 
-def lm_baseline(A, B, lengths, starts: int, seed: int) -> list[np.ndarray]:
-    """Random-start Levenberg-Marquardt (the tests' reference): distinct poses as 4x4."""
-    poses = []
-    for p, R in stewart_reference(A, B, lengths, starts, seed):
-        T = np.eye(4)
-        T[:3, :3], T[:3, 3] = R, p
-        poses.append(T)
-    return poses
-
-
-def covered(found: list[np.ndarray], poses: list[np.ndarray]) -> bool:
-    return all(any(np.abs(T - S).max() < 1e-6 for S in found) for T in poses)
+def median_time(fn, repeat: int):
+    times, out = [], None
+    for _ in range(repeat):
+        t = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t)
+    return float(np.median(times)), out
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeat", type=int, default=7, help="seeds per measurement")
+    parser.add_argument("--platforms", type=int, default=2, help="random platforms")
+    parser.add_argument("--repeat", type=int, default=5, help="runs per median")
+    parser.add_argument("--lm-starts", type=int, default=3000, help="LM random starts")
     args = parser.parse_args()
-    platforms = {
-        "Dietmaier 1998": DIETMAIER,
-        "random 6-6 #4": random_platform(4),
-        "random 6-6 #18": random_platform(18),
-    }
-    print(f"{'platform':<16} {'method':<6} {'found':>5} {'median [s]':>10}  details")
-    for name, (A, B, lengths) in platforms.items():
+    platforms = {"Dietmaier 1998": (DIETMAIER_BASE, DIETMAIER_PLATFORM, DIETMAIER_LENGTHS)}
+    for seed in range(1, args.platforms + 1):
+        platforms[f"random #{seed}"] = random_platform(seed)
+    summary = []
+    for name, (A, B, legs) in platforms.items():
         model = sc.builders.stewart_gough(A, B)
-        explore(model, lengths, backend="compiled")  # build and load the C library (cached)
-        runs = [explore(model, lengths, seed=s, backend="compiled") for s in range(args.repeat)]
-        sc_time = float(np.median([r.elapsed for r in runs]))
-        counts = sorted({len(r.solutions) for r in runs})
-        poses = [c.platform_pose for c in runs[0].solutions]
+        form = scaled_form(algebraic_form(model, "compiled"))
+        t = time.perf_counter()
+        start = model_start_system(form, 0)
+        t_start = time.perf_counter() - t
         print(
-            f"{name:<16} {'SC':<6} {'/'.join(map(str, counts)):>5} {sc_time:>10.3f}  "
-            f"curves {int(np.median([r.curves for r in runs]))}, "
-            f"steps (states) {int(np.median([r.steps for r in runs]))} (median)"
+            f"{name}: start system {start.root_count} roots, {start.loops} loops, trace "
+            f"residual {start.trace_residual:.1e}, {t_start:.1f} s"
         )
-        starts = 250
-        while True:
-            times, complete, found = [], True, []
-            for s in range(args.repeat):
-                t = time.perf_counter()
-                sols = lm_baseline(A, B, lengths, starts, seed=s)
-                times.append(time.perf_counter() - t)
-                complete &= covered(sols, poses)
-                found.append(len(sols))
-            lm_time = float(np.median(times))
-            print(
-                f"{'':<16} {'LM':<6} {int(np.median(found)):>5} {lm_time:>10.3f}  "
-                f"{starts} starts, all {len(poses)} found in every repeat: {complete}"
-            )
-            if complete or starts >= 32000:
-                break
-            starts *= 2
-        print(f"{'':<16} ratio LM / SC time (to find all): {lm_time / sc_time:.2f}")
+        p0 = form.params(legs)
+        t_query, sols = median_time(lambda m=model, lg=legs: sc.assembly_modes(m, lg), args.repeat)
+        t_track, res = median_time(lambda f=form, s=start, p=p0: solve_homotopy(f, s, p), 3)
+        ys = np.vstack([c.y for c in sols]) if len(sols) else np.zeros((0, model.m))
+        t_cert, _ = median_time(lambda m=model, y=ys, lg=legs: certify_configurations(m, y, lg), 3)
+        t_lm, ref = median_time(
+            lambda a=A, b=B, lg=legs: stewart_reference(a, b, lg, args.lm_starts, 0), 3
+        )
+        t_curves, curves = median_time(
+            lambda m=model, lg=legs: sc.assembly_modes(m, lg, method="curves", backend="compiled"),
+            3,
+        )
+        match = same_set(list(sols), ref)
+        steps = int(np.median(res.steps))
+        print(
+            f"  homotopy  {len(sols):>3} real of {sols.root_count}, certified {sols.certified}, "
+            f"= LM set {match}: {1e3 * t_query:8.1f} ms per query (median of {args.repeat}); "
+            f"tracking {1e3 * t_track:.1f} ms ({len(res.status)} paths, median {steps} steps), "
+            f"certificates {1e3 * t_cert:.1f} ms, rest (polish, configurations) "
+            f"{1e3 * max(0.0, t_query - t_track - t_cert):.1f} ms"
+        )
+        print(f"  curves    {len(curves):>3} real: {1e3 * t_curves:8.1f} ms (median of 3)")
+        print(
+            f"  LM        {len(ref):>3} real: {1e3 * t_lm:8.1f} ms "
+            f"({args.lm_starts} starts, median of 3)"
+        )
+        summary.append((sols.root_count == 40, sols.certified, match, t_query))
+    n = len(summary)
+    print(
+        f"{n} platforms: root count 40 in {sum(s[0] for s in summary)}, certified in "
+        f"{sum(s[1] for s in summary)}, real set = LM in {sum(s[2] for s in summary)}; "
+        f"median query {1e3 * float(np.median([s[3] for s in summary])):.1f} ms"
+    )
 
 
 if __name__ == "__main__":

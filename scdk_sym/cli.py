@@ -282,11 +282,19 @@ def _codegen(args: argparse.Namespace) -> int:
 def _modes_args(p: argparse.ArgumentParser) -> None:
     add_model_args(p)
     p.add_argument("--theta", required=True, help=THETA_HELP)
-    p.add_argument("--from-x", help=FROM_X_HELP)
-    p.add_argument("--seed", type=int, default=0, help="seed of the random directions")
-    p.add_argument("--time-budget", type=float, help="wall-time limit [s] (default: none)")
     p.add_argument(
-        "--backend", default="casadi", choices=["casadi", "compiled"], help=KERNEL_BACKEND_HELP
+        "--method",
+        default="homotopy",
+        choices=["homotopy", "curves"],
+        help="homotopy: every real solution, certified (default); curves: real-curve search",
+    )
+    p.add_argument("--from-x", help="curves: " + FROM_X_HELP)
+    p.add_argument("--seed", type=int, default=0, help="seed of the random choices")
+    p.add_argument("--time-budget", type=float, help="curves: wall-time limit [s] (default: none)")
+    p.add_argument(
+        "--backend",
+        choices=["auto", "casadi", "compiled"],
+        help="kernels (default: auto for homotopy, casadi for curves); " + KERNEL_BACKEND_HELP,
     )
     p.add_argument("--progress", action="store_true", help="progress bar on stderr")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -294,32 +302,47 @@ def _modes_args(p: argparse.ArgumentParser) -> None:
 
 @command("modes", "all assembly modes (real direct-kinematics solutions)", _modes_args)
 def _modes(args: argparse.Namespace) -> int:
-    from .solvers.modes import explore
+    import time
+
+    from .solvers.modes import assembly_modes, curves_result, explore
 
     model = load(args)
     theta = floats(args.theta, "--theta")
-    start = start_configuration(model, args)
-    search = explore(
-        model,
-        theta,
-        start=start,
-        seed=args.seed,
-        time_budget=args.time_budget,
-        progress=args.progress,
-        backend=args.backend,
-    )
+    t0 = time.perf_counter()
+    if args.method == "curves":
+        if args.backend == "auto":
+            raise InputError("--backend auto is for --method homotopy; use casadi or compiled")
+        search = explore(
+            model,
+            theta,
+            start=start_configuration(model, args),
+            seed=args.seed,
+            time_budget=args.time_budget,
+            progress=args.progress,
+            backend=args.backend or "casadi",
+        )
+        sols = curves_result(search)
+    else:
+        if args.from_x or args.time_budget is not None:
+            raise InputError("--from-x and --time-budget are for --method curves")
+        sols = assembly_modes(
+            model, theta, seed=args.seed, progress=args.progress, backend=args.backend
+        )
+    elapsed = time.perf_counter() - t0
     if args.json:
-        sols = [dict(s.to_dict(), crossings=[], status="converged") for s in search.solutions]
-        dump({"solutions": sols, "count": len(sols), "complete": search.complete})
+        dump(sols.to_dict())
         return 0
     print(header(model))
-    print(
-        f"theta0 = {fmt(theta)}: {len(search.solutions)} solution(s), {search.curves} curves, "
-        f"{search.steps} steps, {search.elapsed:.3f} s"
-        + ("" if search.complete else " (stopped by the budget)")
-    )
-    for i, s in enumerate(search.solutions, 1):
-        print(f"{i:>4}: x = {fmt(s.x)}  residual {s.residual:.1e}")
+    head = f"theta0 = {fmt(theta)}: {len(sols)} real solution(s), {elapsed:.3f} s, {args.method}"
+    if args.method == "homotopy":
+        head += f", {sols.root_count} complex solutions tracked"
+    print(head)
+    print(sols.report)
+    for i, s in enumerate(sols):
+        mark = ""
+        if i < len(sols.certificates):
+            mark = "  certified" if sols.certificates[i].proven else "  NOT certified"
+        print(f"{i + 1:>4}: x = {fmt(s.x)}  residual {s.residual:.1e}{mark}")
     return 0
 
 

@@ -164,3 +164,12 @@ class OutputError(ScdkError):
 
 class PlotError(ScdkError):
     """A figure could not be made (matplotlib missing, nothing to draw, unwritable path)."""
+
+
+class HomotopyError(SolveError):
+    """The homotopy engine could not produce a start system or track a parameter homotopy."""
+
+
+class AlgebraicFormError(ModelError):
+    """A model's closure system has no polynomial (algebraic) form, or a point cannot be mapped
+    between the model's coordinates and the form's unknowns."""

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
@@ -201,4 +201,61 @@ class TrackResult:
             "crossings": [c.to_dict() for c in self.crossings],
             "status": self.status,
             "backend": self.backend,
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class AssemblyModes(Sequence):
+    """The real assembly modes at one ``theta``: a sequence of :class:`Configuration`.
+
+    Behaves like the tuple of its configurations (``len``, iteration, indexing, slicing).
+
+    Attributes:
+        solutions: the configurations, sorted by ``x`` then ``y``.
+        certified: the set is proven complete and every member certified: the start system
+            passed its trace test, every path reached ``t = 1`` at a regular endpoint or at
+            infinity, and every real solution has a Krawczyk certificate, the boxes pairwise
+            disjoint. Always False for the real-curve search.
+        root_count: complex solutions tracked (the start system's size; 0 for the curve search).
+        report: one line: what was proven, or why the set is not certified.
+        certificates: one :class:`~scdk_sym.algebraic.certify.Certificate` per solution (in the
+            order of ``solutions``); empty when none were computed.
+        method: ``"homotopy"`` or ``"curves"``.
+    """
+
+    solutions: tuple[Configuration, ...] = ()
+    certified: bool = False
+    root_count: int = 0
+    report: str = ""
+    certificates: tuple = ()
+    method: str = "homotopy"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "solutions", tuple(self.solutions))
+        object.__setattr__(self, "certificates", tuple(self.certificates))
+
+    def __len__(self) -> int:
+        return len(self.solutions)
+
+    def __getitem__(self, index):
+        return self.solutions[index]
+
+    def __iter__(self):
+        return iter(self.solutions)
+
+    def to_dict(self) -> dict:
+        """JSON-ready: ``solutions`` (each with its ``certified`` flag), ``count``,
+        ``certified``, ``root_count``, ``report``, ``method``."""
+        sols = []
+        for i, s in enumerate(self.solutions):
+            d = dict(s.to_dict(), crossings=[], status="converged")
+            d["certified"] = bool(i < len(self.certificates) and self.certificates[i].proven)
+            sols.append(d)
+        return {
+            "solutions": sols,
+            "count": len(sols),
+            "certified": bool(self.certified),
+            "root_count": int(self.root_count),
+            "report": self.report,
+            "method": self.method,
         }

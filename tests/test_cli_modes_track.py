@@ -37,7 +37,10 @@ def test_modes_json_has_every_3rpr_solution(tmp_path, capsys):
     )
     sols = out["solutions"]
     assert len(sols) == len(ref) == out["count"]
-    assert out["complete"] is True
+    assert out["certified"] is True and out["root_count"] == 6
+    assert out["report"].startswith("certified complete")
+    assert "complete" not in out
+    assert all(s["certified"] is True for s in sols)
     for s in sols:
         assert set(s) >= KEYS
         assert s["status"] == "converged" and s["residual"] < 1e-9
@@ -49,8 +52,20 @@ def test_modes_json_has_every_3rpr_solution(tmp_path, capsys):
 def test_modes_human_output(capsys):
     assert main(["modes", str(MODELS / "planar_hexa"), "--theta", "1.292,-0.802,-2.896"]) == 0
     out = capsys.readouterr().out
-    assert "2 solution(s)" in out
+    assert "2 real solution(s)" in out and "certified complete" in out
     assert "0.999914" in out and "0.207456" in out
+
+
+def test_modes_curve_search_is_never_called_complete(capsys):
+    theta = "1.292,-0.802,-2.896"
+    out = run_json(capsys, "modes", str(MODELS / "planar_hexa"), "--theta", theta, "--method",
+                   "curves")  # fmt: skip
+    assert out["certified"] is False and out["method"] == "curves" and "complete" not in out
+    assert out["report"].startswith("not certified")
+    assert all(s["certified"] is False for s in out["solutions"])
+    assert main(["modes", str(MODELS / "planar_hexa"), "--theta", theta, "--method", "curves"]) == 0
+    text = capsys.readouterr().out
+    assert "not certified" in text and "certified complete" not in text
 
 
 def seed_csv(tmp_path, phis, header: str | None = None, order=(0, 1, 2)):

@@ -31,6 +31,12 @@ import scdk_sym as sc
 from scdk_sym.errors import InputError, NotAssembledError
 from scdk_sym.solvers.modes import explore
 
+
+def curve_modes(*args, **kwargs):
+    """The real-curve search (``method=\"curves\"``), which this module tests."""
+    return sc.assembly_modes(*args, method="curves", **kwargs)
+
+
 # ---------------------------------------------------------------------------- references
 
 
@@ -185,7 +191,7 @@ def test_delta_finds_both_sphere_intersections():
         theta = model.home.theta + rng.uniform(-0.6, 0.6, 3)
         ref = delta_reference(R, r, arm, rod, theta)
         assert len(ref) == 2
-        sols = sc.assembly_modes(model, theta, seed=1)
+        sols = curve_modes(model, theta, seed=1)
         assert len(sols) == 2
         for p in ref:
             assert min(np.abs(c.x - p).max() for c in sols) < 1e-9
@@ -234,7 +240,7 @@ def test_rpr_reference_agrees_with_brute_force_newton():
 def test_rpr_six_real_solutions(case):
     A, C, rho = rpr_geometries_with_six()[case]
     model = sc.builders.planar_3rpr(A, C)
-    sols = sc.assembly_modes(model, rho, seed=case)
+    sols = curve_modes(model, rho, seed=case)
     ref = rpr_reference(A, C, rho)
     assert len(ref) == 6
     assert len(sols) == 6
@@ -253,7 +259,7 @@ def test_rpr_random_geometries_every_count():
             rng.uniform(0.3, 1.5, 3),
         )
         ref = rpr_reference(A, C, rho)
-        sols = sc.assembly_modes(sc.builders.planar_3rpr(A, C), rho)
+        sols = curve_modes(sc.builders.planar_3rpr(A, C), rho)
         assert len(sols) == len(ref)
         for s in ref:
             assert min(pose_distance(c.x, s) for c in sols) < 1e-8
@@ -269,7 +275,7 @@ def test_seed_robot_is_a_3rpr_between_its_elbows(name):
     theta = np.array([1.292, -0.802, -2.896])
     elbows = g["base_points"] + g["arm"] * np.c_[np.cos(theta), np.sin(theta)]
     ref = rpr_reference(elbows, g["platform_points"], np.full(3, g["rod"]))
-    sols = sc.assembly_modes(model, theta)
+    sols = curve_modes(model, theta)
     assert len(ref) == len(sols) == 2
     for s in ref:
         assert min(pose_distance(c.x, s) for c in sols) < 1e-8
@@ -297,7 +303,7 @@ def test_random_6_6_platforms_against_random_start_reference(platform, count):
     assert len(ref) == count
     model = sc.builders.stewart_gough(A, B)
     for seed in (0, 1):
-        sols = sc.assembly_modes(model, lengths, seed=seed)
+        sols = curve_modes(model, lengths, seed=seed)
         assert_same_stewart_poses(sols, ref)
 
 
@@ -308,10 +314,10 @@ def test_random_6_6_platforms_against_random_start_reference(platform, count):
 def test_deterministic_for_a_seed_and_backends_agree():
     A, C, rho = rpr_geometries_with_six()[0]
     model = sc.builders.planar_3rpr(A, C)
-    a = sc.assembly_modes(model, rho, seed=4)
-    b = sc.assembly_modes(model, rho, seed=4)
+    a = curve_modes(model, rho, seed=4)
+    b = curve_modes(model, rho, seed=4)
     assert [c.x.tolist() for c in a] == [c.x.tolist() for c in b]
-    compiled = sc.assembly_modes(model, rho, seed=4, backend="compiled")
+    compiled = curve_modes(model, rho, seed=4, backend="compiled")
     assert len(compiled) == len(a)
     for c, d in zip(a, compiled, strict=True):
         assert np.abs(c.x - d.x).max() < 1e-9
@@ -330,24 +336,24 @@ def test_time_budget_stops_early_and_says_so():
 def test_progress_bar_on_stderr(capsys):
     pytest.importorskip("tqdm")
     A, C, rho = rpr_geometries_with_six()[1]
-    sc.assembly_modes(sc.builders.planar_3rpr(A, C), rho, progress=True)
+    curve_modes(sc.builders.planar_3rpr(A, C), rho, progress=True)
     assert "assembly modes" in capsys.readouterr().err
 
 
 def test_bad_inputs_raise_package_errors():
     model = shipped("planar_3rpr")
     with pytest.raises(InputError, match="theta0"):
-        sc.assembly_modes(model, [0.4, 0.5])
+        curve_modes(model, [0.4, 0.5])
     with pytest.raises(InputError, match="finite"):
-        sc.assembly_modes(model, [0.4, np.nan, 0.4])
+        curve_modes(model, [0.4, np.nan, 0.4])
     with pytest.raises(InputError, match="backends: casadi, compiled"):
-        sc.assembly_modes(model, [0.4, 0.5, 0.4], backend="cuda")
+        curve_modes(model, [0.4, 0.5, 0.4], backend="cuda")
     with pytest.raises(InputError, match="time_budget"):
-        sc.assembly_modes(model, [0.4, 0.5, 0.4], time_budget=0)
+        curve_modes(model, [0.4, 0.5, 0.4], time_budget=0)
     with pytest.raises(InputError, match="patience"):
-        sc.assembly_modes(model, [0.4, 0.5, 0.4], patience=-1)
+        curve_modes(model, [0.4, 0.5, 0.4], patience=-1)
     broken = sc.Configuration(
         model.home.theta, model.home.y + 0.1, model.home.x, model.home.platform_pose, {}
     )
     with pytest.raises(NotAssembledError):
-        sc.assembly_modes(model, [0.4, 0.5, 0.4], start=broken)
+        curve_modes(model, [0.4, 0.5, 0.4], start=broken)

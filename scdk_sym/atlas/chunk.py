@@ -177,7 +177,8 @@ def solve_chunk(model, start, thetas: np.ndarray, modes: bool = False) -> ChunkR
 
         for i in range(N):
             try:
-                n_modes[i] = len(assembly_modes(model, thetas[i], backend="compiled"))
+                sols = assembly_modes(model, thetas[i], backend="compiled")
+                n_modes[i] = len(sols) if sols.certified else -1
             except ScdkError:
                 n_modes[i] = -1
     return ChunkResult(x, det, status, n_modes, swept)

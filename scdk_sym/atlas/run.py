@@ -33,8 +33,9 @@ DEFAULT_CHUNK = 4096
 IN_FLIGHT = 3
 #: What produced n_modes (recorded in the store).
 MODES_METHOD = (
-    "scdk_sym.assembly_modes(model, theta, backend='compiled'): real solutions found by "
-    "following SC solution curves from several starts (not certified complete)"
+    "scdk_sym.assembly_modes(model, theta, backend='compiled'): the number of real solutions "
+    "when the set is certified complete (homotopy with a trace-tested start system, every "
+    "solution proven by a Krawczyk test); -1 where it is not certified or the search failed"
 )
 
 

@@ -48,7 +48,7 @@ from ..follower.curve import Line, follow
 from ..follower.geometry import difference, features, kinds  # noqa: F401
 from ..follower.kernels import follower_kernels
 from ..model.model import Model, as_vector
-from ..results import Configuration
+from ..results import AssemblyModes, Configuration
 from .sc import validate_start
 
 BACKENDS = ("casadi", "compiled")
@@ -475,63 +475,103 @@ def _progress_bar(enabled: bool):
     return tqdm(desc="assembly modes", unit="curve", leave=False)
 
 
+#: Methods of :func:`assembly_modes`.
+METHODS = ("homotopy", "curves")
+_CURVE_DEFAULTS = {"time_budget": None, "start": None, "patience": 8, "cover": 2, "max_curves": 400}
+
+
 def assembly_modes(
     model: Model,
     theta0: Sequence[float],
     *,
+    method: str = "homotopy",
     seed: int = 0,
-    time_budget: float | None = None,
     progress: bool = False,
-    start: Configuration | Sequence[Configuration] | None = None,
-    patience: int = 8,
-    cover: int = 2,
-    max_curves: int = 400,
-    backend: str = "casadi",
-) -> list[Configuration]:
-    """All real direct-kinematics solutions (assembly modes) at ``theta0`` that can be found.
+    backend: str | None = None,
+    **options,
+) -> AssemblyModes:
+    """All real direct-kinematics solutions (assembly modes) at ``theta0``.
 
-    Follows singularity-consistent solution curves (see the module documentation): from the
-    start configuration on the line to ``theta0``, then alternately from the solutions found,
-    on random lines through ``theta0``, and from random assembled configurations, on their
-    lines to ``theta0``, collecting every ``s = 1`` crossing, until the stopping rule holds
-    (the last ``patience`` curves of each kind found no new solution and every known one was
-    met again ``cover`` times since the last new one), the time budget is spent or
-    ``max_curves`` curves were followed. Measured: all 40 real modes of Dietmaier's 6-6
-    platform in about half a second with the compiled backend (``benchmarks/modes_6_6.py``).
+    ``method="homotopy"`` (default) lists every real solution with a proof
+    (:func:`scdk_sym.solvers.homotopy_modes.homotopy_modes`): a parameter homotopy on the
+    model's algebraic form from a start system proven complete by a trace test, every real
+    endpoint polished on the model's rows and certified by a Krawczyk test, the boxes pairwise
+    disjoint. ``sols.certified`` says whether all of it held; ``sols.report`` says what was
+    proven or why not. The first call per model computes the start system (seconds to a
+    minute; cached on disk), later calls only track its paths.
+
+    ``method="curves"`` is the real-curve search of this module (:func:`explore`): it follows
+    singularity-consistent solution curves from the start configuration and from random
+    starts until a heuristic stopping rule holds. It can miss solutions on curves it never
+    enters and cannot know it missed them: its result is never ``certified``.
 
     Args:
         model: the model.
         theta0: (k,) actuated joint values [rad or model length unit].
-        seed: seed of the random directions and starts (the result is deterministic for a
-            seed, without a time budget).
-        time_budget: wall-time limit [s] (``None``: no limit); the solutions found so far are
-            returned when it runs out.
-        progress: show a progress bar (tqdm) on stderr.
-        start: assembled start configuration(s) (default ``model.home``).
-        patience: curves of each kind in a row without a new solution before stopping.
-        cover: times each known solution must be met again before stopping.
-        max_curves: limit on the number of curves followed.
-        backend: "casadi" or "compiled" (generated C, compiled once and cached on disk).
+        method: ``"homotopy"`` or ``"curves"``.
+        seed: seed of the random choices (start system and gamma; curve directions and starts).
+        progress: show a progress bar (tqdm) on stderr (the monodromy's loops; the curves).
+        backend: homotopy: ``"auto"`` (default: generated C when a C compiler is present),
+            ``"casadi"`` or ``"compiled"``; curves: ``"casadi"`` (default) or ``"compiled"``.
+        **options: curves only: ``time_budget`` (wall-time limit [s]), ``start`` (assembled
+            start configuration(s), default ``model.home``), ``patience`` (curves of each kind
+            in a row without a new solution before stopping, 8), ``cover`` (times each known
+            solution must be met again, 2), ``max_curves`` (400). Homotopy only:
+            ``max_loops`` (bound on the monodromy loops), ``cache`` (disk cache of the start
+            system, True).
 
     Returns:
-        The solutions as :class:`~scdk_sym.results.Configuration` (``theta = theta0``), each
-        verified (``residual <= model.tolerance``), distinct (unknowns differ by more than
-        1e-6 model sizes, angles modulo 2 pi), sorted by ``x`` then ``y`` (rounded to 1e-8).
-        Empty if no curve from the starts reaches ``theta0``.
+        :class:`~scdk_sym.results.AssemblyModes`: a sequence of
+        :class:`~scdk_sym.results.Configuration` (``theta = theta0``), each verified, distinct
+        and sorted by ``x`` then ``y`` (rounded to 1e-8), with ``certified``, ``root_count``,
+        ``report`` and ``certificates``.
 
     Raises:
-        InputError: bad ``theta0``, budget, counts or backend.
-        NotAssembledError: a start configuration is not assembled.
+        InputError: bad ``theta0``, method, option, budget, counts or backend.
+        NotAssembledError: a start configuration of the curve search is not assembled.
+        AlgebraicFormError: (homotopy) a joint type with no algebraic form.
     """
-    return explore(
+    if method not in METHODS:
+        raise InputError(f"unknown method {method!r}; methods: {', '.join(METHODS)}")
+    if method == "homotopy":
+        from .homotopy_modes import homotopy_modes
+
+        extra = set(options) - {"max_loops", "cache"}
+        if extra:
+            raise InputError(
+                f"option(s) {', '.join(sorted(extra))} belong to method='curves'; "
+                "the homotopy takes seed, progress, backend, max_loops, cache"
+            )
+        return homotopy_modes(
+            model, theta0, seed=seed, progress=progress, backend=backend or "auto", **options
+        )
+    extra = set(options) - set(_CURVE_DEFAULTS)
+    if extra:
+        raise InputError(
+            f"unknown option(s) {', '.join(sorted(extra))} for method='curves'; "
+            f"options: {', '.join(_CURVE_DEFAULTS)}"
+        )
+    search = explore(
         model,
         theta0,
-        start=start,
         seed=seed,
-        time_budget=time_budget,
         progress=progress,
-        patience=patience,
-        cover=cover,
-        max_curves=max_curves,
-        backend=backend,
-    ).solutions
+        backend=backend or "casadi",
+        **{**_CURVE_DEFAULTS, **options},
+    )
+    return curves_result(search)
+
+
+def curves_result(search: ModeSearch) -> AssemblyModes:
+    """The :class:`~scdk_sym.results.AssemblyModes` of a curve search (never certified)."""
+    why = "the stopping rule held" if search.complete else "stopped by the budget"
+    return AssemblyModes(
+        solutions=tuple(search.solutions),
+        certified=False,
+        root_count=0,
+        report=(
+            f"not certified: real-curve search ({search.curves} curves, {why}); it cannot "
+            "prove that no solution lies on a curve it never entered"
+        ),
+        method="curves",
+    )

@@ -1,0 +1,408 @@
+"""The algebraic form of a loaded model: a square polynomial system ``G(z, p) = 0``.
+
+:func:`algebraic_form` turns a model's reduced loop-closure system ``g(y, theta) = 0`` into the
+square system of :mod:`scdk_sym.algebraic.polynomial` (holomorphic in the unknowns ``z`` and
+the parameters ``p``), whose real solutions at ``p = params(theta0)`` correspond one-to-one to
+the real solutions ``y`` of ``g(y, theta0) = 0`` (angles modulo 2 pi; a rotation whose
+quaternion lies on the chart's hyperplane at infinity ``a . q = 0``, a set of measure zero,
+has no image). The returned :class:`AlgebraicForm` implements the polynomial-system protocol
+agreed with the homotopy engine (``scdk_sym.algebraic.system.PolynomialSystem``, quoted
+verbatim but for the docstring quotes)::
+
+    class PolynomialSystem(Protocol):
+        '''A square family G(z, p) = 0, holomorphic in z (C^n) and in the parameters p
+        (C^n_params).'''
+
+        n: int                    # number of complex unknowns z (= number of rows)
+        n_params: int             # number of complex parameters p
+        offset_rows: np.ndarray   # (n,) bool: rows that take a generic constant offset b_i in
+                                  # the homotopy family G(z, p) + b = 0 (closure rows).
+                                  # Structural rows (c^2 + s^2 - 1, a quaternion chart
+                                  # a.q - 1, w (q.q) - 1) are False: b_i = 0 there always.
+
+        def evaluate(self, z: np.ndarray, p: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            '''z: (N, n) complex, p: (N, n_params) complex ->
+            G (N, n), dG/dz (N, n, n), dG/dp (N, n, n_params), all complex.'''
+
+        def random_point(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+            '''A random complex z (n,) on which every structural row (offset_rows False)
+            vanishes, and a random complex parameter point p (n_params,).'''
+
+        def content_hash(self) -> str:
+            '''A hex digest of everything G depends on (start systems are cached under it).'''
+
+The homotopy family is ``F(z; p, b) = G(z, p) + b`` (``b_i = 0`` on structural rows); the
+target of a query is ``(params(theta0), b = 0)``. :class:`AlgebraicForm` also accepts one
+point (``z`` (n,)) and a shared ``p`` (n_params,) in :meth:`~AlgebraicForm.evaluate`, and
+adds the mapping to and from the model (:meth:`AlgebraicForm.params`,
+:meth:`~AlgebraicForm.to_model`, :meth:`~AlgebraicForm.from_model`,
+:meth:`~AlgebraicForm.is_real`) and the real restriction :attr:`AlgebraicForm.G_real` that an
+interval certifier can replay.
+
+Complex evaluation: CasADi has no complex type, so the real SX Function ``G_real`` is replayed
+on (real, imaginary) pairs once (:mod:`scdk_sym.algebraic.pairs`), giving one SX Function
+``(zr, zi, pr, pi) -> (Re G, Im G, Re dG/dz, Im dG/dz, Re dG/dp, Im dG/dp)``, mapped over the
+columns of a batch (``Function.map``) so that one :meth:`~AlgebraicForm.evaluate` is one call.
+Backend ``"casadi"`` runs it in CasADi's SX virtual machine, ``"compiled"`` as generated C
+(compiled once, cached on disk by the hash of its source).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import casadi as ca
+import numpy as np
+
+from ..errors import AlgebraicFormError, InputError
+from ..kernels.fastcall import Buffered
+from ..model.chart import cayley, rot_exp
+from .pairs import complexify
+from .polynomial import PolynomialRows, polynomial_rows
+
+if TYPE_CHECKING:
+    from ..model.model import Model
+
+#: Version of the algebraic form (part of :meth:`AlgebraicForm.content_hash`).
+FORM_VERSION = "1"
+BACKENDS = ("casadi", "compiled")
+_CACHE_ATTR = "_algebraic_forms"
+#: Batch sizes whose mapped Functions are kept per form.
+_MAPS_KEPT = 16
+
+
+def quaternion_of(R: np.ndarray) -> np.ndarray:
+    """(4,) unit quaternion (scalar first) of a rotation matrix (Shepperd's method)."""
+    t = np.trace(R)
+    cand = np.array([t, R[0, 0], R[1, 1], R[2, 2]])
+    i = int(np.argmax(cand))
+    if i == 0:
+        r = np.sqrt(1 + t)
+        q = [r, (R[2, 1] - R[1, 2]) / r, (R[0, 2] - R[2, 0]) / r, (R[1, 0] - R[0, 1]) / r]
+    elif i == 1:
+        r = np.sqrt(1 + 2 * R[0, 0] - t)
+        q = [(R[2, 1] - R[1, 2]) / r, r, (R[0, 1] + R[1, 0]) / r, (R[0, 2] + R[2, 0]) / r]
+    elif i == 2:
+        r = np.sqrt(1 + 2 * R[1, 1] - t)
+        q = [(R[0, 2] - R[2, 0]) / r, (R[0, 1] + R[1, 0]) / r, r, (R[1, 2] + R[2, 1]) / r]
+    else:
+        r = np.sqrt(1 + 2 * R[2, 2] - t)
+        q = [(R[1, 0] - R[0, 1]) / r, (R[0, 2] + R[2, 0]) / r, (R[1, 2] + R[2, 1]) / r, r]
+    q = 0.5 * np.array(q)
+    return q / np.linalg.norm(q)
+
+
+def _quaternion_matrix(q: np.ndarray) -> np.ndarray:
+    a, b, c, d = q
+    return np.array(
+        [
+            [a * a + b * b - c * c - d * d, 2 * (b * c - a * d), 2 * (b * d + a * c)],
+            [2 * (b * c + a * d), a * a - b * b + c * c - d * d, 2 * (c * d - a * b)],
+            [2 * (b * d - a * c), 2 * (c * d + a * b), a * a - b * b - c * c + d * d],
+        ]
+    )
+
+
+def _complex(re: np.ndarray, im: np.ndarray) -> np.ndarray:
+    out = np.empty(re.shape, dtype=complex)
+    out.real = re
+    out.imag = im
+    return out
+
+
+def _source_digest() -> bytes:
+    here = Path(__file__).resolve().parent
+    h = hashlib.sha256()
+    for part in ("form.py", "polynomial.py", "pairs.py"):
+        h.update((here / part).read_bytes())
+    return h.digest()
+
+
+@dataclass(frozen=True, eq=False)
+class AlgebraicForm:
+    """A model's closure system as a square polynomial system ``G(z, p) = 0``.
+
+    Make one with :func:`algebraic_form`. Structurally a
+    ``scdk_sym.algebraic.system.PolynomialSystem`` (see the module docstring).
+
+    Attributes:
+        model: the model (:class:`~scdk_sym.model.model.Model`).
+        backend: ``"casadi"`` or ``"compiled"``.
+        n: number of complex unknowns ``z`` (= number of rows).
+        n_params: number of complex parameters ``p`` (= ``model.k``).
+        offset_rows: (n,) bool, True on closure rows, False on structural rows.
+        rows: the symbolic system (:class:`~scdk_sym.algebraic.polynomial.PolynomialRows`):
+            slots, names of the unknowns, row labels.
+        G_real: SX Function ``(z[n], p[n_params]) -> G[n]``, real coefficients.
+        G_complex: Function ``(zr[n], zi[n], pr[k], pi[k]) -> (Gr[n], Gi[n], Jz_r[n,n],
+            Jz_i[n,n], Jp_r[n,k], Jp_i[n,k])`` of one point (SX, or the compiled external).
+    """
+
+    model: Model = field(repr=False)
+    backend: str
+    n: int
+    n_params: int
+    offset_rows: np.ndarray = field(repr=False)
+    rows: PolynomialRows = field(repr=False)
+    G_real: ca.Function = field(repr=False)
+    G_complex: ca.Function = field(repr=False)
+    _maps: dict[int, Buffered] = field(default_factory=dict, repr=False, compare=False)
+
+    # ------------------------------------------------------------------ protocol
+
+    def evaluate(self, z: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``G``, ``dG/dz`` and ``dG/dp`` at a batch of complex points, in one call.
+
+        Args:
+            z: (N, n) complex unknowns (or (n,) for one point).
+            p: (N, n_params) complex parameters, or (n_params,) shared by every point.
+
+        Returns:
+            ``G`` (N, n), ``dG/dz`` (N, n, n) and ``dG/dp`` (N, n, n_params), complex (without
+            the leading N when ``z`` is (n,)).
+
+        The mapped Functions run through preallocated buffers (one per batch size, the last 16
+        sizes kept): call one form from one thread at a time.
+
+        Raises:
+            InputError: wrong shapes or non-finite values.
+        """
+        z = np.asarray(z, dtype=complex)
+        single = z.ndim == 1
+        z = np.atleast_2d(z)
+        if z.ndim != 2 or z.shape[1] != self.n:
+            raise InputError(f"z must be (N, {self.n}) complex, got shape {np.shape(z)}")
+        N = z.shape[0]
+        p = np.asarray(p, dtype=complex)
+        if p.ndim == 1 and N > 1:
+            p = np.broadcast_to(p, (N, p.size))
+        if p.shape != (N, self.n_params) and (N, p.shape) != (1, (self.n_params,)):
+            raise InputError(
+                f"p must be ({N}, {self.n_params}) or ({self.n_params},) complex, "
+                f"got shape {p.shape}"
+            )
+        if not (np.isfinite(z).all() and np.isfinite(p).all()):
+            raise InputError("z and p must be finite")
+        n, k = self.n, self.n_params
+        if N == 0:
+            empty = np.zeros((0, n), complex)
+            return empty, np.zeros((0, n, n), complex), np.zeros((0, n, k), complex)
+        # column-major (n, N) inputs are the row-major (N, n) arrays, flattened
+        out = self._mapped(N)(z.real.ravel(), z.imag.ravel(), p.real.ravel(), p.imag.ravel())
+        G = _complex(out[0], out[1]).reshape(N, n)
+        Jz = _complex(out[2], out[3]).reshape(N, n, n).transpose(0, 2, 1)
+        Jp = _complex(out[4], out[5]).reshape(N, k, n).transpose(0, 2, 1)
+        if single:
+            return G[0], Jz[0], Jp[0]
+        return G, Jz, Jp
+
+    def random_point(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """A random complex ``z`` (n,) on which every structural row vanishes, and a random
+        complex parameter point ``p`` (n_params,).
+
+        Angles: ``(cos t, sin t)`` of a complex ``t``; quaternions: a complex normal ``q``
+        scaled onto the chart (``a . q = 1``), ``w = 1 / (q . q)``; lengths and translations:
+        complex normals times the model's size; ``p``: the home actuator values plus a
+        complex normal (times the model's size for lengths).
+        """
+        scale = float(self.model.length_scale) or 1.0
+        z = np.zeros(self.n, dtype=complex)
+
+        def cnormal(size=None):
+            return rng.normal(size=size) + 1j * rng.normal(size=size)
+
+        for s in self.rows.slots:
+            if s.kind == "angle":
+                t = rng.uniform(-np.pi, np.pi) + 0.5j * rng.normal()
+                z[list(s.z)] = np.cos(t), np.sin(t)
+            elif s.kind == "length":
+                z[s.z[0]] = scale * cnormal()
+            else:
+                q = cnormal(4)
+                q = q / (np.asarray(s.chart) @ q)
+                z[list(s.z[:3])] = scale * cnormal(3)
+                z[list(s.z[3:7])] = q
+                z[s.z[7]] = 1.0 / (q @ q)
+        widths = np.array([scale if k == "length" else 1.0 for k in self.rows.param_kinds])
+        p = self.model.home.theta + widths * cnormal(self.n_params)
+        return z, p
+
+    def content_hash(self) -> str:
+        """Hex digest of everything ``G`` depends on: the model's kernel cache key (its files,
+        frame, the symbolic code, CasADi's version), the form's version and source."""
+        from ..kernels.compile import cache_key
+
+        h = hashlib.sha256(cache_key(self.model).encode())
+        h.update(FORM_VERSION.encode())
+        h.update(_source_digest())
+        return h.hexdigest()
+
+    # ------------------------------------------------------------------ model mapping
+
+    def params(self, theta) -> np.ndarray:
+        """Parameters ``p`` (n_params,) complex of real actuator values ``theta`` (k,)
+        [rad or model length unit]: the values themselves (angles enter ``G`` through
+        cos and sin)."""
+        from ..model.model import as_vector
+
+        return as_vector(theta, self.n_params, "theta").astype(complex)
+
+    def from_model(self, y, c: np.ndarray | None = None) -> np.ndarray:
+        """Unknowns ``z`` (n,) real of the model's unknowns.
+
+        Args:
+            y: (m,) unknowns, canonical (``c is None``: rotation vectors for floating joints)
+                or in the local chart ``c`` (see :mod:`scdk_sym.model.chart`).
+            c: the chart of ``y`` (9 per floating joint), or ``None``.
+
+        Raises:
+            InputError: wrong size or non-finite values.
+            AlgebraicFormError: a rotation on the quaternion chart's plane at infinity.
+        """
+        from ..model.model import as_vector
+
+        m = self.model
+        y = as_vector(y, m.m, "y")
+        if c is not None:
+            c = as_vector(c, m.chart.size, "c")
+        z = np.zeros(self.n)
+        for s in self.rows.slots:
+            if s.kind == "angle":
+                z[list(s.z)] = np.cos(y[s.y[0]]), np.sin(y[s.y[0]])
+            elif s.kind == "length":
+                z[s.z[0]] = y[s.y[0]]
+            else:
+                rot = y[list(s.y[3:])]
+                if c is None:
+                    R = rot_exp(rot)
+                else:
+                    i = m.chart.rotations.index(tuple(s.y[3:]))
+                    R = c[9 * i : 9 * i + 9].reshape(3, 3, order="F") @ cayley(rot)
+                q = quaternion_of(R)
+                aq = float(np.asarray(s.chart) @ q)
+                if abs(aq) < 1e-12:
+                    raise AlgebraicFormError(
+                        f"the rotation of floating joint {s.joint!r} lies on the quaternion "
+                        "chart's plane at infinity (a . q = 0); perturb y slightly"
+                    )
+                q = q / aq
+                z[list(s.z[:3])] = y[list(s.y[:3])]
+                z[list(s.z[3:7])] = q
+                z[s.z[7]] = 1.0 / (q @ q)
+        return z
+
+    def to_model(
+        self, z, reference: np.ndarray | None = None, tol: float = 1e-8
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The model's unknowns ``(y, c)`` of a real ``z``: ``y`` in the local chart ``c``
+        (floating rotations: ``rho = 0`` and ``c`` their rotation), ready for
+        ``model.configuration(y, theta, c)`` and ``model.residual(y, theta, c)``.
+
+        Args:
+            z: (n,) real unknowns (complex accepted when its imaginary part is below ``tol``,
+                relative to ``max(1, |z|)``).
+            reference: (m,) canonical unknowns; each angle is taken the nearest to its
+                reference value modulo 2 pi (default: in (-pi, pi]).
+            tol: tolerance on the imaginary part.
+
+        Raises:
+            InputError: wrong size, non-finite, or not real.
+        """
+        m = self.model
+        z = np.asarray(z)
+        if z.shape != (self.n,) or not np.all(np.isfinite(z)):
+            raise InputError(f"z must be {self.n} finite numbers, got shape {z.shape}")
+        if np.iscomplexobj(z):
+            if not self.is_real(z, tol):
+                raise InputError(
+                    f"z is not real (max |Im z| = {np.abs(z.imag).max():.2e} > {tol:.1e}); "
+                    "select real solutions with is_real first"
+                )
+            z = z.real
+        z = np.asarray(z, dtype=float)
+        ref = None if reference is None else np.asarray(reference, dtype=float)
+        y = np.zeros(m.m)
+        c = np.zeros(m.chart.size)
+        for s in self.rows.slots:
+            if s.kind == "angle":
+                a = float(np.arctan2(z[s.z[1]], z[s.z[0]]))
+                if ref is not None:
+                    a += 2 * np.pi * np.round((ref[s.y[0]] - a) / (2 * np.pi))
+                y[s.y[0]] = a
+            elif s.kind == "length":
+                y[s.y[0]] = z[s.z[0]]
+            else:
+                q = z[list(s.z[3:7])]
+                u, _, vt = np.linalg.svd(_quaternion_matrix(q / np.linalg.norm(q)))
+                i = m.chart.rotations.index(tuple(s.y[3:]))
+                c[9 * i : 9 * i + 9] = (u @ vt).flatten(order="F")
+                y[list(s.y[:3])] = z[list(s.z[:3])]
+        return y, c
+
+    def is_real(self, z, tol: float = 1e-8) -> bool | np.ndarray:
+        """Whether ``z`` (n,) is real: ``max |Im z| <= tol max(1, max |z|)``; for a batch
+        (N, n), one bool per row (N,)."""
+        z = np.asarray(z)
+        if not np.iscomplexobj(z):
+            return True if z.ndim == 1 else np.ones(z.shape[0], dtype=bool)
+        ok = np.abs(z.imag).max(axis=-1) <= tol * np.maximum(1.0, np.abs(z).max(axis=-1))
+        return bool(ok) if z.ndim == 1 else ok
+
+    # ------------------------------------------------------------------ internals
+
+    def _mapped(self, N: int) -> Buffered:
+        f = self._maps.get(N)
+        if f is None:
+            if len(self._maps) >= _MAPS_KEPT:
+                self._maps.pop(next(iter(self._maps)))
+            f = self._maps[N] = Buffered(self.G_complex if N == 1 else self.G_complex.map(N))
+        return f
+
+
+def _build(model: Model, backend: str) -> AlgebraicForm:
+    rows = polynomial_rows(model)
+    G_real = ca.Function("G_real", [rows.z, rows.p], [rows.G], ["z", "p"], ["G"])
+    G_complex = complexify(G_real, "algebraic_G")
+    if backend == "compiled":
+        from ..kernels.compile import cached_library
+
+        path = cached_library([G_complex], "algebraic_G")
+        G_complex = ca.external(G_complex.name(), str(path))
+    return AlgebraicForm(
+        model=model,
+        backend=backend,
+        n=rows.n,
+        n_params=rows.k,
+        offset_rows=rows.offset_rows,
+        rows=rows,
+        G_real=G_real,
+        G_complex=G_complex,
+    )
+
+
+def algebraic_form(model: Model, backend: str = "casadi") -> AlgebraicForm:
+    """The algebraic form of a loaded model (built once per model and backend, cached on it).
+
+    Args:
+        model: a loaded :class:`~scdk_sym.model.model.Model`.
+        backend: ``"casadi"`` (CasADi SX virtual machine) or ``"compiled"`` (generated C,
+            compiled once and cached on disk by content hash).
+
+    Returns:
+        The :class:`AlgebraicForm`.
+
+    Raises:
+        InputError: an unknown backend.
+        AlgebraicFormError: a joint type with no algebraic form.
+        BuildError: the compiled backend cannot compile (no C compiler).
+    """
+    if backend not in BACKENDS:
+        raise InputError(f"unknown backend {backend!r}; backends: {', '.join(BACKENDS)}")
+    cache = model.__dict__.setdefault(_CACHE_ATTR, {})
+    if backend not in cache:
+        cache[backend] = _build(model, backend)
+    return cache[backend]

@@ -1,0 +1,333 @@
+"""Parameter homotopies of a :class:`PolynomialSystem` and the query solve from a start system.
+
+The family is ``F(z; p, b) = G(z, p) + b`` (``b = 0`` on structural rows). A path runs from
+``(p_a, b_a)`` to ``(p_b, b_b)`` along ``p(s) = p_a + s (p_b - p_a)``, ``b(s)`` likewise, with
+the gamma trick ``s(t) = gamma t / (1 + (gamma - 1) t)``, ``t`` real in [0, 1]: for a random
+unit complex ``gamma`` the path ``s`` is a circular arc from 0 to 1 that, with probability
+one, meets no singular member of the family before ``t = 1``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import HomotopyError, InputError
+from .endgame import EG_INFINITY, EG_SINGULAR, cauchy_endgame
+from .system import PolynomialSystem
+from .tracker import DIVERGED, DONE, TrackerOptions, newton, rel_norm, track
+
+#: Path statuses of :class:`PathEndpoints` and :class:`HomotopyResult`.
+STATUSES = ("success", "singular", "at_infinity", "failed")
+
+
+class ParameterHomotopy:
+    """H(z, t) = G(z, p(s(t))) + b(s(t)) for a batch of paths, each with its own segment.
+
+    Args:
+        system: the polynomial system.
+        p_from: (D, n_params) complex parameters at t = 0 (one row per path datum).
+        p_to: (D, n_params) complex parameters at t = 1.
+        b_from: (D, n) complex offsets at t = 0 (zero on structural rows).
+        b_to: (D, n) complex offsets at t = 1.
+        gamma: (D,) complex gamma of each path (1 for a straight segment).
+    """
+
+    def __init__(self, system, p_from, p_to, b_from, b_to, gamma) -> None:
+        self.system = system
+        self.p_from = np.asarray(p_from, dtype=complex)
+        self.dp = np.asarray(p_to, dtype=complex) - self.p_from
+        self.b_from = np.asarray(b_from, dtype=complex)
+        self.db = np.asarray(b_to, dtype=complex) - self.b_from
+        self.gamma = np.asarray(gamma, dtype=complex)
+
+    def __call__(self, z: np.ndarray, t: np.ndarray, idx: np.ndarray):
+        """z (M, n), t (M,) complex, idx (M,) -> H (M, n), H_z (M, n, n), H_t (M, n)."""
+        g = self.gamma[idx]
+        den = 1.0 + (g - 1.0) * t
+        s = (g * t / den)[:, None]
+        ds = (g / den**2)[:, None]
+        dp, db = self.dp[idx], self.db[idx]
+        G, Gz, Gp = self.system.evaluate(z, self.p_from[idx] + s * dp)
+        H = G + self.b_from[idx] + s * db
+        Ht = (np.einsum("mij,mj->mi", Gp, dp) + db) * ds
+        return H, Gz, Ht
+
+
+@dataclass(frozen=True)
+class PathEndpoints:
+    """Endpoints at t = 1 of a batch of parameter-homotopy paths.
+
+    Attributes:
+        z: (M, n) complex endpoints (NaN where failed or at infinity).
+        status: (M,) str, one of :data:`STATUSES`.
+        winding: (M,) int winding numbers (1 for regular endpoints, 0 if unknown).
+        steps: (M,) int tracker step attempts.
+    """
+
+    z: np.ndarray
+    status: np.ndarray
+    winding: np.ndarray
+    steps: np.ndarray
+
+
+def scaled_cond(J: np.ndarray) -> np.ndarray:
+    """Condition numbers (M,) of (M, n, n) matrices after scaling rows, then columns, to unit
+    max norm (so that a badly scaled chart coordinate is not taken for a singularity)."""
+    with np.errstate(all="ignore"):
+        J = J / np.abs(J).max(axis=2, keepdims=True)
+        J = J / np.abs(J).max(axis=1, keepdims=True)
+        c = np.linalg.cond(J) if len(J) else np.zeros(0)
+    return np.where(np.isfinite(c), c, np.inf)
+
+
+def _regular(system, homotopy, z, idx, cond_max) -> tuple[np.ndarray, np.ndarray]:
+    """Newton-refine endpoints at t = 1; regular where it converges and J is well conditioned."""
+    t1 = np.ones(len(z), dtype=complex)
+    z, nu = newton(homotopy, z, t1, idx, 2)
+    _, Hz, _ = homotopy(z, t1, idx)
+    ok = np.isfinite(z).all(axis=1) & (nu[:, -1] <= 1e-10) & (scaled_cond(Hz) <= cond_max)
+    return z, ok
+
+
+def track_parameter_homotopy(
+    system: PolynomialSystem,
+    z: np.ndarray,
+    homotopy: ParameterHomotopy,
+    idx: np.ndarray,
+    options: TrackerOptions | None = None,
+    endgame: bool = True,
+    r0: float = 0.01,
+    cond_max: float = 1e13,
+) -> PathEndpoints:
+    """Track paths of a parameter homotopy from t = 0 to t = 1.
+
+    Args:
+        system: the polynomial system.
+        z: (M, n) complex start points (solutions at t = 0).
+        homotopy: the homotopy, with per-path data selected by ``idx``.
+        idx: (M,) int path data indices.
+        options: tracker step control.
+        endgame: run the Cauchy endgame on paths that do not end regular (else they fail).
+        r0: the endgame starts at t = 1 - r0.
+        cond_max: largest condition number of H_z (rows and columns scaled) at a regular
+            endpoint.
+
+    Returns:
+        :class:`PathEndpoints`.
+    """
+    M = len(z)
+    idx = np.asarray(idx)
+    tmap = _identity
+    status = np.full(M, "failed", dtype=object)
+    winding = np.zeros(M, dtype=int)
+    out = np.full((M, system.n), np.nan + 0j)
+    if M == 0:
+        return PathEndpoints(out, status.astype(str), winding, np.zeros(0, dtype=int))
+    t_split = 1.0 - r0 if endgame else 1.0
+    first = track(homotopy, tmap, z, idx, np.zeros(M), np.full(M, t_split), options)
+    steps = first.steps.copy()
+    # before t = 1 a path only diverges by passing close to a solution's escape (probability
+    # zero with the gamma trick): "failed", so that the caller may retry with another gamma
+    if not endgame:
+        status[first.status == DIVERGED] = "at_infinity"
+    ok1 = np.flatnonzero(first.status == DONE)
+    if endgame:
+        second = track(
+            homotopy,
+            tmap,
+            first.z[ok1],
+            idx[ok1],
+            first.tau[ok1],
+            np.ones(ok1.size),
+            options,
+            first.h[ok1],
+        )
+        steps[ok1] += second.steps
+        arrived = second.status == DONE
+        zr, reg = _regular(system, homotopy, second.z[arrived], idx[ok1][arrived], cond_max)
+        good = ok1[arrived][reg]
+        out[good], status[good], winding[good] = zr[reg], "success", 1
+        rest = np.setdiff1d(ok1, good)
+        if rest.size:
+            eg = cauchy_endgame(homotopy, first.z[rest], idx[rest], r0, options)
+            sing = eg.verdict == EG_SINGULAR
+            out[rest[sing]], status[rest[sing]] = eg.z[sing], "singular"
+            status[rest[eg.verdict == EG_INFINITY]] = "at_infinity"
+            winding[rest] = eg.winding
+    else:
+        zr, reg = _regular(system, homotopy, first.z[ok1], idx[ok1], cond_max)
+        good = ok1[reg]
+        out[good], status[good], winding[good] = zr[reg], "success", 1
+    # a regular solution ends exactly one path: two paths at one regular endpoint (of the same
+    # target) mean a path jump, both fail
+    for d in np.unique(idx):
+        ends = np.flatnonzero((status == "success") & (idx == d))
+        if ends.size > 1:
+            zs = out[ends]
+            close = np.abs(zs[:, None] - zs[None]).max(axis=2) <= 1e-8 * (
+                1.0 + np.abs(zs).max(axis=1)
+            )
+            jumped = ends[close.sum(axis=1) > 1]
+            status[jumped], out[jumped] = "failed", np.nan
+    return PathEndpoints(out, status.astype(str), winding, steps)
+
+
+def _identity(tau, idx):
+    return tau + 0j, np.ones_like(tau, dtype=complex)
+
+
+@dataclass(frozen=True)
+class HomotopyResult:
+    """All solutions of G(z, p0) = 0 reached from a start system.
+
+    Attributes:
+        endpoints: (R, n) complex endpoint of every start solution's path (NaN if none).
+        status: (R,) str per path: ``"success"`` (regular endpoint), ``"singular"`` (endpoint
+            located by the Cauchy endgame, see ``winding``), ``"at_infinity"``, ``"failed"``.
+        winding: (R,) int winding number of each path at t = 1 (0 where unknown).
+        real_solutions: (K, n) float, the distinct real endpoints (regular ones refined by
+            real Newton), sorted lexicographically.
+        complete: every path ended at t = 1 regular, singular with a converged endgame, or
+            at infinity — with a complete start system, every isolated solution at ``p0`` is
+            then among ``endpoints``.
+        start_certified: the start system passed its trace test (``complete`` and this
+            together: the list is complete).
+        gamma: the complex gamma of the homotopy.
+        steps: (R,) int tracker step attempts per path.
+        attempts: gammas tried (a new one while a path failed on the way).
+    """
+
+    endpoints: np.ndarray
+    status: np.ndarray
+    winding: np.ndarray
+    real_solutions: np.ndarray
+    complete: bool
+    start_certified: bool
+    gamma: complex
+    steps: np.ndarray
+    attempts: int
+
+
+def real_endpoints(
+    system: PolynomialSystem,
+    z: np.ndarray,
+    p0: np.ndarray,
+    real_tol: float = 1e-8,
+    dedup_tol: float = 1e-8,
+    polish: bool = True,
+) -> np.ndarray:
+    """Distinct real points among endpoints, each polished by two real Newton steps.
+
+    Args:
+        system: the polynomial system.
+        z: (M, n) complex endpoints (NaN rows are skipped).
+        p0: (n_params,) the target parameters.
+        real_tol: largest ``max|Im z| / (1 + max|z|)`` of a real endpoint.
+        dedup_tol: relative distance under which two real points are one.
+        polish: run the real Newton steps (not at singular endpoints).
+
+    Returns:
+        (K, n) float, sorted lexicographically.
+    """
+    z = z[np.isfinite(z).all(axis=1)]
+    real = rel_norm(z.imag, z) <= real_tol
+    x = z[real].real.astype(complex)
+    if len(x) and polish:
+        P = np.broadcast_to(np.asarray(p0, dtype=complex), (len(x), system.n_params))
+        for _ in range(2):
+            G, Gz, _ = system.evaluate(x, P)
+            try:
+                dx = np.linalg.solve(Gz.real, G.real[..., None])[..., 0]
+            except np.linalg.LinAlgError:
+                break
+            x = x - np.where(np.isfinite(dx), dx, 0.0)
+    return dedup(x.real, dedup_tol)
+
+
+def dedup(x: np.ndarray, tol: float) -> np.ndarray:
+    """Distinct rows of x (M, n), relative distance ``tol``; sorted lexicographically."""
+    kept: list[np.ndarray] = []
+    for row in x:
+        if not any(rel_norm((row - k)[None], k[None])[0] <= tol for k in kept):
+            kept.append(row)
+    if not kept:
+        return np.zeros((0, x.shape[1]), dtype=x.dtype)
+    out = np.array(kept)
+    return out[np.lexsort(out.real.T[::-1])]
+
+
+def solve_homotopy(
+    system: PolynomialSystem,
+    start,
+    p0: np.ndarray,
+    *,
+    seed: int = 0,
+    options: TrackerOptions | None = None,
+    real_tol: float = 1e-8,
+    attempts: int = 3,
+) -> HomotopyResult:
+    """Every solution of G(z, p0) = 0 by the parameter homotopy from a start system.
+
+    Tracks all ``start.root_count`` paths from ``(start.p, start.b)`` to ``(p0, b = 0)`` with
+    the gamma trick; paths that do not end regular go through the Cauchy endgame.
+
+    Args:
+        system: the polynomial system the start system was computed for.
+        start: a :class:`~scdk_sym.algebraic.monodromy.StartSystem` of ``system``.
+        p0: (n_params,) target parameters (real for a physical query; complex allowed).
+        seed: seed of the random gamma.
+        options: tracker step control.
+        real_tol: largest ``max|Im z| / (1 + max|z|)`` of a real solution.
+        attempts: gammas tried while some path fails on the way (each attempt reruns all).
+
+    Returns:
+        A :class:`HomotopyResult` (of the last attempt).
+
+    Raises:
+        InputError: ``p0`` has the wrong shape or is not finite.
+        HomotopyError: the start system does not belong to ``system``.
+    """
+    p0 = np.asarray(p0, dtype=complex).ravel()
+    if p0.shape != (system.n_params,) or not np.isfinite(p0).all():
+        raise InputError(
+            f"p0 must be {system.n_params} finite parameters, got shape {p0.shape}; "
+            "pass the model's parameter vector"
+        )
+    if start.solutions.shape[1:] != (system.n,) or start.p.shape != (system.n_params,):
+        raise HomotopyError(
+            f"start system of shape {start.solutions.shape} does not fit a system with "
+            f"n = {system.n}; recompute it with start_system(system)"
+        )
+    rng = np.random.default_rng(seed)
+    b_to = np.zeros(system.n, dtype=complex)
+    R = len(start.solutions)
+    attempt = 0
+    while attempt < attempts:
+        attempt += 1
+        # a path that fails on the way passed close to a point where its solution escapes to
+        # infinity; another gamma moves every path away from it (all paths are rerun, so
+        # the endpoints stay one arc's complete set)
+        gamma = complex(np.exp(2j * np.pi * rng.uniform()))
+        hom = ParameterHomotopy(system, start.p[None], p0[None], start.b[None], b_to[None], [gamma])
+        ends = track_parameter_homotopy(
+            system, start.solutions, hom, np.zeros(R, dtype=int), options
+        )
+        if not (ends.status == "failed").any():
+            break
+    reg = real_endpoints(system, ends.z[ends.status == "success"], p0, real_tol)
+    # endgame estimates are accurate to about 1e-8 relative: looser tests for them
+    sing = real_endpoints(system, ends.z[ends.status == "singular"], p0, 1e-6, 1e-6, polish=False)
+    merged = dedup(np.concatenate([reg, sing]), 1e-6) if len(sing) else reg
+    return HomotopyResult(
+        endpoints=ends.z,
+        status=ends.status,
+        winding=ends.winding,
+        real_solutions=merged,
+        complete=bool(np.isin(ends.status, ("success", "singular", "at_infinity")).all()),
+        start_certified=bool(start.trace_passed),
+        gamma=gamma,
+        steps=ends.steps,
+        attempts=attempt,
+    )

@@ -1,0 +1,318 @@
+"""Start systems by monodromy, certified complete by a trace test, cached on disk.
+
+Monodromy (Duff, Hill, Jensen, Lee, Leykin, Sommars 2019): the start pair ``(z*, p*)`` is a
+random point of the system with offsets ``b* = -G(z*, p*)`` on the offset rows, so ``z*``
+solves ``F(z; p*, b*) = 0``. Every loop tracks all known solutions around a random triangle
+``(p*, b*) -> (p1, b1) -> (p2, b2) -> (p*, b*)`` of complex parameters; endpoints not yet
+known are new solutions. Since the incidence variety ``{(z, b): G(z, p*) + b = 0}`` is a graph
+over the (irreducible) structural variety, the monodromy group acts transitively, and loops
+eventually reach every solution.
+
+Trace test (Leykin, Rodriguez, Sottile 2018): along the offset pencil
+``b(lambda) = b* + lambda v`` the sum ``T(lambda)`` of ``f(z_j)`` over the whole fibre is a
+symmetric function of it: single valued, and a polynomial in ``lambda`` as long as ``f`` stays
+finite (no pole), whereas the sum over a proper subset is not single valued (the monodromy of
+a general line is the full group). The test samples ``T`` at ``K`` points
+``rho e^(2 pi i (k + u)/K)`` and requires its Fourier modes above ``degree`` to vanish relative
+to ``sum_j |f(z_j)|``; ``degree = 1`` is the linear trace of the paper, which holds for every
+system tested here. ``f`` must stay finite along the pencil: an affine chart is not enough
+(on a 6-6 platform the quaternion ``q`` in the chart ``a . q = 1`` goes to infinity where the
+complex rotation's quaternion crosses ``a . q = 0``, so the trace of ``z`` has poles); a
+system may therefore provide ``trace_map(z) -> (N, m)``, polynomial functions that stay
+finite there (e.g. translation and rotation matrix entries); otherwise ``f(z) = z``. A poorly
+chosen ``f`` only makes a complete set fail the test (a false negative), never the reverse.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import HomotopyError
+from .homotopy import ParameterHomotopy, dedup, track_parameter_homotopy
+from .system import PolynomialSystem
+from .tracker import TrackerOptions, newton, rel_norm
+
+#: Version of the engine; part of the cache key of start systems.
+ENGINE_VERSION = "1"
+
+
+@dataclass(frozen=True)
+class StartSystem:
+    """A complete solution set of the family at one generic complex parameter point.
+
+    Attributes:
+        p: (n_params,) complex base parameters ``p*``.
+        b: (n,) complex base offsets ``b*`` (zero on structural rows).
+        solutions: (R, n) complex, every solution of ``G(z, p*) + b* = 0``.
+        root_count: R.
+        trace_residual: relative size of the trace's non-polynomial Fourier modes.
+        trace_passed: ``trace_residual <= trace_tol``: the set is complete.
+        loops: monodromy loops run.
+        seed: the seed the start system was computed with.
+    """
+
+    p: np.ndarray
+    b: np.ndarray
+    solutions: np.ndarray
+    root_count: int
+    trace_residual: float
+    trace_passed: bool
+    loops: int
+    seed: int
+
+
+def _cnormal(rng: np.random.Generator, shape) -> np.ndarray:
+    return (rng.normal(size=shape) + 1j * rng.normal(size=shape)) / np.sqrt(2.0)
+
+
+def _track_segment(system, z, pa, pb, ba, bb, options):
+    """Track the points z (M, n) from (pa, ba) to (pb, bb) along one straight segment."""
+    hom = ParameterHomotopy(system, pa[None], pb[None], ba[None], bb[None], [1.0])
+    return track_parameter_homotopy(
+        system, z, hom, np.zeros(len(z), dtype=int), options, endgame=False
+    )
+
+
+def _refine(system, z, p, b):
+    """Newton-polish points at (p, b); returns the points and a mask of the converged ones."""
+    if len(z) == 0:
+        return z, np.zeros(0, dtype=bool)
+    hom = ParameterHomotopy(system, p[None], p[None], b[None], b[None], [1.0])
+    z, nu = newton(hom, z, np.zeros(len(z), dtype=complex), np.zeros(len(z), dtype=int), 2)
+    return z, np.isfinite(z).all(axis=1) & (nu[:, -1] <= 1e-11)
+
+
+def trace_test(
+    system: PolynomialSystem,
+    solutions: np.ndarray,
+    p: np.ndarray,
+    b: np.ndarray,
+    rng: np.random.Generator,
+    *,
+    samples: int = 16,
+    degree: int = 1,
+    radius: float = 0.5,
+    trace_map: Callable[[np.ndarray], np.ndarray] | None = None,
+    options: TrackerOptions | None = None,
+) -> float:
+    """Relative size of the part of the trace above ``degree`` along a random offset pencil.
+
+    Args:
+        system: the polynomial system.
+        solutions: (R, n) complex solutions at ``(p, b)``.
+        p: (n_params,) complex base parameters.
+        b: (n,) complex base offsets.
+        rng: random generator (pencil direction and sample phase).
+        samples: Fourier samples ``K`` (> degree + 1).
+        degree: the trace's degree in ``lambda`` for a complete set.
+        radius: sample circle radius, relative to ``1 + max|b|`` (or ``|p|`` without offsets).
+        trace_map: ``f``, (N, n) -> (N, m); default ``system.trace_map`` if it exists, else z.
+        options: tracker step control.
+
+    Returns:
+        ``max_{degree < m < K} |c_m|_inf / mean_k sum_j |f(z_j(lambda_k))|_inf``; ``inf`` if a
+        path failed or two paths met (a path jump).
+    """
+    f = trace_map or getattr(system, "trace_map", None) or (lambda z: z)
+    R, n = solutions.shape
+    offs = np.asarray(system.offset_rows, dtype=bool)
+    if offs.any():
+        vb = np.where(offs, _cnormal(rng, n), 0.0) * (1.0 + np.abs(b).max())
+        vp = np.zeros(system.n_params, dtype=complex)
+    else:
+        vb = np.zeros(n, dtype=complex)
+        vp = _cnormal(rng, system.n_params) * (1.0 + np.abs(p).max())
+    lam = radius * np.exp(2j * np.pi * (np.arange(samples) + rng.uniform()) / samples)
+    pb = p[None] + lam[:, None] * vp[None]
+    bb = b[None] + lam[:, None] * vb[None]
+    hom = ParameterHomotopy(
+        system,
+        np.repeat(p[None], samples, 0),
+        pb,
+        np.repeat(b[None], samples, 0),
+        bb,
+        np.ones(samples),
+    )
+    z = np.tile(solutions, (samples, 1))
+    idx = np.repeat(np.arange(samples), R)
+    ends = track_parameter_homotopy(system, z, hom, idx, options, endgame=False)
+    if not (ends.status == "success").all():
+        return float("inf")
+    zk = ends.z.reshape(samples, R, n)
+    for k in range(samples):  # a path jump would merge two solutions
+        if len(dedup(zk[k], 1e-8)) != R:
+            return float("inf")
+    fk = np.asarray(f(ends.z)).reshape(samples, R, -1)
+    c = np.fft.fft(fk.sum(axis=1), axis=0) / samples
+    scale = np.abs(fk).max(axis=2).sum(axis=1).mean()
+    return float(np.abs(c[degree + 1 :]).max() / scale)
+
+
+def monodromy_solve(
+    system: PolynomialSystem,
+    seed: int = 0,
+    *,
+    stable_loops: int = 5,
+    max_loops: int = 200,
+    trace_tol: float = 1e-8,
+    trace_map: Callable[[np.ndarray], np.ndarray] | None = None,
+    options: TrackerOptions | None = None,
+    progress: bool = True,
+) -> StartSystem:
+    """A complete start system by monodromy loops and a trace test.
+
+    Loops run until the solution count has not changed for ``stable_loops`` loops; then the
+    trace test runs; if it fails, loops continue (and the test reruns when the count is stable
+    again) until ``max_loops``.
+
+    Args:
+        system: the polynomial system.
+        seed: seed of every random choice (start pair, loops, pencil).
+        stable_loops: loops without a new solution before the trace test.
+        max_loops: bound on the loops.
+        trace_tol: largest trace residual of a complete set.
+        trace_map: the traced functions (see :func:`trace_test`).
+        options: tracker step control.
+        progress: show a tqdm progress bar.
+
+    Returns:
+        A :class:`StartSystem` (``trace_passed`` False if the budget ran out).
+
+    Raises:
+        HomotopyError: the random point does not satisfy the structural rows.
+    """
+    from tqdm.auto import tqdm
+
+    rng = np.random.default_rng(seed)
+    offs = np.asarray(system.offset_rows, dtype=bool)
+    z0, p = system.random_point(rng)
+    z0, p = np.asarray(z0, dtype=complex), np.asarray(p, dtype=complex)
+    G, _, _ = system.evaluate(z0[None], p[None])
+    G = G[0]
+    if np.abs(G[~offs]).max(initial=0.0) > 1e-10 * (1.0 + np.abs(z0).max()):
+        raise HomotopyError(
+            f"random_point gives structural residual {np.abs(G[~offs]).max():.1e}; "
+            "fix the system's random_point so structural rows vanish"
+        )
+    b = np.where(offs, -G, 0.0)
+    sols = z0[None].copy()
+    pscale, bscale = 1.0 + np.abs(p).max(), 1.0 + np.abs(b).max()
+    residual, passed, stable, loops = float("inf"), False, 0, 0
+    bar = tqdm(total=max_loops, desc="monodromy", unit="loop", disable=not progress, leave=False)
+    try:
+        while loops < max_loops:
+            nodes = [(p, b)]
+            for _ in range(2):
+                nodes.append(
+                    (
+                        p + pscale * _cnormal(rng, p.shape),
+                        b + bscale * np.where(offs, _cnormal(rng, b.shape), 0),
+                    )
+                )
+            nodes.append((p, b))
+            z = sols
+            for (pa, ba), (pc, bc) in zip(nodes[:-1], nodes[1:], strict=True):
+                ends = _track_segment(system, z, pa, pc, ba, bc, options)
+                z = ends.z[ends.status == "success"]
+            z, ok = _refine(system, z, p, b)
+            before = len(sols)
+            for row in z[ok]:
+                if rel_norm(sols - row[None], sols).min() > 1e-8:
+                    sols = np.vstack([sols, row[None]])
+            loops += 1
+            stable = stable + 1 if len(sols) == before else 0
+            bar.update(1)
+            bar.set_postfix(solutions=len(sols))
+            if stable >= stable_loops:
+                residual = trace_test(system, sols, p, b, rng, trace_map=trace_map, options=options)
+                passed = residual <= trace_tol
+                if passed:
+                    break
+                stable = 0
+    finally:
+        bar.close()
+    return StartSystem(
+        p=p,
+        b=b,
+        solutions=sols,
+        root_count=len(sols),
+        trace_residual=residual,
+        trace_passed=passed,
+        loops=loops,
+        seed=seed,
+    )
+
+
+def cache_path(system: PolynomialSystem, seed: int) -> Path:
+    """Cache file of a start system: ``<cache_dir>/homotopy/<hash>-v<version>-s<seed>.npz``."""
+    from ..kernels.cache import cache_dir
+
+    d = cache_dir() / "homotopy"
+    d.mkdir(parents=True, exist_ok=True)
+    return d / f"{system.content_hash()}-v{ENGINE_VERSION}-s{seed}.npz"
+
+
+def start_system(
+    system: PolynomialSystem,
+    seed: int = 0,
+    *,
+    cache: bool = True,
+    progress: bool = True,
+    **kwargs,
+) -> StartSystem:
+    """The start system of ``system``: loaded from the cache, else by :func:`monodromy_solve`.
+
+    The cache (under :func:`scdk_sym.kernels.cache.cache_dir`, ``SCDK_CACHE_DIR`` honoured) is
+    keyed by ``system.content_hash()``, :data:`ENGINE_VERSION` and ``seed``; only start
+    systems whose trace test passed are stored, and a loaded one is re-checked (residuals).
+
+    Args:
+        system: the polynomial system.
+        seed: seed of the monodromy.
+        cache: read and write the disk cache.
+        progress: show a progress bar during monodromy.
+        **kwargs: passed to :func:`monodromy_solve`.
+
+    Returns:
+        A :class:`StartSystem`.
+    """
+    path = cache_path(system, seed) if cache else None
+    if path is not None and path.exists():
+        try:
+            with np.load(path) as f:
+                s = StartSystem(
+                    p=f["p"],
+                    b=f["b"],
+                    solutions=f["solutions"],
+                    root_count=int(f["root_count"]),
+                    trace_residual=float(f["trace_residual"]),
+                    trace_passed=bool(f["trace_passed"]),
+                    loops=int(f["loops"]),
+                    seed=int(f["seed"]),
+                )
+            _, ok = _refine(system, s.solutions, s.p, s.b)
+            if ok.all() and len(s.solutions) == s.root_count:
+                return s
+        except (OSError, KeyError, ValueError):
+            pass
+    s = monodromy_solve(system, seed, progress=progress, **kwargs)
+    if path is not None and s.trace_passed:
+        tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
+        np.savez(
+            tmp,
+            p=s.p,
+            b=s.b,
+            solutions=s.solutions,
+            root_count=s.root_count,
+            trace_residual=s.trace_residual,
+            trace_passed=s.trace_passed,
+            loops=s.loops,
+            seed=s.seed,
+        )
+        os.replace(tmp, path)
+    return s

@@ -1,0 +1,370 @@
+"""All real assembly modes with a proof: parameter homotopy from a certified start system.
+
+The pipeline of :func:`homotopy_modes`:
+
+1. the model's algebraic form ``G(z, p) = 0`` (:func:`scdk_sym.algebraic.algebraic_form`,
+   generated C when a C compiler is present);
+2. its start system: every complex solution at one random complex parameter point, by
+   monodromy, proven complete by a trace test (:func:`scdk_sym.algebraic.start_system`,
+   cached on disk under the form's content hash). The traced functions are the entries of
+   the placement of the model's frame (translation and rotation), which stay finite where a
+   quaternion chart does not;
+3. the parameter homotopy from there to ``params(theta0)``
+   (:func:`scdk_sym.algebraic.solve_homotopy`): every isolated solution at ``theta0`` is an
+   endpoint;
+4. real endpoints -> the model's unknowns, Newton-polished on the model's own closure rows
+   ``g`` (max |g| <= :data:`RESIDUAL` verified), deduplicated and sorted as the curve search
+   sorts them;
+5. each one certified by a Krawczyk test on ``g`` in one common chart, the boxes pairwise
+   disjoint (:func:`scdk_sym.algebraic.certify_configurations`).
+
+The result is certified only when every link of that chain holds; otherwise its ``report``
+names the first one that does not. All work is bounded (monodromy loops, tracker steps,
+homotopy attempts, Newton steps).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from collections.abc import Sequence
+from dataclasses import replace
+
+import casadi as ca
+import numpy as np
+
+from ..errors import InputError, ScdkError
+from ..follower.geometry import features
+from ..model.chart import rot_exp
+from ..model.model import Model, as_vector
+from ..results import AssemblyModes, Configuration
+
+#: Largest relative imaginary part of a real endpoint (as ``solve_homotopy`` selects them).
+REAL_TOL = 1e-8
+#: Endpoints with a relative imaginary part in (REAL_TOL, UNDECIDED_TOL] leave the set
+#: uncertified: a real solution computed with that much error would be missed.
+UNDECIDED_TOL = 1e-5
+#: Largest max |g| of a polished real solution [model length unit].
+RESIDUAL = 1e-9
+#: A real root of the form with max |g| above this many model sizes, before and after Newton,
+#: is no solution of the model (e.g. a weld closed with a half turn in its rotation rows).
+SPURIOUS = 1e-3
+#: Newton steps on the model's rows per real endpoint.
+NEWTON_STEPS = 8
+#: Default bound on the monodromy loops of a start system.
+MAX_LOOPS = 60
+#: Largest relative trace residual of a complete start system.
+TRACE_TOL = 1e-9
+#: Version of the start-system test (part of the cache file name).
+MODES_CACHE_VERSION = "1"
+BACKENDS = ("auto", "casadi", "compiled")
+_START_ATTR = "_start_systems"
+
+
+def _backend(backend: str) -> str:
+    if backend not in BACKENDS:
+        raise InputError(f"unknown backend {backend!r}; backends: {', '.join(BACKENDS)}")
+    if backend == "auto":
+        return "compiled" if shutil.which("cc") or shutil.which("gcc") else "casadi"
+    return backend
+
+
+def frame_trace_map(form, p: np.ndarray):
+    """The traced functions of a form: placements of the model frame and the closure frames.
+
+    The closure rows are polynomials in these placements (linear for point closures), so
+    their trace along an offset pencil is a polynomial of low degree where a plain chart
+    coordinate would have poles.
+
+    Args:
+        form: an :class:`~scdk_sym.algebraic.form.AlgebraicForm`.
+        p: (n_params,) complex parameters held fixed along the trace pencil.
+
+    Returns:
+        ``f(z) -> (N, 12 F)`` complex: translation and rotation entries of the ``F`` frames,
+        polynomial in ``z``.
+    """
+    from ..algebraic.pairs import complexify
+    from ..algebraic.polynomial import _joint_values, _motion
+
+    model = form.model
+    z, ps = ca.SX.sym("z", form.n), ca.SX.sym("p", form.n_params)
+    values, _ = _joint_values(model, form.rows.slots, z, ps)
+    T = {model.tree.root: ca.SX.eye(4)}
+    for j in model.tree.joints:
+        M = T[j.parent] @ ca.DM(j.origin)
+        if j.movable:
+            M = M @ _motion(j.type, j.axis, values[j.name])
+        T[j.child] = M
+    frames = [model.frame] + [f for cl in model.closures for f in (cl.frame_a, cl.frame_b)]
+    entries = ca.vertcat(*[ca.vec(T[f][:3, :]) for f in dict.fromkeys(frames)])
+    F = complexify(ca.Function("frames", [z, ps], [entries / model.length_scale]), "frames_c")
+    p = np.asarray(p, dtype=complex)
+
+    def trace_map(Z: np.ndarray) -> np.ndarray:
+        Z = np.atleast_2d(Z)
+        N = len(Z)
+        out = F.map(N)(Z.real.T, Z.imag.T, np.tile(p.real[:, None], (1, N)),
+                       np.tile(p.imag[:, None], (1, N)))  # fmt: skip
+        return (np.array(out[0]) + 1j * np.array(out[1])).T
+
+    return trace_map
+
+
+def model_start_system(
+    form, seed: int = 0, *, progress: bool = False, max_loops: int = MAX_LOOPS, cache: bool = True
+):
+    """The start system of a model's form, with its completeness test (cached).
+
+    Monodromy (:func:`scdk_sym.algebraic.monodromy_solve`) runs until the solution count has
+    been stable for 5 loops (then 15, if the set fails its test), within ``max_loops``. The set
+    is proven complete when the trace of the frames' placements
+    (:func:`frame_trace_map`) along a random offset pencil is a polynomial of degree 1
+    (:func:`scdk_sym.algebraic.trace_test`, relative residual <= :data:`TRACE_TOL`) or a
+    rational function of low degree
+    (:func:`scdk_sym.algebraic.rational_trace.rational_trace_test`, relative validation
+    error <= :data:`TRACE_TOL`): solutions of these forms escape to infinity near the base
+    point, so the trace has poles. Proven start systems are stored on disk under the form's
+    content hash; every result is kept in memory on the model.
+
+    Args:
+        form: the model's algebraic form.
+        seed: seed of the monodromy.
+        progress: progress bar of the monodromy loops.
+        max_loops: bound on the monodromy loops of each attempt.
+        cache: use the disk cache.
+
+    Returns:
+        A :class:`~scdk_sym.algebraic.monodromy.StartSystem` whose ``trace_passed`` and
+        ``trace_residual`` are those of the test above.
+    """
+    from ..algebraic import monodromy_solve
+    from ..algebraic.rational_trace import rational_trace_test
+
+    memo = form.model.__dict__.setdefault(_START_ATTR, {})
+    key = (form.backend, seed, max_loops)
+    if key in memo:
+        return memo[key]
+    path = _cache_path(form, seed) if cache else None
+    start = _load(form, path) if path is not None and path.exists() else None
+    if start is None:
+        _, p_star = form.random_point(np.random.default_rng(seed))
+        trace_map = frame_trace_map(form, p_star)
+        for stable in (5, 15):
+            s = monodromy_solve(
+                form, seed, stable_loops=stable, max_loops=max_loops, trace_tol=np.inf,
+                trace_map=trace_map, progress=progress,
+            )  # fmt: skip
+            rational, _ = rational_trace_test(
+                form, s.solutions, s.p, s.b, np.random.default_rng(seed + 1), trace_map
+            )
+            residual = min(s.trace_residual, rational)
+            start = replace(s, trace_residual=residual, trace_passed=residual <= TRACE_TOL)
+            if start.trace_passed:
+                break
+        if path is not None and start.trace_passed:
+            _save(start, path)
+    memo[key] = start
+    return start
+
+
+def _cache_path(form, seed: int):
+    from ..algebraic.monodromy import cache_path
+
+    p = cache_path(form, seed)
+    return p.with_name(f"{p.stem}-modes{MODES_CACHE_VERSION}.npz")
+
+
+def _load(form, path):
+    from ..algebraic.monodromy import StartSystem, _refine
+
+    try:
+        with np.load(path) as f:
+            s = StartSystem(**{name: f[name] for name in _FIELDS})
+        s = replace(
+            s,
+            root_count=int(s.root_count),
+            trace_residual=float(s.trace_residual),
+            trace_passed=bool(s.trace_passed),
+            loops=int(s.loops),
+            seed=int(s.seed),
+        )
+    except (OSError, KeyError, ValueError, TypeError):
+        return None
+    _, ok = _refine(form, s.solutions, s.p, s.b)
+    return s if ok.all() and len(s.solutions) == s.root_count else None
+
+
+def _save(s, path) -> None:
+    tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
+    np.savez(tmp, **{name: getattr(s, name) for name in _FIELDS})
+    os.replace(tmp, path)
+
+
+_FIELDS = ("p", "b", "solutions", "root_count", "trace_residual", "trace_passed", "loops", "seed")
+
+
+def _polish(model: Model, y: np.ndarray, c: np.ndarray, theta: np.ndarray):
+    """Newton on the model's rows in the chart ``c``; returns ``(y, max |g|)``."""
+    k = model.kernels
+    for _ in range(NEWTON_STEPS):
+        g = np.array(k.g(y, theta, c)).ravel()
+        r = float(np.max(np.abs(g))) if g.size else 0.0
+        if not np.isfinite(r):
+            return y, float("inf")
+        if r <= 0.01 * RESIDUAL:
+            break
+        try:
+            y = y - np.linalg.solve(np.array(k.jac(y, theta, c)[0]), g)
+        except np.linalg.LinAlgError:
+            break
+    return y, model.residual(y, theta, c)
+
+
+def _common_chart(model: Model, ys: np.ndarray) -> np.ndarray | None:
+    """A chart of the floating joints far from a half turn of every configuration.
+
+    Candidates: each configuration's own rotations and 32 random ones; the one with the
+    largest ``min 1 + trace(R_c^T R)`` over the configurations (0 at a half turn) is taken.
+    """
+    rots = model.chart.rotations
+    if not rots or not len(ys):
+        return None
+    rng = np.random.default_rng(0)
+    # (N, F, 3, 3) rotations of the configurations
+    R = np.array([[rot_exp(y[list(idx)]) for idx in rots] for y in ys])
+    w = rng.normal(size=(32, len(rots), 3))
+    w *= (np.pi * rng.uniform(size=(32, len(rots), 1))) / np.linalg.norm(w, axis=2, keepdims=True)
+    rand = np.array([[rot_exp(v) for v in row] for row in w])
+    cands = np.concatenate([R, rand])
+    # score[c] = min over configurations and joints of 1 + trace(C^T R)
+    score = (1.0 + np.einsum("cfij,nfij->cnf", cands, R)).min(axis=(1, 2))
+    best = cands[int(np.argmax(score))]
+    return np.concatenate([C.flatten(order="F") for C in best])
+
+
+def homotopy_modes(
+    model: Model,
+    theta0: Sequence[float],
+    *,
+    seed: int = 0,
+    progress: bool = False,
+    backend: str = "auto",
+    max_loops: int = MAX_LOOPS,
+    cache: bool = True,
+) -> AssemblyModes:
+    """Every real assembly mode at ``theta0``, with a certificate of completeness.
+
+    Args:
+        model: the model.
+        theta0: (k,) actuated joint values [rad or model length unit].
+        seed: seed of the start system and of the homotopy's gamma.
+        progress: progress bar while the start system is computed (first call per model).
+        backend: ``"auto"`` (generated C when a C compiler is present), ``"casadi"`` or
+            ``"compiled"``.
+        max_loops: bound on the monodromy loops of the start system.
+        cache: read and write the start system's disk cache.
+
+    Returns:
+        :class:`~scdk_sym.results.AssemblyModes` (see the module documentation).
+
+    Raises:
+        InputError: bad ``theta0`` or backend.
+        AlgebraicFormError: a joint type with no algebraic form.
+    """
+    from ..algebraic import algebraic_form, certify_configurations, solve_homotopy
+    from ..algebraic.scaled import scaled_form
+
+    theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
+    form = scaled_form(algebraic_form(model, _backend(backend)))
+    start = model_start_system(form, seed, progress=progress, max_loops=max_loops, cache=cache)
+    res = solve_homotopy(form, start, form.params(theta0), seed=seed, real_tol=REAL_TOL)
+    reasons: list[str] = []
+    if not start.trace_passed:
+        reasons.append(
+            f"start system failed its trace test (residual {start.trace_residual:.1e} "
+            f"after {start.loops} monodromy loops)"
+        )
+    n_failed = int((res.status == "failed").sum())
+    if n_failed:
+        reasons.append(f"{n_failed} of {len(res.status)} paths failed before t = 1")
+    singular = res.endpoints[res.status == "singular"]
+    if len(singular):
+        n_real = int(np.sum(form.is_real(singular, 1e-6)))
+        reasons.append(
+            f"{len(singular)} path(s) ended at singular points ({n_real} real): multiple or "
+            "non-isolated solutions (e.g. a positive-dimensional set), whose real points are "
+            "not all listed"
+        )
+    ok = res.endpoints[res.status == "success"]
+    imag = np.abs(ok.imag).max(axis=1) / np.maximum(1.0, np.abs(ok).max(axis=1))
+    undecided = int(np.sum((imag > REAL_TOL) & (imag <= UNDECIDED_TOL)))
+    if undecided:
+        reasons.append(
+            f"{undecided} endpoint(s) nearly real (imaginary part between {REAL_TOL:.0e} and "
+            f"{UNDECIDED_TOL:.0e}): real or complex undecided"
+        )
+    # real endpoints -> model unknowns, polished on g
+    scale = max(1.0, model.length_scale)
+    cfgs: list[Configuration] = []
+    feats: list[np.ndarray] = []
+    dropped = spurious = 0
+    for z in res.real_solutions:
+        try:
+            y, c = form.to_model(np.asarray(z, dtype=float), reference=model.home.y)
+        except ScdkError:
+            dropped += 1
+            continue
+        r0 = model.residual(y, theta0, c)
+        y, r = _polish(model, y, c, theta0)
+        if not r <= RESIDUAL:
+            if r0 > SPURIOUS * scale and r > SPURIOUS * scale:
+                spurious += 1  # a root of the form that is no closure of the model
+            else:
+                dropped += 1
+            continue
+        cfg = model.configuration(y, theta0, c)
+        f = features(model, cfg.y)[0]
+        if feats and np.min(np.max(np.abs(np.vstack(feats) - f), axis=1)) <= 1e-6 * scale:
+            continue
+        cfgs.append(cfg)
+        feats.append(f)
+    if dropped:
+        reasons.append(f"{dropped} real endpoint(s) did not polish to max |g| <= {RESIDUAL:.0e}")
+    cfgs.sort(key=_sort_key)
+    certs: tuple = ()
+    if cfgs:
+        ys = np.vstack([c.y for c in cfgs])
+        try:
+            cs = certify_configurations(model, ys, theta0, _common_chart(model, ys))
+        except ScdkError as exc:
+            reasons.append(f"certificates not computed: {exc}")
+        else:
+            certs = cs.certificates
+            if not cs.proven:
+                reasons.append(f"certificates: {cs.reason}")
+    certified = not reasons
+    if certified:
+        report = (
+            f"certified complete: {len(cfgs)} real of {start.root_count} complex solutions "
+            f"(start system trace residual {start.trace_residual:.1e}); each real one proven "
+            "unique in its Krawczyk box, boxes pairwise disjoint"
+        )
+        if spurious:
+            report += (
+                f"; {spurious} real root(s) of the algebraic form are no closures of the model"
+            )
+    else:
+        report = "not certified: " + "; ".join(reasons)
+    return AssemblyModes(
+        solutions=tuple(cfgs),
+        certified=certified,
+        root_count=int(start.root_count),
+        report=report,
+        certificates=certs,
+        method="homotopy",
+    )
+
+
+def _sort_key(cfg: Configuration) -> tuple:
+    return (*(round(float(v), 8) for v in cfg.x), *(round(float(v), 8) for v in cfg.y))

@@ -1,0 +1,348 @@
+"""Homotopy engine: tracker, endgame, monodromy + trace test, cache, query solve.
+
+References are independent of the engine: Bezout counts, numpy.roots of a univariate
+elimination, a random-start real Newton on the quadrics, and for the 6-6 platform the
+random-start Levenberg-Marquardt of tests/stewart.py. The full 6-6 monodromy from one random
+point (minutes in numpy) runs with ``SCDK_SLOW_TESTS=1``; the default suite obtains the 6-6
+start system by tracking Dietmaier's 40 real postures to a random complex parameter point and
+certifies it with the trace test.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+from polynomial_systems import Quadrics, QuarticPair, StewartGough, quaternions, rotation_numerator
+from stewart import (
+    DIETMAIER_BASE,
+    DIETMAIER_LENGTHS,
+    DIETMAIER_PLATFORM,
+    random_platform,
+    stewart_reference,
+)
+
+from scdk_sym.algebraic import (
+    ENGINE_VERSION,
+    PolynomialSystem,
+    StartSystem,
+    monodromy_solve,
+    solve_homotopy,
+    start_system,
+    trace_test,
+)
+from scdk_sym.algebraic.homotopy import ParameterHomotopy, track_parameter_homotopy
+from scdk_sym.algebraic.tracker import DONE, STEP_LIMIT, TrackerOptions, track
+from scdk_sym.errors import HomotopyError, InputError, ScdkError
+
+SLOW = os.environ.get("SCDK_SLOW_TESTS") == "1"
+
+
+def _residual(system, z, p):
+    P = np.broadcast_to(np.asarray(p, dtype=complex), (len(z), system.n_params))
+    return np.abs(system.evaluate(np.asarray(z, dtype=complex), P)[0]).max(axis=1)
+
+
+def _real_newton_reference(system, p, starts, seed):
+    """Real solutions by Newton from uniform random real starts in [-3, 3]^n (independent)."""
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(-3, 3, size=(starts, system.n)).astype(complex)
+    P = np.broadcast_to(np.asarray(p, dtype=complex), (starts, system.n_params))
+    for _ in range(60):
+        G, J, _ = system.evaluate(x, P)
+        with np.errstate(all="ignore"):
+            ok = np.abs(np.linalg.det(J.real)) > 1e-12
+            dx = np.zeros_like(x)
+            dx[ok] = np.linalg.solve(J.real[ok], G.real[ok][..., None])[..., 0]
+        x = x - np.clip(dx.real, -1, 1)
+    good = np.isfinite(x).all(axis=1) & (_residual(system, x, p) < 1e-12)
+    sols: list[np.ndarray] = []
+    for r in x[good].real:
+        if not any(np.abs(r - s).max() < 1e-7 for s in sols):
+            sols.append(r)
+    return np.array(sols)
+
+
+def _same_sets(a, b, tol):
+    if len(a) != len(b):
+        return False
+    return all(np.abs(b - r).max(axis=1).min() < tol for r in a)
+
+
+# ------------------------------------------------------------------------------------ tracker
+def _sqrt_homotopy(z, t, idx):
+    """H = z^2 - (1 + 3 t) per path (two components, independent): z(t) = +-sqrt(1 + 3 t)."""
+    H = z * z - (1.0 + 3.0 * t)[:, None]
+    Hz = np.zeros((len(z), 2, 2), dtype=complex)
+    Hz[:, 0, 0], Hz[:, 1, 1] = 2 * z[:, 0], 2 * z[:, 1]
+    return H, Hz, np.full(z.shape, -3.0 + 0j)
+
+
+def _straight(tau, idx):
+    return tau + 0j, np.ones_like(tau, dtype=complex)
+
+
+def test_tracker_follows_a_closed_form_path():
+    z0 = np.array([[1.0, -1.0], [-1.0, 1.0]], dtype=complex)
+    out = track(_sqrt_homotopy, _straight, z0, np.arange(2), np.zeros(2), np.ones(2))
+    assert (out.status == DONE).all() and np.allclose(out.tau, 1.0)
+    assert np.abs(out.z - np.array([[2, -2], [-2, 2]])).max() < 1e-12
+    assert (out.accepted <= out.steps).all() and out.steps.max() < 100
+
+
+def test_tracker_loops_are_bounded():
+    z0 = np.array([[1.0, -1.0]], dtype=complex)
+    opts = TrackerOptions(max_steps=3, h0=1e-3)
+    out = track(
+        _sqrt_homotopy, _straight, z0, np.zeros(1, dtype=int), np.zeros(1), np.ones(1), opts
+    )
+    assert out.status[0] == STEP_LIMIT and out.steps[0] == 3 and 0 < out.tau[0] < 1
+
+
+# ----------------------------------------------------------------------------------- quadrics
+@pytest.fixture(scope="module")
+def quadrics():
+    system = Quadrics(3, seed=3)
+    return system, monodromy_solve(system, seed=0, progress=False)
+
+
+def test_protocol_is_satisfied():
+    assert isinstance(Quadrics(2, 0), PolynomialSystem)
+    assert isinstance(StewartGough(DIETMAIER_BASE, DIETMAIER_PLATFORM), PolynomialSystem)
+
+
+def test_quadrics_monodromy_finds_bezout_count_and_passes_trace(quadrics):
+    system, start = quadrics
+    assert start.root_count == 2**3 == len(start.solutions)
+    assert start.trace_passed and start.trace_residual < 1e-8
+    F = system.evaluate(start.solutions, np.tile(start.p, (8, 1)))[0] + start.b
+    assert np.abs(F).max() < 1e-10
+    # distinct solutions
+    d = np.abs(start.solutions[:, None] - start.solutions[None]).max(axis=2)
+    assert (d + np.eye(8) * 1e9).min() > 1e-6
+
+
+def test_trace_test_rejects_incomplete_sets(quadrics):
+    system, start = quadrics
+    rng = np.random.default_rng(11)
+    for keep in (7, 4, 1):
+        assert trace_test(system, start.solutions[:keep], start.p, start.b, rng) > 1e-4
+
+
+def test_quadrics_real_solutions_match_random_start_newton(quadrics):
+    system, start = quadrics
+    p0 = np.random.default_rng(5).normal(size=3)
+    res = solve_homotopy(system, start, p0, seed=1)
+    assert res.complete and (res.status == "success").all()
+    assert _residual(system, res.endpoints, p0).max() < 1e-10
+    ref = _real_newton_reference(system, p0, starts=3000, seed=2)
+    assert len(ref) >= 2  # the reference sees real roots at this p0
+    assert _same_sets(res.real_solutions, ref, 1e-8)
+
+
+def test_two_paths_at_one_regular_endpoint_fail(quadrics):
+    """A start system listing a solution twice: both copies reach one regular endpoint, which
+    only a path jump can produce; they are reported failed and the result is not complete."""
+    system, start = quadrics
+    twice = StartSystem(
+        start.p, start.b, np.vstack([start.solutions, start.solutions[:1]]), 9, 0.0, True, 0, 0
+    )
+    res = solve_homotopy(system, twice, np.ones(3), attempts=1)
+    assert list(np.flatnonzero(res.status == "failed")) == [0, 8]
+    assert not res.complete and (res.status[1:8] == "success").all()
+
+
+# ------------------------------------------------------------------------- quartic pair
+@pytest.fixture(scope="module")
+def quartic():
+    system = QuarticPair()
+    return system, monodromy_solve(system, seed=3, progress=False)
+
+
+def test_quartic_real_roots_match_numpy_roots(quartic):
+    system, start = quartic
+    assert start.root_count == 4 and start.trace_passed
+    rng = np.random.default_rng(8)
+    checked = 0
+    for _ in range(3):
+        p0 = rng.normal(size=6)
+        res = solve_homotopy(system, start, p0, seed=2)
+        roots = np.roots(QuarticPair.univariate(p0))
+        xr = np.sort(roots[np.abs(roots.imag) < 1e-9].real)
+        assert res.complete
+        assert np.allclose(np.sort(res.real_solutions[:, 0]), xr, atol=1e-9, rtol=0)
+        assert np.allclose(res.real_solutions[:, 1], res.real_solutions[:, 0] ** 2 + p0[0])
+        checked += len(xr)
+    assert checked > 0
+
+
+def test_endgame_double_root_has_winding_two(quartic):
+    system, start = quartic
+    # (x - 1)^2 (x + 2)(x - 3): a double real root at x = 1
+    coeffs = np.polymul(np.polymul([1, -1], [1, -1]), np.polymul([1, 2], [1, -3]))
+    p0 = QuarticPair.params_for(coeffs)
+    res = solve_homotopy(system, start, p0, seed=4)
+    assert res.complete
+    sing = res.status == "singular"
+    assert sing.sum() == 2 and (res.winding[sing] == 2).all()
+    assert np.abs(res.endpoints[sing, 0] - 1.0).max() < 1e-6
+    assert np.allclose(np.sort(res.real_solutions[:, 0]), [-2, 1, 3], atol=1e-6)
+
+
+def test_endgame_path_to_infinity(quartic):
+    system, start = quartic
+    # p5 = 0: the quartic drops to the cubic (x + 1)(x - 0.5)(x - 2), one root at infinity
+    coeffs = np.concatenate([[0.0], np.polymul(np.polymul([1, 1], [1, -0.5]), [1, -2])])
+    p0 = QuarticPair.params_for(coeffs)
+    res = solve_homotopy(system, start, p0, seed=5)
+    assert res.complete
+    assert (res.status == "at_infinity").sum() == 1 and (res.status == "success").sum() == 3
+    assert np.allclose(np.sort(res.real_solutions[:, 0]), [-1, 0.5, 2], atol=1e-9)
+
+
+# ------------------------------------------------------------------------ 6-6 platform
+def _poses_match(system, real_z, reference, tol):
+    poses = system.poses(real_z)
+    if len(poses) != len(reference):
+        return False
+    for p, R in reference:
+        err = [max(np.abs(p - q).max(), np.abs(R - S).max()) for q, S in poses]
+        if min(err) > tol:
+            return False
+    return True
+
+
+@pytest.fixture(scope="module")
+def family_start():
+    """Start system of the whole 6-6 family (anchors and legs as parameters) from Dietmaier's
+    40 real postures (LM reference) tracked to a random complex parameter point."""
+    system = StewartGough()  # anchors free: one start system for every 6-6 platform
+    ref = stewart_reference(DIETMAIER_BASE, DIETMAIER_PLATFORM, DIETMAIER_LENGTHS, 4000, 0)
+    assert len(ref) == 40
+    q = quaternions(np.array([R for _, R in ref]))
+    q = q / (q @ system.chart)[:, None]
+    z = np.c_[np.array([p for p, _ in ref]), q, 1.0 / np.sum(q * q, axis=1)]
+    p_real = system.params(DIETMAIER_BASE, DIETMAIER_PLATFORM, DIETMAIER_LENGTHS)
+    rng = np.random.default_rng(21)
+    # a generic complex point near the real one: shorter paths, still generic
+    p_star = p_real + 0.2 * (rng.normal(size=42) + 1j * rng.normal(size=42))
+    b_star = np.where(system.offset_rows, 0.3 * rng.normal(size=8) + 0.3j * rng.normal(size=8), 0)
+    hom = ParameterHomotopy(
+        system, p_real[None], p_star[None], np.zeros((1, 8)), b_star[None], [1.0]
+    )
+    ends = track_parameter_homotopy(system, z, hom, np.zeros(40, dtype=int), endgame=False)
+    assert (ends.status == "success").all()
+    residual = trace_test(system, ends.z, p_star, b_star, rng)
+    return system, StartSystem(p_star, b_star, ends.z, 40, residual, residual < 1e-8, 0, 21)
+
+
+def test_stewart_jacobians_match_finite_differences():
+    rng = np.random.default_rng(3)
+    for system in (StewartGough(DIETMAIER_BASE, DIETMAIER_PLATFORM), StewartGough()):
+        z, p = system.random_point(rng)
+        _, Gz, Gp = system.evaluate(z[None], p[None])
+        h = 1e-6
+        for k in range(system.n):
+            e = np.eye(system.n)[k] * h
+            fd = (
+                system.evaluate((z + e)[None], p[None])[0]
+                - system.evaluate((z - e)[None], p[None])[0]
+            )
+            assert np.abs(fd[0] / (2 * h) - Gz[0, :, k]).max() < 1e-6
+        for k in range(system.n_params):
+            e = np.eye(system.n_params)[k] * h
+            fd = (
+                system.evaluate(z[None], (p + e)[None])[0]
+                - system.evaluate(z[None], (p - e)[None])[0]
+            )
+            assert np.abs(fd[0] / (2 * h) - Gp[0, :, k]).max() < 1e-6
+
+
+def test_stewart_start_system_passes_trace_and_fails_without_one(family_start):
+    system, start = family_start
+    assert start.trace_passed, start.trace_residual
+    rng = np.random.default_rng(4)
+    assert trace_test(system, start.solutions[:39], start.p, start.b, rng) > 1e-4
+
+
+def test_chart_coordinates_have_trace_poles(family_start):
+    """The quaternion's affine chart escapes to infinity inside the pencil: the trace of z is
+    not linear even for the complete set; translation and rotation entries are."""
+    system, start = family_start
+    rng = np.random.default_rng(4)
+    assert trace_test(system, start.solutions, start.p, start.b, rng, trace_map=lambda z: z) > 1e-6
+
+
+def test_dietmaier_all_40_real_postures(family_start):
+    system, start = family_start
+    p0 = system.params(DIETMAIER_BASE, DIETMAIER_PLATFORM, DIETMAIER_LENGTHS)
+    res = solve_homotopy(system, start, p0, seed=0)
+    assert res.complete and res.start_certified and (res.status == "success").all()
+    ref = stewart_reference(DIETMAIER_BASE, DIETMAIER_PLATFORM, DIETMAIER_LENGTHS, 4000, 0)
+    assert len(res.real_solutions) == 40
+    assert _poses_match(system, res.real_solutions, ref, 1e-8)
+
+
+@pytest.mark.parametrize("seed", [1])
+def test_random_platform_real_postures_match_reference(family_start, seed):
+    system, start = family_start
+    A, B, L = random_platform(seed)
+    res = solve_homotopy(system, start, system.params(A, B, L), seed=seed)
+    assert res.complete
+    ref = stewart_reference(A, B, L, 3000, seed)
+    assert len(ref) >= 1
+    assert _poses_match(system, res.real_solutions, ref, 1e-8)
+
+
+@pytest.mark.skipif(not SLOW, reason="full 6-6 monodromy takes minutes in numpy")
+def test_stewart_monodromy_from_one_point_finds_40():
+    system = StewartGough(DIETMAIER_BASE, DIETMAIER_PLATFORM)
+    start = monodromy_solve(system, seed=0, progress=False)
+    assert start.root_count == 40 and start.trace_passed
+    res = solve_homotopy(system, start, DIETMAIER_LENGTHS)
+    ref = stewart_reference(DIETMAIER_BASE, DIETMAIER_PLATFORM, DIETMAIER_LENGTHS, 4000, 0)
+    assert _poses_match(system, res.real_solutions, ref, 1e-8)
+
+
+# ---------------------------------------------------------------------- cache and errors
+def test_start_system_is_cached(tmp_path, monkeypatch):
+    monkeypatch.setenv("SCDK_CACHE_DIR", str(tmp_path))
+    system = Quadrics(2, seed=9)
+    first = start_system(system, seed=4, progress=False)
+    files = list((tmp_path / "homotopy").glob("*.npz"))
+    assert len(files) == 1 and f"-v{ENGINE_VERSION}-s4" in files[0].name
+    assert system.content_hash() in files[0].name
+
+    def no_monodromy(*args, **kwargs):
+        raise AssertionError("monodromy ran although the start system is cached")
+
+    monkeypatch.setattr("scdk_sym.algebraic.monodromy.monodromy_solve", no_monodromy)
+    second = start_system(system, seed=4, progress=False)
+    assert np.array_equal(first.solutions, second.solutions) and second.root_count == 4
+
+
+def test_bad_inputs_raise_scdk_errors(quadrics):
+    system, start = quadrics
+    with pytest.raises(InputError):
+        solve_homotopy(system, start, np.ones(2))
+    with pytest.raises(InputError):
+        solve_homotopy(system, start, [np.nan, 0, 0])
+    with pytest.raises(HomotopyError):
+        solve_homotopy(Quadrics(2, 0), start, np.ones(2))
+
+    broken = Quadrics(2, 0)
+    broken.offset_rows = np.array([True, False])  # random_point does not zero row 1
+    with pytest.raises(ScdkError, match="structural"):
+        monodromy_solve(broken, progress=False)
+
+
+def test_rotation_numerator_is_rotation_times_norm():
+    rng = np.random.default_rng(0)
+    q = rng.normal(size=(5, 4))
+    R = rotation_numerator(q) / np.sum(q * q, axis=1)[:, None, None]
+    assert np.allclose(R @ R.transpose(0, 2, 1), np.eye(3), atol=1e-12)
+    assert np.allclose(np.linalg.det(R), 1.0)
+    back = quaternions(R)
+    back *= np.sign(np.sum(back * q, axis=1))[:, None]
+    assert np.allclose(back, q / np.linalg.norm(q, axis=1)[:, None], atol=1e-12)

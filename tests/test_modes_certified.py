@@ -1,0 +1,229 @@
+"""Certified assembly modes (``sc.assembly_modes``, method "homotopy") against independent
+references: the 3-RPR's univariate polynomial and the seed robot as a 3-RPR between its
+elbows (tests/test_modes.py), the Delta's three-sphere intersection (closed form), random-start
+Levenberg-Marquardt on 6-6 platforms (tests/stewart.py) and Gepetto's ``robot_delta`` in
+Pinocchio (tests/gepetto_reference.py).
+
+Every start system here is computed in a fresh cache directory, so the times include the
+monodromy of each model. CI time (``pytest tests/test_modes_certified.py``): 63 s in one run
+on the 2 shared cores (the seed robot's monodromy 35-40 s of it). The 6-6 platforms and
+``robot_delta`` run only with ``SCDK_SLOW=1`` (``SCDK_SLOW=1 pytest
+tests/test_modes_certified.py -k "dietmaier or random_6_6"``: 73-103 s per platform, 4 passed).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+
+import numpy as np
+import pytest
+from factories import shipped
+from stewart import (
+    DIETMAIER_BASE,
+    DIETMAIER_LENGTHS,
+    DIETMAIER_PLATFORM,
+    random_platform,
+    stewart_reference,
+)
+from test_modes import (
+    assert_same_stewart_poses,
+    assert_verified_distinct_sorted,
+    delta_reference,
+    pose_distance,
+    rpr_geometries_with_six,
+    rpr_reference,
+)
+
+import scdk_sym as sc
+from scdk_sym.results import AssemblyModes
+
+SLOW = pytest.mark.skipif(
+    not os.environ.get("SCDK_SLOW"), reason="a 6-6 monodromy takes about a minute: SCDK_SLOW=1"
+)
+#: Largest closure residual of a returned solution [model length unit].
+RESIDUAL = 1e-9
+
+
+@pytest.fixture(autouse=True, scope="module")
+def fresh_cache(tmp_path_factory):
+    """Start systems in a fresh cache: each test computes what it certifies."""
+    old = os.environ.get("SCDK_CACHE_DIR")
+    os.environ["SCDK_CACHE_DIR"] = str(tmp_path_factory.mktemp("cache"))
+    yield
+    if old is None:
+        os.environ.pop("SCDK_CACHE_DIR")
+    else:
+        os.environ["SCDK_CACHE_DIR"] = old
+
+
+def assert_certified(model, sols: AssemblyModes, root_count: int | None = None) -> None:
+    assert isinstance(sols, AssemblyModes) and sols.method == "homotopy"
+    assert sols.certified, sols.report
+    assert sols.report.startswith("certified complete")
+    if root_count is not None:
+        assert sols.root_count == root_count
+    assert len(sols.certificates) == len(sols)
+    for cfg, cert in zip(sols, sols.certificates, strict=True):
+        assert cert.proven, cert.reason
+        assert cfg.residual <= RESIDUAL
+        assert model.residual(cfg.y, cfg.theta) <= RESIDUAL
+    assert_verified_distinct_sorted(model, list(sols))
+
+
+# ---------------------------------------------------------------------------- planar
+
+
+def test_seed_robot_both_solutions_certified():
+    """At theta = (1.210588, 0.878435, 2.99292) the curve search found none; the seed robot
+    is a 3-RPR between its elbows, whose sextic gives the reference."""
+    g = sc.builders.seed_geometry()
+    model = shipped("planar_hexa")
+    theta = np.array([1.210588, 0.878435, 2.99292])
+    elbows = g["base_points"] + g["arm"] * np.c_[np.cos(theta), np.sin(theta)]
+    ref = rpr_reference(elbows, g["platform_points"], np.full(3, g["rod"]))
+    assert len(ref) == 2
+    sols = sc.assembly_modes(model, theta)
+    assert len(sols) == 2
+    for s in ref:
+        assert min(pose_distance(c.x, s) for c in sols) < 1e-8
+    assert_certified(model, sols, root_count=6)
+    # a second query reuses the start system held by the model
+    t0 = time.perf_counter()
+    again = sc.assembly_modes(model, theta)
+    assert time.perf_counter() - t0 < 5.0
+    assert again.certified and len(again) == len(sols)
+    assert all(np.array_equal(a.y, b.y) for a, b in zip(again, sols, strict=True))
+
+
+def test_rpr_six_real_solutions_certified():
+    A, C, rho = rpr_geometries_with_six()[0]
+    model = sc.builders.planar_3rpr(A, C)
+    ref = rpr_reference(A, C, rho)
+    assert len(ref) == 6
+    sols = sc.assembly_modes(model, rho)
+    assert len(sols) == 6
+    for s in ref:
+        assert min(pose_distance(c.x, s) for c in sols) < 1e-8
+    assert_certified(model, sols, root_count=6)
+    # other leg lengths, the same start system: 0, 2 or 4 real ones, each the sextic's
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        rho2 = rho * (1 + 0.3 * rng.uniform(-1, 1, 3))
+        ref2 = rpr_reference(A, C, rho2)
+        sols2 = sc.assembly_modes(model, rho2)
+        assert len(sols2) == len(ref2)
+        for s in ref2:
+            assert min(pose_distance(c.x, s) for c in sols2) < 1e-8
+        assert_certified(model, sols2, root_count=6)
+
+
+def test_delta_both_sphere_intersections_certified():
+    R, r, arm, rod = 0.2, 0.05, 0.25, 0.5
+    model = sc.builders.delta(R, r, arm, rod)
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        theta = model.home.theta + rng.uniform(-0.6, 0.6, 3)
+        ref = delta_reference(R, r, arm, rod, theta)
+        assert len(ref) == 2
+        sols = sc.assembly_modes(model, theta)
+        assert len(sols) == 2
+        for p in ref:
+            assert min(np.abs(c.x - p).max() for c in sols) < 1e-9
+        assert_certified(model, sols, root_count=2)
+    # out of reach: proven empty
+    theta = rng.uniform(-np.pi, np.pi, 3)
+    while delta_reference(R, r, arm, rod, theta):
+        theta = rng.uniform(-np.pi, np.pi, 3)
+    sols = sc.assembly_modes(model, theta)
+    assert len(sols) == 0 and sols.certified and sols.root_count == 2
+
+
+def test_result_is_a_sequence_and_curves_are_never_certified():
+    R, r, arm, rod = 0.2, 0.05, 0.25, 0.5
+    model = sc.builders.delta(R, r, arm, rod)
+    theta = model.home.theta + 0.1
+    sols = sc.assembly_modes(model, theta)
+    assert len(sols) == 2 and list(sols) == [sols[0], sols[1]] and sols[-1] is sols[1]
+    assert len(sols[:1]) == 1 and [c.x.tolist() for c in reversed(sols)] == [
+        sols[1].x.tolist(),
+        sols[0].x.tolist(),
+    ]
+    d = sols.to_dict()
+    assert d["certified"] is True and d["root_count"] == 2 and d["count"] == 2
+    assert all(s["certified"] is True for s in d["solutions"])
+    curves = sc.assembly_modes(model, theta, method="curves", seed=1)
+    assert not curves.certified and curves.report.startswith("not certified")
+    assert curves.root_count == 0 and curves.method == "curves"
+    for a, b in zip(curves, sols, strict=True):
+        assert np.abs(a.x - b.x).max() < 1e-8
+    with pytest.raises(sc.errors.InputError):
+        sc.assembly_modes(model, theta, patience=3)  # a curve-search option
+    with pytest.raises(sc.errors.InputError):
+        sc.assembly_modes(model, theta, method="guess")
+
+
+def test_architecturally_singular_3rpr_is_flagged_not_certified():
+    """Base and platform congruent, equal legs: the platform translates on a circle (a real
+    positive-dimensional solution set). Bounded work, a flag and a reason, no hang."""
+    A = np.array([[0.0, 0.0], [1.0, 0.0], [0.3, 0.8]])
+    model = sc.builders.planar_3rpr(A, A)
+    t0 = time.perf_counter()
+    sols = sc.assembly_modes(model, [0.5, 0.5, 0.5])
+    assert time.perf_counter() - t0 < 120.0
+    assert not sols.certified
+    assert sols.report.startswith("not certified: ") and len(sols.report.splitlines()) == 1
+    assert "singular" in sols.report
+
+
+# ---------------------------------------------------------------------------- 6-6 (slow)
+
+
+@SLOW
+def test_dietmaier_40_real_of_40_certified():
+    ref = stewart_reference(DIETMAIER_BASE, DIETMAIER_PLATFORM, DIETMAIER_LENGTHS, 3000, seed=5)
+    assert len(ref) == 40
+    model = sc.builders.stewart_gough(DIETMAIER_BASE, DIETMAIER_PLATFORM)
+    sols = sc.assembly_modes(model, DIETMAIER_LENGTHS)
+    assert_same_stewart_poses(list(sols), ref)
+    assert_certified(model, sols, root_count=40)
+
+
+@SLOW
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_random_6_6_root_count_40_real_set_equals_reference(seed):
+    A, B, L = random_platform(seed)
+    model = sc.builders.stewart_gough(A, B)
+    sols = sc.assembly_modes(model, L)
+    ref = stewart_reference(A, B, L, 3000, seed)
+    assert_same_stewart_poses(list(sols), ref)
+    assert_certified(model, sols, root_count=40)
+
+
+# ---------------------------------------------------------------------------- robot_delta
+
+
+@SLOW
+@pytest.mark.xfail(
+    reason="robot_delta (18 unknowns, 64 complex roots): the start system has not passed its "
+    "trace test within the loop budget (8 real found, not certified)",
+    strict=True,
+)
+@pytest.mark.parametrize("theta", [(0.0, 0.0), (0.3, 0.4), (-0.4, 0.4)])
+def test_robot_delta_eight_assemblies_certified(theta):
+    from gepetto_reference import FIXTURE, reference, wrap
+
+    model = sc.load_model(FIXTURE, frame="effector")
+    ref = reference()
+    q_home = ref.q_of(model.home.joints)
+    expected = ref.assemblies(theta, q_home, starts=300, seed=11)
+    assert len(expected) == 8
+    sols = sc.assembly_modes(model, theta)
+    assert len(sols) == 8
+    for q in expected:
+        best = min(
+            max(abs(float(wrap(c.joints[n] - q[ref.index[n]]))) for n in model.unknowns)
+            for c in sols
+        )
+        assert best < 1e-6
+    assert_certified(model, sols)
