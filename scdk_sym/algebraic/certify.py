@@ -41,6 +41,7 @@ from numpy.typing import ArrayLike
 from ..errors import InputError
 from ..kernels.fastcall import Buffered
 from ..model.chart import rot_exp
+from ..results import _frozen
 from .interval import FunctionCache, IntervalFunction, as_sx_function, interval_function
 
 if TYPE_CHECKING:
@@ -57,12 +58,6 @@ TINY = 1e-300
 #: Most Krawczyk steps that shrink a proven enclosure (see :func:`krawczyk`).
 TIGHTEN = 8
 EPS = float(np.finfo(float).eps)
-
-
-def _frozen(a: np.ndarray) -> np.ndarray:
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True)
