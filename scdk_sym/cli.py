@@ -294,7 +294,8 @@ def _modes_args(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--backend",
         choices=["auto", "casadi", "compiled"],
-        help="kernels (default: auto for homotopy, casadi for curves); " + KERNEL_BACKEND_HELP,
+        help="auto: compiled when a C compiler is found, else casadi (the default of "
+        "--method homotopy; curves default to casadi); " + KERNEL_BACKEND_HELP,
     )
     p.add_argument("--progress", action="store_true", help="progress bar on stderr")
     p.add_argument("--json", action="store_true", help="print one JSON object")
