@@ -219,38 +219,30 @@ def _periodic(model) -> str:
     return ", ".join(str(v) for v in mask)
 
 
+def _c_literals(module, floats: tuple[str, ...], ints: tuple[str, ...]) -> dict[str, str]:
+    """Constants of a Python module as C literals, by name (the C mirrors of its rules)."""
+    out = {name: repr(float(getattr(module, name))) for name in floats}
+    out.update({name: str(int(getattr(module, name))) for name in ints})
+    return out
+
+
 def _follower_constants() -> dict[str, str]:
     """The step-control constants of the curve follower (:mod:`scdk_sym.follower.curve`),
     which the C tracker's ``follow`` mirrors."""
     from ..follower import curve
 
-    return {
-        "MAX_PREDICTOR_ERROR": repr(float(curve.MAX_PREDICTOR_ERROR)),
-        "NEWTON_TOL": repr(float(curve.NEWTON_TOL)),
-        "MIN_COS": repr(float(curve.MIN_COS)),
-        "SMOOTH_CORRECTION": repr(float(curve.SMOOTH_CORRECTION)),
-        "SMOOTH_COS": repr(float(curve.SMOOTH_COS)),
-        "GROW": repr(float(curve.GROW)),
-        "FINE": str(int(curve.FINE)),
-    }
+    floats = ("MAX_PREDICTOR_ERROR", "NEWTON_TOL", "MIN_COS", "SMOOTH_CORRECTION", "SMOOTH_COS")
+    return _c_literals(curve, (*floats, "GROW"), ("FINE",))
 
 
 def _rule_constants() -> dict[str, str]:
     """The constants of the judging rule, shared with :mod:`scdk_sym.solvers.track`."""
     from ..solvers import track as rule
 
-    return {
-        "ACCEPT": repr(float(rule.ACCEPT)),
-        "MARGIN": repr(float(rule.MARGIN)),
-        "BUDGET": repr(float(rule.BUDGET)),
-        "SMOOTH": repr(float(rule.SMOOTH)),
-        "NEWTON_CALLS": str(int(rule.NEWTON_CALLS)),
-        "PREDICTED_CALLS": str(int(rule.PREDICTED_CALLS)),
-        "PARTNER_ITERATIONS": str(int(rule.PARTNER_ITERATIONS)),
-        "PARTNER_STEP": repr(float(rule.PARTNER_STEP)),
-        "HITS_PER_DIRECTION": str(int(rule.HITS_PER_DIRECTION)),
-        "MAX_STEPS": str(int(rule.MAX_STEPS)),
-    }
+    floats = ("ACCEPT", "MARGIN", "BUDGET", "SMOOTH", "PARTNER_STEP")
+    ints = ("NEWTON_CALLS", "PREDICTED_CALLS", "PARTNER_ITERATIONS", "HITS_PER_DIRECTION",
+            "MAX_STEPS")  # fmt: skip
+    return _c_literals(rule, floats, ints)
 
 
 def compile_library(sources: GeneratedSources, target: str | Path) -> Path:
