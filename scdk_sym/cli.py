@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from . import backends
 from .errors import InputError, ScdkError, SolveError
 
 if TYPE_CHECKING:
@@ -67,11 +68,37 @@ FROM_X_HELP = (
     "start pose in workspace coordinates (default: home), lengths in the model's length unit, "
     "angles in rad"
 )
-#: Help of the kernel backends of ``solve`` and ``modes``.
-KERNEL_BACKEND_HELP = (
-    "casadi: CasADi SX functions, nothing to compile; compiled: the same kernels generated as "
-    "C, compiled once with $CC (or gcc) and cached (faster repeated solves)"
-)
+
+
+def add_backend_arg(p: argparse.ArgumentParser, function: str, default: str | None = None) -> None:
+    """``--backend``: the names ``function`` offers, each with its line of the registry.
+
+    Args:
+        p: the subcommand's parser.
+        function: a key of :data:`scdk_sym.backends.OFFERS`.
+        default: how the default is stated when it is not ``DEFAULTS[function]`` (the option's
+            default is then None and the command chooses).
+    """
+    p.add_argument(
+        "--backend",
+        default=None if default else backends.DEFAULTS[function],
+        metavar="{" + ",".join(backends.offered(function)) + "}",
+        help=backends.help_text(function, default),
+    )
+
+
+def backend_of(name: str, function: str) -> str:
+    """The concrete backend ``function`` runs for ``--backend name`` (validated by the
+    registry, ``auto`` resolved; a deprecated name noted on stderr).
+
+    Raises:
+        InputError: ``function`` does not offer ``name`` (the names it offers listed).
+    """
+    if name in backends.ALIASES:
+        new = backends.ALIASES[name]
+        print(f"note: --backend {name} is deprecated; use --backend {new}", file=sys.stderr)
+        name = new
+    return backends.resolve(name, function)
 
 
 def add_model_args(p: argparse.ArgumentParser) -> None:
@@ -142,9 +169,7 @@ def _solve_args(p: argparse.ArgumentParser) -> None:
         help="convergent: stay in the start's compartment; divergent: cross the singular manifold",
     )
     p.add_argument("--b", type=float, help="the paper's signed scalar b (overrides --branch)")
-    p.add_argument(
-        "--backend", default="casadi", choices=["casadi", "compiled"], help=KERNEL_BACKEND_HELP
-    )
+    add_backend_arg(p, "solve")
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
 
@@ -153,13 +178,14 @@ def _one_line(exc: Exception) -> str:
     return " ".join(str(exc).split())
 
 
-def _failed_record(branch: str, exc: Exception) -> dict:
+def _failed_record(branch: str, exc: Exception, backend: str) -> dict:
     """JSON record of a branch whose solve failed."""
     return {
         "branch": branch,
         "status": "failed",
         "error": _one_line(exc),
         "error_type": type(exc).__name__,
+        "backend": backend,
     }
 
 
@@ -174,6 +200,7 @@ def _solve(args: argparse.Namespace) -> int:
     """
     from .solvers import sc
 
+    backend = backend_of(args.backend, "solve")
     model = load(args)
     theta = floats(args.theta, "--theta")
     start = start_configuration(model, args)
@@ -182,7 +209,7 @@ def _solve(args: argparse.Namespace) -> int:
     results: list[tuple[str, SolveResult | SolveError]] = []
     for br in branches:
         try:
-            res = sc.solve(model, theta, start=start, branch=br, b=args.b, backend=args.backend)
+            res = sc.solve(model, theta, start=start, branch=br, b=args.b, backend=backend)
         except SolveError as exc:
             if not both:
                 raise
@@ -192,7 +219,10 @@ def _solve(args: argparse.Namespace) -> int:
     failed = [(br, r) for br, r in results if isinstance(r, SolveError)]
     if args.json:
         records = [
-            _failed_record(br, r) if isinstance(r, SolveError) else r.to_dict() for br, r in results
+            _failed_record(br, r, backend)
+            if isinstance(r, SolveError)
+            else dict(r.to_dict(), backend=backend)
+            for br, r in results
         ]
         dump(records[0] if not both else {"solutions": records})
     else:
@@ -291,11 +321,11 @@ def _modes_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--from-x", help="curves: " + FROM_X_HELP)
     p.add_argument("--seed", type=int, default=0, help="seed of the random choices")
     p.add_argument("--time-budget", type=float, help="curves: wall-time limit [s] (default: none)")
-    p.add_argument(
-        "--backend",
-        choices=["auto", "casadi", "compiled"],
-        help="auto: compiled when a C compiler is found, else casadi (the default of "
-        "--method homotopy; curves default to casadi); " + KERNEL_BACKEND_HELP,
+    add_backend_arg(
+        p,
+        "modes",
+        default=f"{backends.DEFAULTS['modes']} for --method homotopy, "
+        f"{backends.DEFAULTS['curves']} for --method curves",
     )
     p.add_argument("--progress", action="store_true", help="progress bar on stderr")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -307,12 +337,12 @@ def _modes(args: argparse.Namespace) -> int:
 
     from .solvers.modes import assembly_modes, curves_result, explore
 
+    function = "curves" if args.method == "curves" else "modes"
+    backend = backend_of(args.backend or backends.DEFAULTS[function], function)
     model = load(args)
     theta = floats(args.theta, "--theta")
     t0 = time.perf_counter()
     if args.method == "curves":
-        if args.backend == "auto":
-            raise InputError("--backend auto is for --method homotopy; use casadi or compiled")
         search = explore(
             model,
             theta,
@@ -320,18 +350,16 @@ def _modes(args: argparse.Namespace) -> int:
             seed=args.seed,
             time_budget=args.time_budget,
             progress=args.progress,
-            backend=args.backend or "casadi",
+            backend=backend,
         )
         sols = curves_result(search)
     else:
         if args.from_x or args.time_budget is not None:
             raise InputError("--from-x and --time-budget are for --method curves")
-        sols = assembly_modes(
-            model, theta, seed=args.seed, progress=args.progress, backend=args.backend
-        )
+        sols = assembly_modes(model, theta, seed=args.seed, progress=args.progress, backend=backend)
     elapsed = time.perf_counter() - t0
     if args.json:
-        dump(sols.to_dict())
+        dump(dict(sols.to_dict(), backend=backend))
         return 0
     print(header(model))
     head = f"theta0 = {fmt(theta)}: {len(sols)} real solution(s), {elapsed:.3f} s, {args.method}"
@@ -412,13 +440,7 @@ def _track_args(p: argparse.ArgumentParser) -> None:
     add_model_args(p)
     p.add_argument("--thetas", required=True, help="CSV file of joint readings (N rows, k columns)")
     p.add_argument("--from-x", help=FROM_X_HELP)
-    p.add_argument(
-        "--backend",
-        default="cvodes",
-        choices=["cvodes", "c"],
-        help="cvodes: CasADi's CVODES integrator driven from Python; c: the generated C tracker, "
-        "compiled once with $CC (or gcc) and cached (much faster)",
-    )
+    add_backend_arg(p, "track")
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
 
@@ -426,12 +448,13 @@ def _track_args(p: argparse.ArgumentParser) -> None:
 def _track(args: argparse.Namespace) -> int:
     from .solvers.track import track
 
+    backend = backend_of(args.backend, "track")
     model = load(args)
     thetas = read_thetas(args.thetas, model)
     start = start_configuration(model, args)
-    result = track(model, thetas, start=start, backend=args.backend)
+    result = track(model, thetas, start=start, backend=backend)
     if args.json:
-        dump(result.to_dict())
+        dump(result.to_dict(model))
         return 0
     print(header(model))
     crossed = {c.index: c for c in result.crossings}
@@ -501,6 +524,7 @@ def _atlas_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--from-x", help="start pose in workspace coordinates (default: home)")
     p.add_argument("--chunk", type=int, default=4096, help="points per chunk (default: 4096)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print the run's summary as one JSON object")
 
 
 @command("atlas", "convergent direct kinematics over a joint grid into a Zarr store", _atlas_args)
@@ -528,12 +552,32 @@ def _atlas(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 130
+    statuses = [
+        (code, STATUS.get(code, "not written").split(":")[0], n)
+        for code, n in sorted(run.counts.items())
+    ]
+    if args.json:
+        dump(
+            {
+                "out": str(run.out),
+                "points": run.points,
+                "chunks": run.chunks,
+                "computed": run.computed,
+                "statuses": [
+                    {"code": code, "name": name, "count": n} for code, name, n in statuses
+                ],
+                "elapsed": run.elapsed,
+                "busy": run.busy,
+                "cpu": run.cpu,
+                "swept": run.swept,
+            }
+        )
+        return 0
     print(
         f"{run.out}: {run.points} points in {run.chunks} chunks ({run.computed} solved now, "
         f"{run.elapsed:.1f} s)"
     )
-    for code, n in sorted(run.counts.items()):
-        name = STATUS.get(code, "not written").split(":")[0]
+    for code, name, n in statuses:
         print(f"  status {code} ({name}): {n}")
     return 0
 

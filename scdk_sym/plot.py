@@ -317,7 +317,7 @@ def plot_solve(
     start: Configuration | None = None,
     out_dir: str | Path = ".",
     prefix: str | None = None,
-    backend: str = "casadi",
+    backend: str = "cvodes",
 ) -> list[Path]:
     """Solve on both branches and write the paper's three figures.
 
@@ -330,7 +330,7 @@ def plot_solve(
         start: start configuration (default ``model.home``).
         out_dir: directory of the figures (created if needed).
         prefix: file name prefix (default: the model name).
-        backend: kernel backend of the solver.
+        backend: a backend :func:`~scdk_sym.solvers.sc.solve` offers (:mod:`scdk_sym.backends`).
 
     Returns:
         The three paths written.

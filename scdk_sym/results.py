@@ -192,8 +192,21 @@ class TrackResult:
         for name in ("x", "y", "theta", "residual"):
             object.__setattr__(self, name, _frozen(getattr(self, name)))
 
-    def to_dict(self) -> dict:
-        return {
+    def configurations(self, model) -> tuple[Configuration, ...]:
+        """Each sample as a :class:`Configuration` (platform pose and joint values included).
+
+        Args:
+            model: the :class:`~scdk_sym.model.model.Model` that was tracked.
+        """
+        return tuple(
+            model.configuration(y, theta) for y, theta in zip(self.y, self.theta, strict=True)
+        )
+
+    def to_dict(self, model=None) -> dict:
+        """JSON-ready: ``x``, ``y``, ``theta``, ``residual`` per sample, ``crossings``,
+        ``status``, ``backend``; with ``model``, also ``platform_pose`` (N, 4, 4) and
+        ``joints`` (one name -> value object per sample) from :meth:`configurations`."""
+        d = {
             "x": self.x.tolist(),
             "y": self.y.tolist(),
             "theta": self.theta.tolist(),
@@ -202,6 +215,11 @@ class TrackResult:
             "status": self.status,
             "backend": self.backend,
         }
+        if model is not None:
+            configs = self.configurations(model)
+            d["platform_pose"] = [c.platform_pose.tolist() for c in configs]
+            d["joints"] = [dict(c.joints) for c in configs]
+        return d
 
 
 @dataclass(frozen=True, eq=False)

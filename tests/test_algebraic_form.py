@@ -421,7 +421,7 @@ def test_is_real_and_to_model_refuse_complex_points():
 
 def test_bad_inputs_raise_scdk_errors():
     model = load("five_bar")
-    with pytest.raises(InputError, match="backends: casadi, compiled"):
+    with pytest.raises(InputError, match="backends: auto, compiled, cvodes"):
         algebraic_form(model, backend="c")
     form = algebraic_form(model)
     with pytest.raises(InputError, match=r"z must be \(N, 2\)"):

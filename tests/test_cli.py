@@ -114,6 +114,7 @@ def test_solve_both_json_reports_the_failed_branch(capsys, monkeypatch):
         "status": "failed",
         "error": f"{LOST} (divergent)",
         "error_type": "PathError",
+        "backend": "cvodes",
     }
 
 

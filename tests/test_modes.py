@@ -346,7 +346,7 @@ def test_bad_inputs_raise_package_errors():
         curve_modes(model, [0.4, 0.5])
     with pytest.raises(InputError, match="finite"):
         curve_modes(model, [0.4, np.nan, 0.4])
-    with pytest.raises(InputError, match="backends: casadi, compiled"):
+    with pytest.raises(InputError, match="backends: auto, compiled, cvodes"):
         curve_modes(model, [0.4, 0.5, 0.4], backend="cuda")
     with pytest.raises(InputError, match="time_budget"):
         curve_modes(model, [0.4, 0.5, 0.4], time_budget=0)

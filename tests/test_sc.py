@@ -93,7 +93,7 @@ def test_path_samples_follow_the_paper_figures(seed):
     assert worst < 1e-7
 
 
-@pytest.mark.parametrize("backend", ["casadi", "compiled"])
+@pytest.mark.parametrize("backend", ["cvodes", "compiled"])
 def test_fast_path_and_backends_agree_with_the_full_path(backend):
     if backend == "compiled" and compiler_missing():
         pytest.skip(compiler_missing())
@@ -124,7 +124,7 @@ def test_start_already_at_theta0_returns_it():
         ({"theta0": "abc"}, InputError, "must be 3 numbers"),
         ({"branch": "sideways"}, InputError, "unknown branch 'sideways'; branches: convergent"),
         ({"b": 0.0}, InputError, "non-zero"),
-        ({"backend": "gpu"}, InputError, "unknown backend 'gpu'; backends: casadi, compiled"),
+        ({"backend": "gpu"}, InputError, "'gpu' is not offered by solve; backends: auto, compiled"),
         ({"start": "home"}, InputError, "start must be a Configuration"),
     ],
 )

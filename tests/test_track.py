@@ -177,7 +177,7 @@ def test_bad_readings_and_backends():
         sc.track(model, ok[:, :2])
     with pytest.raises(InputError, match="row 1"):
         sc.track(model, np.vstack([ok[0], [np.nan, 0.0, 0.0], ok[2]]))
-    with pytest.raises(InputError, match="backends: c, cvodes"):
+    with pytest.raises(InputError, match="backends: auto, c, cvodes"):
         sc.track(model, ok, backend="euler")
     home = model.home
     broken = sc.Configuration(home.theta, home.y + 0.2, home.x, home.platform_pose, home.joints)

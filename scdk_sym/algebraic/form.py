@@ -44,7 +44,7 @@ Complex evaluation: CasADi has no complex type, so the real SX Function ``G_real
 on (real, imaginary) pairs once (:mod:`scdk_sym.algebraic.pairs`), giving one SX Function
 ``(zr, zi, pr, pi) -> (Re G, Im G, Re dG/dz, Im dG/dz, Re dG/dp, Im dG/dp)``, mapped over the
 columns of a batch (``Function.map``) so that one :meth:`~AlgebraicForm.evaluate` is one call.
-Backend ``"casadi"`` runs it in CasADi's SX virtual machine, ``"compiled"`` as generated C
+Backend ``"cvodes"`` runs it in CasADi's SX virtual machine, ``"compiled"`` as generated C
 (compiled once, cached on disk by the hash of its source).
 """
 
@@ -58,6 +58,7 @@ from typing import TYPE_CHECKING
 import casadi as ca
 import numpy as np
 
+from ..backends import resolve
 from ..errors import AlgebraicFormError, InputError
 from ..kernels.fastcall import Buffered
 from ..model.chart import cayley, rot_exp
@@ -69,7 +70,6 @@ if TYPE_CHECKING:
 
 #: Version of the algebraic form (part of :meth:`AlgebraicForm.content_hash`).
 FORM_VERSION = "1"
-BACKENDS = ("casadi", "compiled")
 _CACHE_ATTR = "_algebraic_forms"
 #: Batch sizes whose mapped Functions are kept per form.
 _MAPS_KEPT = 16
@@ -131,7 +131,7 @@ class AlgebraicForm:
 
     Attributes:
         model: the model (:class:`~scdk_sym.model.model.Model`).
-        backend: ``"casadi"`` or ``"compiled"``.
+        backend: ``"cvodes"`` (SX) or ``"compiled"`` (see :mod:`scdk_sym.backends`).
         n: number of complex unknowns ``z`` (= number of rows).
         n_params: number of complex parameters ``p`` (= ``model.k``).
         offset_rows: (n,) bool, True on closure rows, False on structural rows.
@@ -384,24 +384,23 @@ def _build(model: Model, backend: str) -> AlgebraicForm:
     )
 
 
-def algebraic_form(model: Model, backend: str = "casadi") -> AlgebraicForm:
+def algebraic_form(model: Model, backend: str = "cvodes") -> AlgebraicForm:
     """The algebraic form of a loaded model (built once per model and backend, cached on it).
 
     Args:
         model: a loaded :class:`~scdk_sym.model.model.Model`.
-        backend: ``"casadi"`` (CasADi SX virtual machine) or ``"compiled"`` (generated C,
-            compiled once and cached on disk by content hash).
+        backend: ``"cvodes"`` (CasADi SX virtual machine) or ``"compiled"`` (generated C,
+            compiled once and cached on disk by content hash); see :mod:`scdk_sym.backends`.
 
     Returns:
         The :class:`AlgebraicForm`.
 
     Raises:
-        InputError: an unknown backend.
+        InputError: a backend the kernel builders do not offer.
         AlgebraicFormError: a joint type with no algebraic form.
         BuildError: the compiled backend cannot compile (no C compiler).
     """
-    if backend not in BACKENDS:
-        raise InputError(f"unknown backend {backend!r}; backends: {', '.join(BACKENDS)}")
+    backend = resolve(backend, "kernels")
     cache = model.__dict__.setdefault(_CACHE_ATTR, {})
     if backend not in cache:
         cache[backend] = _build(model, backend)

@@ -290,7 +290,7 @@ def follow(
     direction: float,
     *,
     predictor: str = "rk4",
-    backend: str = "casadi",
+    backend: str = "cvodes",
     levels: tuple[float, ...] = (1.0,),
     max_hits: int | float = math.inf,
     max_singular: int | float = math.inf,
@@ -316,7 +316,8 @@ def follow(
         direction: +1 to follow ``nu = [adj(J_p) j_s; det J_p]`` (``s' = det J_p``), -1 for
             ``-nu``; ignored when ``tangent`` is given.
         predictor: "rk4" (explicit predictor-corrector) or "cvodes" (the SC ODE by CVODES).
-        backend: kernels, "casadi" (SX) or "compiled" (generated C).
+        backend: kernels, "cvodes" (SX) or "compiled" (generated C); see
+            :mod:`scdk_sym.backends`.
         levels: levels of ``s`` whose crossings are reported (and finished at
             ``line.at(level)``).
         max_hits: stop after this many level crossings.

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from ..errors import InputError
+from ..backends import resolve
 from ..kernels.fastcall import Buffered
 
 #: Output samples per integrated chunk.
@@ -27,7 +27,6 @@ CVODES_OPTIONS = {
     "max_num_steps": 500,
     "disable_internal_warnings": True,
 }
-BACKENDS = ("casadi", "compiled")
 
 
 @dataclass
@@ -70,24 +69,27 @@ class Engine:
         )
 
 
-def engine(model, backend: str = "casadi") -> Engine:
+def engine(model, backend: str = "cvodes") -> Engine:
     """The (cached) SC engine of a model.
 
     Args:
         model: the model.
-        backend: "casadi" (SX Functions) or "compiled" (generated C, cached on disk).
+        backend: "cvodes" (SX Functions) or "compiled" (generated C, cached on disk); see
+            :mod:`scdk_sym.backends`.
+
+    Raises:
+        InputError: a backend the kernel builders do not offer.
     """
+    backend = resolve(backend, "kernels")
     store = model.__dict__.setdefault("_engines", {})
     if backend in store:
         return store[backend]
-    if backend == "casadi":
+    if backend == "cvodes":
         kern = model.kernels
-    elif backend == "compiled":
+    else:
         from ..kernels.compile import compiled_kernels
 
         kern = compiled_kernels(model)
-    else:
-        raise InputError(f"unknown backend {backend!r}; backends: {', '.join(BACKENDS)}")
     m, k = model.m, model.k
     q = ca.MX.sym("q", m + 1)
     p = ca.MX.sym("p", 2 * k + m + 3)

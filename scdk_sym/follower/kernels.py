@@ -23,7 +23,7 @@ from dataclasses import dataclass, fields
 
 import casadi as ca
 
-from ..errors import InputError
+from ..backends import resolve
 from ..kernels.fastcall import Dense
 
 #: Predictor-corrector steps evaluated per call of the step function.
@@ -38,7 +38,6 @@ PLANE_STEPS = 8
 FOLD_STEPS = 8
 #: Newton iterations of the ``newton`` kernel (its callers call it again if needed).
 NEWTON_ITERATIONS = 2
-BACKENDS = ("casadi", "compiled")
 
 
 @dataclass(frozen=True)
@@ -287,20 +286,19 @@ def build_follower_kernels(sym) -> FollowerKernels:
     )
 
 
-def follower_kernels(model, backend: str = "casadi") -> FollowerKernels:
+def follower_kernels(model, backend: str = "cvodes") -> FollowerKernels:
     """The (cached) follower kernels of a model.
 
     Args:
         model: the model.
-        backend: "casadi" (SX virtual machine) or "compiled" (generated C compiled with the
-            system compiler once, cached on disk by content hash).
+        backend: "cvodes" (SX virtual machine) or "compiled" (generated C compiled with the
+            system compiler once, cached on disk by content hash); see :mod:`scdk_sym.backends`.
 
     Raises:
-        InputError: unknown backend.
+        InputError: a backend the kernel builders do not offer.
         BuildError: no C compiler (compiled backend).
     """
-    if backend not in BACKENDS:
-        raise InputError(f"unknown backend {backend!r}; backends: {', '.join(BACKENDS)}")
+    backend = resolve(backend, "kernels")
     store = model.__dict__.setdefault("_follower_kernels", {})
     if backend not in store:
         kern = build_follower_kernels(model.symbolic)
@@ -327,8 +325,9 @@ class FollowerCalls:
     singular: Dense
 
 
-def follower_calls(model, backend: str = "casadi") -> FollowerCalls:
+def follower_calls(model, backend: str = "cvodes") -> FollowerCalls:
     """The (cached) zero-copy callers of :func:`follower_kernels` (same arguments)."""
+    backend = resolve(backend, "kernels")
     store = model.__dict__.setdefault("_follower_calls", {})
     if backend not in store:
         kern = follower_kernels(model, backend)

@@ -92,7 +92,7 @@ def across(
     start: Configuration,
     *,
     first: np.ndarray | None = None,
-    backend: str = "casadi",
+    backend: str = "cvodes",
     predictor: str = "rk4",
     record: bool = False,
     paper_only: bool = False,
@@ -189,7 +189,7 @@ def from_fold(
     theta0: np.ndarray,
     sign0: float,
     *,
-    backend: str = "casadi",
+    backend: str = "cvodes",
     predictor: str = "rk4",
 ) -> tuple[np.ndarray, list[Crossing]] | list | None:
     """From a fold, on the other sheet, along the line from its ``theta`` to ``theta0``.
@@ -287,7 +287,7 @@ def _signed_det(Jp: np.ndarray, dJ: np.ndarray) -> tuple[float, np.ndarray, floa
     return sign * float(np.prod(S)), grad, float(S[-1] / S[0])
 
 
-def nearest_singular(model, start: Configuration, backend: str = "casadi") -> Crossing | None:
+def nearest_singular(model, start: Configuration, backend: str = "cvodes") -> Crossing | None:
     """A singular configuration near ``start`` on the assembled manifold (or None).
 
     Descends ``|f|``, ``f = sign(det J_p) sigma_min(J_p)`` (Lipschitz in ``J_p``, about linear in
@@ -377,7 +377,7 @@ def across_fold(
     theta0: np.ndarray,
     *,
     exclude: Configuration | None = None,
-    backend: str = "casadi",
+    backend: str = "cvodes",
     predictor: str = "rk4",
 ) -> tuple[Configuration, list[Crossing]] | None:
     """The solution at ``theta0`` on the other side of ``fold``, nearest to it.
@@ -471,7 +471,7 @@ def _branches_cross(Jp: np.ndarray, Js: np.ndarray) -> bool:
 GRAZING = 0.05
 
 
-def inward_normal(model, fold: Crossing, backend: str = "casadi") -> np.ndarray | None:
+def inward_normal(model, fold: Crossing, backend: str = "cvodes") -> np.ndarray | None:
     """Unit normal of the singular surface at a fold, in theta, towards the side where the two
     solutions meeting there exist (None where branches cross or the fold is degenerate).
 

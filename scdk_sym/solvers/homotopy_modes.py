@@ -26,14 +26,14 @@ homotopy attempts, Newton steps).
 from __future__ import annotations
 
 import os
-import shutil
 from collections.abc import Sequence
 from dataclasses import replace
 
 import casadi as ca
 import numpy as np
 
-from ..errors import InputError, ScdkError
+from ..backends import resolve
+from ..errors import ScdkError
 from ..follower.geometry import features
 from ..model.chart import rot_exp
 from ..model.model import Model, as_vector
@@ -57,16 +57,7 @@ MAX_LOOPS = 60
 TRACE_TOL = 1e-9
 #: Version of the start-system test (part of the cache file name).
 MODES_CACHE_VERSION = "1"
-BACKENDS = ("auto", "casadi", "compiled")
 _START_ATTR = "_start_systems"
-
-
-def _backend(backend: str) -> str:
-    if backend not in BACKENDS:
-        raise InputError(f"unknown backend {backend!r}; backends: {', '.join(BACKENDS)}")
-    if backend == "auto":
-        return "compiled" if shutil.which("cc") or shutil.which("gcc") else "casadi"
-    return backend
 
 
 def frame_trace_map(form, p: np.ndarray):
@@ -260,8 +251,8 @@ def homotopy_modes(
         theta0: (k,) actuated joint values [rad or model length unit].
         seed: seed of the start system and of the homotopy's gamma.
         progress: progress bar while the start system is computed (first call per model).
-        backend: ``"auto"`` (generated C when a C compiler is present), ``"casadi"`` or
-            ``"compiled"``.
+        backend: ``"auto"`` (generated C when a C compiler is found), ``"cvodes"`` (SX
+            kernels) or ``"compiled"``; see :mod:`scdk_sym.backends`.
         max_loops: bound on the monodromy loops of the start system.
         cache: read and write the start system's disk cache.
 
@@ -276,7 +267,7 @@ def homotopy_modes(
     from ..algebraic.scaled import scaled_form
 
     theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
-    form = scaled_form(algebraic_form(model, _backend(backend)))
+    form = scaled_form(algebraic_form(model, resolve(backend, "modes")))
     start = model_start_system(form, seed, progress=progress, max_loops=max_loops, cache=cache)
     res = solve_homotopy(form, start, form.params(theta0), seed=seed, real_tol=REAL_TOL)
     reasons: list[str] = []

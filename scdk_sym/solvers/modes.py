@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..backends import DEFAULTS, resolve
 from ..errors import InputError, ScdkError
 from ..follower.curve import Line, follow
 from ..follower.geometry import difference, features, kinds  # noqa: F401
@@ -51,7 +52,6 @@ from ..model.model import Model, as_vector
 from ..results import AssemblyModes, Configuration
 from .sc import validate_start
 
-BACKENDS = ("casadi", "compiled")
 #: The search accepts explicit steps whose tangent turned by up to acos(0.7) (it collects
 #: solutions; a jump between nearby branches only changes the curve it explores).
 SEARCH_MIN_COS = 0.7
@@ -59,7 +59,7 @@ SEARCH_MIN_COS = 0.7
 RANDOM_SPREAD = 1.5
 
 
-def curve_kernels(model: Model, backend: str = "casadi"):
+def curve_kernels(model: Model, backend: str = "cvodes"):
     """The curve follower's kernels (:func:`scdk_sym.follower.kernels.follower_kernels`)."""
     return follower_kernels(model, backend)
 
@@ -116,7 +116,7 @@ def follow_curve(
     *,
     max_arc: float,
     deadline: float = math.inf,
-    backend: str = "casadi",
+    backend: str = "cvodes",
     record: bool = False,
     max_hits: int | float = math.inf,
     max_steps: int = 20000,
@@ -135,7 +135,7 @@ def follow_curve(
         direction: +1 follows ``nu`` (``s' = det J_p``), -1 follows ``-nu``.
         max_arc: arc-length budget, in the metric ``|dy|^2 + (|dtheta| ds)^2``.
         deadline: ``time.perf_counter()`` value at which to stop.
-        backend: "casadi" or "compiled".
+        backend: "cvodes" or "compiled" kernels (see :mod:`scdk_sym.backends`).
         record: keep the accepted samples in ``curve.path``.
         max_hits: stop after this many solutions.
         max_steps: stop after this many accepted steps.
@@ -222,7 +222,7 @@ def explore(
     cover: int = 2,
     max_curves: int = 400,
     max_arc: float | None = None,
-    backend: str = "casadi",
+    backend: str = "cvodes",
 ) -> ModeSearch:
     """Search the real direct-kinematics solutions at ``theta0`` (see :func:`assembly_modes`).
 
@@ -236,8 +236,7 @@ def explore(
     """
     t_begin = time.perf_counter()
     theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
-    if backend not in BACKENDS:
-        raise InputError(f"unknown backend {backend!r}; backends: {', '.join(BACKENDS)}")
+    backend = resolve(backend, "curves")
     if time_budget is not None and not (time_budget > 0):
         raise InputError(f"time_budget must be a positive number of seconds, got {time_budget!r}")
     for name, value in (("patience", patience), ("cover", cover), ("max_curves", max_curves)):
@@ -511,8 +510,9 @@ def assembly_modes(
         method: ``"homotopy"`` or ``"curves"``.
         seed: seed of the random choices (start system and gamma; curve directions and starts).
         progress: show a progress bar (tqdm) on stderr (the monodromy's loops; the curves).
-        backend: homotopy: ``"auto"`` (default: generated C when a C compiler is present),
-            ``"casadi"`` or ``"compiled"``; curves: ``"casadi"`` (default) or ``"compiled"``.
+        backend: a name of :mod:`scdk_sym.backends`: ``"auto"``, ``"cvodes"`` or
+            ``"compiled"``; default (``None``): ``"auto"`` for the homotopy (generated C when
+            a C compiler is found), ``"cvodes"`` for the curves.
         **options: curves only: ``time_budget`` (wall-time limit [s]), ``start`` (assembled
             start configuration(s), default ``model.home``), ``patience`` (curves of each kind
             in a row without a new solution before stopping, 8), ``cover`` (times each known
@@ -543,7 +543,12 @@ def assembly_modes(
                 "the homotopy takes seed, progress, backend, max_loops, cache"
             )
         return homotopy_modes(
-            model, theta0, seed=seed, progress=progress, backend=backend or "auto", **options
+            model,
+            theta0,
+            seed=seed,
+            progress=progress,
+            backend=backend or DEFAULTS["modes"],
+            **options,
         )
     extra = set(options) - set(_CURVE_DEFAULTS)
     if extra:
@@ -556,7 +561,7 @@ def assembly_modes(
         theta0,
         seed=seed,
         progress=progress,
-        backend=backend or "casadi",
+        backend=backend or DEFAULTS["curves"],
         **{**_CURVE_DEFAULTS, **options},
     )
     return curves_result(search)

@@ -18,6 +18,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..backends import resolve
 from ..errors import (
     InputError,
     NotAssembledError,
@@ -27,7 +28,7 @@ from ..errors import (
     VerificationError,
 )
 from ..follower.curve import Hit, Line, Walk, follow, null_direction  # noqa: F401
-from ..follower.cvodes import BACKENDS, GRID, Engine, engine  # noqa: F401
+from ..follower.cvodes import GRID, Engine, engine  # noqa: F401
 from ..kernels.fastcall import model_calls
 from ..model.model import Model, as_vector
 from ..results import Configuration, Crossing, PathSamples, SolveResult
@@ -57,7 +58,7 @@ def validate_start(
 
 
 def start_direction(
-    model: Model, theta0: np.ndarray, start: Configuration, backend: str = "casadi"
+    model: Model, theta0: np.ndarray, start: Configuration, backend: str = "cvodes"
 ):
     """(nu unit vector, det J_p) at the start of the path towards ``theta0``."""
     nu, det, _Jp = _at_start(model, theta0, start)
@@ -80,7 +81,7 @@ def trace(
     *,
     max_hits: int = 1,
     max_arc: float | None = None,
-    backend: str = "casadi",
+    backend: str = "cvodes",
     record_path: bool = False,
     predictor: str = "cvodes",
     tangent: np.ndarray | None = None,
@@ -122,7 +123,7 @@ def solve(
     branch: str = "convergent",
     b: float | None = None,
     *,
-    backend: str = "casadi",
+    backend: str = "cvodes",
     max_arc: float | None = None,
     record_path: bool = True,
     fast: bool = True,
@@ -142,7 +143,8 @@ def solve(
         b: the paper's signed scalar; when given, its sign selects the direction of ``nu``
             on the paper's straight path ``theta1 + s (theta0 - theta1)`` and overrides
             ``branch`` (the literal algorithm).
-        backend: "casadi" or "compiled" kernels.
+        backend: a name of :mod:`scdk_sym.backends` that solve offers
+            (``backends.offered("solve")``): "cvodes" (default), "compiled" or "auto".
         max_arc: arc-length budget of the path (see :func:`trace`).
         record_path: keep the sampled curve in ``result.path`` (for plots).
         fast: for a convergent solve without ``record_path``, first try one call of the warm
@@ -157,12 +159,13 @@ def solve(
         singular surface: ``J_p`` singular to 1e-6 relative).
 
     Raises:
-        InputError: bad shapes, NaN, unknown branch.
+        InputError: bad shapes, NaN, unknown branch, a backend solve does not offer.
         SolveError: the start is singular and no ``b`` was given (the branch is undefined).
         PathError: no solution was reached (the message says what was tried; every real
             solution at ``theta0`` is listed by :func:`scdk_sym.assembly_modes`).
         VerificationError: the final configuration failed its residual check.
     """
+    backend = resolve(backend, "solve")
     theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
     if b is None and branch not in ("convergent", "divergent"):
         raise InputError(f"unknown branch {branch!r}; branches: convergent, divergent")

@@ -104,13 +104,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..backends import resolve
 from ..errors import InputError, PathError, TrackError
 from ..kernels.fastcall import Buffered
 from ..model.model import Model
 from ..results import Configuration, Crossing, TrackResult
 from .sc import null_direction, trace, validate_start
 
-BACKENDS = ("c", "cvodes")
 #: R2, R4: the best candidate must miss the prediction by at most this fraction of the step.
 ACCEPT = 0.5
 #: R2, R4: the runner-up must miss the prediction by more than this many times the best miss
@@ -175,27 +175,26 @@ def track(
         model: the model.
         thetas: (N, k) actuated joint readings [rad or model length unit], in time order.
         start: assembled configuration the robot starts from (default ``model.home``).
-        backend: "cvodes" (curves followed with CVODES via CasADi) or "c" (the generated-C
-            tracker, one call for the whole sequence).
+        backend: a name of :mod:`scdk_sym.backends` that track offers: "cvodes" (curves
+            followed with CVODES via CasADi, default), "c" (the generated-C tracker, one call
+            for the whole sequence) or "auto" (c when a C compiler is found).
 
     Returns:
         A :class:`~scdk_sym.results.TrackResult`: ``x`` (N, n), ``y`` (N, m), ``residual``
         (N,), and the singular-manifold crossings of :func:`crossings`.
 
     Raises:
-        InputError: bad shapes, non-finite readings or an unknown backend.
+        InputError: bad shapes, non-finite readings or a backend track does not offer.
         NotAssembledError: ``start`` is not assembled.
         TrackError: at a sample the readings are too coarse to decide between two candidate
             solutions (``status = ERR_UNDECIDABLE``, ``candidates`` their workspace x), no
             solution was met (``ERR_NO_SOLUTION``: the readings leave the reachable set or
             jump too far), or a sample failed its verification.
     """
-    if backend == "c":
+    if resolve(backend, "track") == "c":
         from .track_c import track_c
 
         return track_c(model, thetas, start)
-    if backend != "cvodes":
-        raise InputError(f"unknown backend {backend!r}; backends: {', '.join(BACKENDS)}")
     thetas = _thetas(model, thetas)
     start = validate_start(model, start)
     tracker = _Tracker(model, start)
