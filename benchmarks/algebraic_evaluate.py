@@ -2,8 +2,8 @@
 
 For ``--model`` (default models/stewart_gough) prints the median wall time of
 ``form.evaluate(Z, P)`` (G, dG/dz, dG/dp at N random complex points) for N = 1, 40 and 1000
-with the ``casadi`` (SX virtual machine) and ``compiled`` (generated C, built once and cached)
-backends, and the ratio compiled / casadi measured in the same run.
+with the ``cvodes`` (SX virtual machine) and ``compiled`` (generated C, built once and cached)
+backends, and the ratio compiled / cvodes measured in the same run.
 
     python benchmarks/algebraic_evaluate.py [--model DIR] [--repeat 7]
 """
@@ -40,18 +40,18 @@ def main(argv=None) -> None:
     ap.add_argument("--repeat", type=int, default=7)
     args = ap.parse_args(argv)
     model = sc.load_model(args.model)
-    forms = {b: algebraic_form(model, backend=b) for b in ("casadi", "compiled")}
+    forms = {b: algebraic_form(model, backend=b) for b in ("cvodes", "compiled")}
     rng = np.random.default_rng(0)
-    points = [forms["casadi"].random_point(rng) for _ in range(1000)]
+    points = [forms["cvodes"].random_point(rng) for _ in range(1000)]
     Z = np.array([z for z, _ in points])
     P = np.array([p for _, p in points])
-    print(f"{model.name}: n = {forms['casadi'].n}, n_params = {forms['casadi'].n_params}")
+    print(f"{model.name}: n = {forms['cvodes'].n}, n_params = {forms['cvodes'].n_params}")
     for N in (1, 40, 1000):
         t = {b: median_time(f, Z[:N], P[:N], args.repeat) for b, f in forms.items()}
         print(
-            f"  N = {N:4d}: casadi {t['casadi'] * 1e6:9.1f} us ({t['casadi'] / N * 1e6:6.1f} us "
+            f"  N = {N:4d}: cvodes {t['cvodes'] * 1e6:9.1f} us ({t['cvodes'] / N * 1e6:6.1f} us "
             f"per point), compiled {t['compiled'] * 1e6:9.1f} us ({t['compiled'] / N * 1e6:6.1f} "
-            f"us per point), compiled / casadi {t['compiled'] / t['casadi']:.2f}"
+            f"us per point), compiled / cvodes {t['compiled'] / t['cvodes']:.2f}"
         )
 
 

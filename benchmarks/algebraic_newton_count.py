@@ -10,7 +10,7 @@ seed, then for Dietmaier's platform at its real leg lengths (40 real modes): how
 roots are real, and the model's own closure residual at them.
 
     python benchmarks/algebraic_newton_count.py [--model DIR] [--starts 1000] [--seeds 2]
-        [--iterations 150] [--backend compiled|casadi]
+        [--iterations 150] [--backend compiled|cvodes]
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ although a solution exists), crash (any other exception), timeout. Then commande
 and each sample is compared with the commanded pose.
 
     python benchmarks/fuzz.py [--count 100000] [--seed 0] [--models NAME ...]
-        [--backend casadi|compiled] [--tracks 20] [--workers 1] [--limit 60]
+        [--backend cvodes|compiled] [--tracks 20] [--workers 1] [--limit 60]
 
 ``--count`` is the total number of solves (two per scenario, split evenly over the models).
 Prints progress every ``--every`` solves, then a table per model and branch, the refusals
@@ -57,7 +57,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--count", type=int, default=100_000, help="total solves")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--models", nargs="+", default=list(NAMES), choices=NAMES)
-    parser.add_argument("--backend", default="casadi", choices=("casadi", "compiled"))
+    parser.add_argument("--backend", default="cvodes", choices=("cvodes", "compiled"))
     parser.add_argument("--tracks", type=int, default=20, help="commanded motions per model")
     parser.add_argument("--samples", type=int, default=100, help="samples per motion")
     parser.add_argument("--workers", type=int, default=1, help="processes")

@@ -104,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
     model = sc.load_model(MODEL, frame="effector")
     thetas = walk(model, args.samples)
     t_newton, r_newton, x_newton = run_newton(model, thetas)
-    t_sc, r_sc, x_sc = run_solve(model, thetas, "casadi")
+    t_sc, r_sc, x_sc = run_solve(model, thetas, "cvodes")
     t_cc, r_cc, x_cc = run_solve(model, thetas, "compiled")
     t_nb, r_nb = run_newton_buffered(model, thetas)
     base = np.median(t_nb)

@@ -75,7 +75,7 @@ def main() -> None:
     for name in ("planar_hexa", "planar_hexa_reduced"):
         model = sc.load_model(ROOT / "models" / name)
         start = model.inverse_kinematics(X1)
-        for backend in ("casadi", "compiled"):
+        for backend in ("cvodes", "compiled"):
             for branch in ("convergent", "divergent"):
                 res = solve(model, THETA0, start=start, branch=branch, backend=backend)
 

@@ -815,8 +815,8 @@ class Scenario:
         pairs = ", ".join(f"{n}={float(self.target[ref.index[n]])!r}" for n in ref.unknowns)
         return f"known solution {pairs}"
 
-    def reproducer(self, branch: str, backend: str = "casadi") -> str:
-        back = "" if backend == "casadi" else f", backend={backend!r}"
+    def reproducer(self, branch: str, backend: str = "cvodes") -> str:
+        back = "" if backend == "cvodes" else f", backend={backend!r}"
         return (
             f"import scdk_sym as sc; m = {model_expr(self.name)}; "
             f"r = sc.solve(m, {_list(self.theta0)}, start={self.start_expr()}, "
@@ -1069,7 +1069,7 @@ def classify(ref: Reference, scen: Scenario, start, res) -> Outcome:
 
 def run_solves(
     scenarios: Sequence[Scenario],
-    backend: str = "casadi",
+    backend: str = "cvodes",
     progress: Callable | None = None,
     branches: Sequence[str] = BRANCHES,
     limit: float | None = None,
@@ -1458,7 +1458,7 @@ def fuzz(
     names: Iterable[str] = NAMES,
     count: int = 20,
     seed: int = 0,
-    backend: str = "casadi",
+    backend: str = "cvodes",
     tracks: int = 0,
     samples: int = 100,
     progress: Callable | None = None,
