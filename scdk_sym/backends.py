@@ -122,7 +122,7 @@ def canonical(backend: str, function: str) -> str:
             warnings.warn(
                 f"backend {backend!r} is deprecated; use {name!r} (the same backend)",
                 DeprecationWarning,
-                stacklevel=3,
+                stacklevel=4,  # the caller of the function that resolves its backend
             )
     names = offered(function)
     if name not in names:
