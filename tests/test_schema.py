@@ -165,6 +165,19 @@ def test_codegen_json_validates(capsys, tmp_path):
     )
 
 
+def test_verify_json_validates(capsys):
+    from scdk_sym.cli import COMMANDS
+
+    if "verify" not in COMMANDS:
+        pytest.skip("this build has no scdk verify")
+    rc = main(["verify", str(MODELS / "planar_hexa"), "--samples", "1", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    validate(out, "verify")
+    assert rc == (0 if out["passed"] else 1)
+    assert out["passed"] == all(c["passed"] for c in out["checks"])
+    assert {c["kind"] for c in out["checks"]} == {"placements", "closures", "jacobians"}
+
+
 @pytest.fixture(scope="module")
 def solve_record():
     """A valid ``solve --json`` record with one crossing (the divergent seed solve)."""

@@ -3,7 +3,7 @@
 The file ``scdk.schema.json`` next to this module defines one record shape per idea (a
 configuration, a singular crossing, a solution, a failed branch) and one definition per
 command output under ``$defs``: ``solve``, ``solve-both`` (``solve --branch both``),
-``modes``, ``track``, ``atlas`` (the run's summary) and ``codegen``. Validate with any
+``modes``, ``track``, ``atlas`` (the run's summary), ``codegen`` and ``verify``. Validate with any
 draft 2020-12 validator, e.g. ``jsonschema.validate(record, command_schema("track"))``.
 """
 
@@ -19,7 +19,7 @@ from ..errors import InputError
 SCHEMA_FILE = "scdk.schema.json"
 
 #: The command outputs the schema defines (keys of its ``$defs``).
-OUTPUTS = ("solve", "solve-both", "modes", "track", "atlas", "codegen")
+OUTPUTS = ("solve", "solve-both", "modes", "track", "atlas", "codegen", "verify")
 
 
 @cache
