@@ -18,9 +18,11 @@ working and warn once per process with a :class:`DeprecationWarning`.
 
 from __future__ import annotations
 
+import os
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import lru_cache
 from types import MappingProxyType
 
 from .errors import BuildError, InputError
@@ -134,9 +136,19 @@ def canonical(backend: str, function: str) -> str:
 
 
 def available(name: str) -> bool:
-    """Whether backend ``name`` can run on this machine (a C compiler for compiled ones)."""
+    """Whether backend ``name`` can run on this machine (a C compiler for compiled ones).
+
+    The compiler search is remembered per value of ``$CC`` and ``$PATH``.
+    """
     if not BACKENDS[name].needs_compiler:
         return True
+    return _compiler_found(os.environ.get("CC", ""), os.environ.get("PATH", ""))
+
+
+@lru_cache(maxsize=8)
+def _compiler_found(cc: str, path: str) -> bool:
+    """Whether :func:`~scdk_sym.kernels.compile.compiler_command` finds a compiler (the
+    arguments are the environment it reads, as the cache key)."""
     from .kernels.compile import compiler_command
 
     try:
