@@ -5,8 +5,12 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from .model.model import Model
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -192,7 +196,7 @@ class TrackResult:
         for name in ("x", "y", "theta", "residual"):
             object.__setattr__(self, name, _frozen(getattr(self, name)))
 
-    def configurations(self, model) -> tuple[Configuration, ...]:
+    def configurations(self, model: Model) -> tuple[Configuration, ...]:
         """Each sample as a :class:`Configuration` (platform pose and joint values included).
 
         Args:
@@ -202,7 +206,7 @@ class TrackResult:
             model.configuration(y, theta) for y, theta in zip(self.y, self.theta, strict=True)
         )
 
-    def to_dict(self, model=None) -> dict:
+    def to_dict(self, model: Model | None = None) -> dict:
         """JSON-ready: ``x``, ``y``, ``theta``, ``residual`` per sample, ``crossings``,
         ``status``, ``backend``; with ``model``, also ``platform_pose`` (N, 4, 4) and
         ``joints`` (one name -> value object per sample) from :meth:`configurations`."""
