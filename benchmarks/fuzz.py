@@ -42,6 +42,7 @@ from references import (  # noqa: E402  (references shared with the tests)
     draw_tracks,
     run_solves,
     run_tracks,
+    warm_up,
 )
 
 #: Scenarios per work unit (one seeded draw + solve in one process).
@@ -84,6 +85,9 @@ def main(argv: list[str] | None = None) -> int:
         f"limit {args.limit:g} s per solve",
         flush=True,
     )
+    if args.backend == "compiled":  # compile once here, not in every worker at once
+        for name in args.models:
+            warm_up(name, args.backend)
     report = Report()
     t0 = time.perf_counter()
     done, shown = 0, 0
