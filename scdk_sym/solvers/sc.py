@@ -351,7 +351,13 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
     2. the nearest singular configuration on the manifold, and the solution at ``theta0`` on
        its other side nearest to it (:func:`~scdk_sym.follower.singular.across_fold`);
     3. lines aimed at the singular surface, back on the other sheet, then convergent;
-    4. the paper's straight path in the divergent direction, however far it goes.
+    4. the paper's straight path in the divergent direction, however far it goes;
+    5. every real solution at ``theta0`` (:func:`~scdk_sym.solvers.modes.assembly_modes`,
+       certified): of those on the other side of the nearest singular configuration
+       (``det J_p`` of the sign opposite to the start's; where branches cross there, any
+       other than the convergent answer) the one nearest to it, as in way 2, which guesses
+       the candidates by Newton from points beyond the singular configuration where this
+       way has them all (e.g. the Delta's mirror assembly above its base).
     """
     from ..follower.singular import across, across_fold, nearest_singular
 
@@ -455,10 +461,54 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
             res = other_than_convergent(res, "along the straight path")
             if res is not None:
                 return res
+    # 5. across the nearest singular configuration, among every real solution
+    if fold is not None:
+        res = _across_by_modes(model, theta0, start, sign, fold, convergent, backend, tried)
+        if res is not None:
+            return res
     raise PathError(
         f"divergent branch at theta0={theta0.tolist()}: no solution across a singular surface "
         f"was reached ({'; '.join(tried)}); every real solution: sc.assembly_modes(model, theta0)"
     )
+
+
+def _across_by_modes(
+    model, theta0, start, sign, fold, convergent, backend, tried
+) -> SolveResult | None:
+    """Way 5 of :func:`_divergent`: the real solution at ``theta0`` on the other side of
+    ``fold`` nearest to it, chosen among every real solution (certified assembly modes)."""
+    from ..follower.geometry import features
+    from ..follower.singular import _det_sign
+    from .modes import assembly_modes
+
+    try:
+        sols = assembly_modes(model, theta0, backend=backend)
+    except ScdkError as exc:
+        tried.append(f"every real solution at theta0: {exc}")
+        return None
+    if not sols.certified:
+        tried.append("every real solution at theta0: the set is not certified complete")
+        return None
+    conv = convergent()
+    sign0 = _det_sign(model, start)
+    scale = max(1.0, float(model.length_scale))
+    f_fold = features(model, fold.y)[0]
+    best: tuple[float, Configuration] | None = None
+    for cfg in sols:
+        if conv is not None and _same_configuration(model, cfg, conv):
+            continue
+        if fold.kind == "fold" and _det_sign(model, cfg) * sign0 > 0:
+            continue
+        dist = float(np.max(np.abs(features(model, cfg.y)[0] - f_fold)))
+        if best is None or dist < best[0] - 1e-9 * scale:
+            best = (dist, cfg)
+    if best is None:
+        tried.append(
+            f"every real solution at theta0 ({len(sols)}, certified): none on the other side"
+        )
+        return None
+    crossing = _on_path(fold, start, theta0)
+    return _result(model, best[1].y, theta0, (crossing,), "divergent", -sign, start, None)
 
 
 def _same_configuration(model: Model, a, b) -> bool:
