@@ -233,3 +233,20 @@ def test_divergent_cases_found_refused_by_the_fuzz(name: str, kind: str, theta0,
     except PathError:  # the straight path from the start closes on itself (iso3d)
         return
     assert ref.distance(ref.coords(res), ref.coords(conv)) > 1e-6
+
+
+def test_convergent_next_to_a_fold_at_s_1_keeps_the_incoming_sheet() -> None:
+    """The seed robot from home to a theta0 2e-5 rad from the singular surface (a case the
+    fuzz found answered with the mirror solution and no crossing): the curve folds at
+    s = 1 - 1e-8, the two solutions at theta0 are 7e-5 apart; the answer must be the one with
+    the start's det sign (reference: finite-difference det of the closed-form closure)."""
+    import scdk_sym as sc
+
+    ref, model = reference("planar_hexa"), load("planar_hexa")
+    theta0 = np.array([1.1500828787946733, -0.882904667438344, -3.051203418182742])
+    res = sc.solve(model, theta0)
+    scen = Scenario("planar_hexa", "across", theta0, ref.coords(model.home))
+    out = classify(ref, scen, model.home, res)
+    assert out.status == "ok", out.detail
+    assert out.parity == "agree"
+    assert ref.det_sign(ref.coords(res), theta0) == ref.det_sign(ref.home_x, model.home.theta)

@@ -234,15 +234,18 @@ def _along_line(model, theta0, start, direction, name, backend, max_arc, record_
                       any_fold=not tr.hits)  # fmt: skip
         if res is not None:
             return res
+    sign0 = _det_sign_of(model, start.y, start.theta)
     if tr.hits:
         hit = tr.hits[0]
         crossings = tuple(tr.singular[: hit.crossings])
-        return _result(model, hit.y, theta0, crossings, name, direction, start, tr.path)
-    touch = _touching(model, theta0, tr)
+        res = _result(model, hit.y, theta0, crossings, name, direction, start, tr.path)
+        return _parity_checked(model, res, sign0)
+    touch = _touching(model, theta0, tr, sign0)
     if touch is not None:
         y, n = touch
         crossings = tuple(tr.singular[:n])
-        return _result(model, y, theta0, crossings, name, direction, start, tr.path)
+        res = _result(model, y, theta0, crossings, name, direction, start, tr.path)
+        return _parity_checked(model, res, sign0)
     if tr.stalled:
         why = "the curve could not be followed further"
     elif tr.closed:
@@ -319,24 +322,76 @@ def _detour(
     return None
 
 
-def _touching(model, theta0, tr) -> tuple[np.ndarray, int] | None:
+def _touching(model, theta0, tr, sign0: float) -> tuple[np.ndarray, int] | None:
     """A fold of the curve at ``s = 1`` (``theta0`` on the singular surface): the singular
-    solution there, polished at ``theta0``, and the number of crossings before it."""
+    solution there, polished at ``theta0``, and the number of crossings before it.
+
+    Where the fold lies only nearly at ``s = 1`` there are two solutions at ``theta0`` next
+    to it, one on each sheet: Newton from the fold may converge to either. The one on the
+    incoming sheet (``det J_p`` of sign ``sign0 (-1)^i`` after ``i`` crossings) is kept; from
+    a solution on the other sheet Newton is restarted at its reflections through the fold.
+    """
     from ..follower.kernels import follower_calls
 
     polish = follower_calls(model).polish
-    for i, cr in enumerate(tr.singular):
-        if cr.kind != "fold" or abs(cr.s - 1.0) > 1e-6:
-            continue
-        y, c = model.chart.to_local(cr.y)
+
+    def newton(y, c):
         for _ in range(8):  # Newton converges only linearly to a double root
             y_new, res = polish(y, theta0, c)
             y = np.array(y_new).ravel()
             if not np.all(np.isfinite(y)) or float(res) <= 1e-3 * model.tolerance:
                 break
-        if np.all(np.isfinite(y)) and model.residual(y, theta0, c) <= model.tolerance:
+        ok = np.all(np.isfinite(y)) and model.residual(y, theta0, c) <= model.tolerance
+        return y if ok else None
+
+    for i, cr in enumerate(tr.singular):
+        if cr.kind != "fold" or abs(cr.s - 1.0) > 1e-6:
+            continue
+        y_f, c = model.chart.to_local(cr.y)
+        want = sign0 * (-1.0) ** i
+        y = newton(y_f, c)
+        if y is None:
+            continue
+        if _singular_or_sign(model, y, theta0, c, want):
             return model.chart.to_canonical(y, c), i
+        for k in (1.0, 0.5, 2.0, 4.0):
+            y_r = newton(y_f - k * (y - y_f), c)
+            if y_r is not None and _singular_or_sign(model, y_r, theta0, c, want):
+                return model.chart.to_canonical(y_r, c), i
     return None
+
+
+def _singular_or_sign(model, y_loc, theta, c, want: float) -> bool:
+    """J_p singular to 1e-6 relative at a point, or its det has the sign ``want``."""
+    Jp = np.array(model_calls(model).jac(y_loc, theta, c)[0])
+    S = np.linalg.svd(Jp, compute_uv=False)
+    return not S[-1] > 1e-6 * S[0] or float(np.linalg.det(Jp)) * want > 0
+
+
+def _det_sign_of(model, y, theta) -> float:
+    y_loc, c = model.chart.to_local(y)
+    return 1.0 if np.linalg.det(np.array(model_calls(model).jac(y_loc, theta, c)[0])) > 0 else -1.0
+
+
+def _parity_checked(model, res: SolveResult, sign0: float) -> SolveResult:
+    """The answer of a path, verified against its crossings: ``det J_p`` changes sign at
+    each crossing met, so a non-singular answer has the sign ``sign0 (-1)^n`` after ``n``.
+
+    Raises:
+        PathError: it has the other sign (the answer is on a sheet the path did not reach).
+    """
+    if res.status == "singular":
+        return res
+    n = len(res.crossings)
+    got = _det_sign_of(model, res.y, res.theta)
+    if got * sign0 * (-1.0) ** n > 0:
+        return res
+    raise PathError(
+        f"{res.branch} branch at theta0={np.asarray(res.theta).tolist()}: the solution found "
+        f"has det J_p of sign {got:+.0f} after {n} singular crossing(s) from a start of sign "
+        f"{sign0:+.0f}: it is not on the path's sheet (theta0 is next to a singular surface); "
+        "every real solution: sc.assembly_modes(model, theta0)"
+    )
 
 
 def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=None) -> SolveResult:
