@@ -73,9 +73,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     per_model = max(1, math.ceil(args.count / (2 * len(args.models))))
-    units = []
-    for name in args.models:
-        for chunk in range(math.ceil(per_model / CHUNK)):
+    units = []  # interleaved over the models: a partial run covers every model evenly
+    for chunk in range(math.ceil(per_model / CHUNK)):
+        for name in args.models:
             size = min(CHUNK, per_model - chunk * CHUNK)
             units.append((name, chunk, size))
     total = 2 * per_model * len(args.models)
