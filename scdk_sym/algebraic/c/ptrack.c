@@ -9,8 +9,8 @@
  *              also gives the velocity at the new point;
  *   step control: accepted, h = min(h clip(0.8 (eta / nu1)^(1/5), 0.25, 2), h_max);
  *              rejected, h / 2.
- * Linear systems: LU with partial pivoting (pivot of largest |re| + |im|); an exactly zero
- * pivot gives NaN solutions, which reject the step.
+ * Linear systems: Gaussian elimination with partial pivoting (pivot of largest |re| + |im|,
+ * as LAPACK); an exactly zero pivot gives NaN solutions, which reject the step.
  */
 #include "ptrack.h"
 
@@ -34,18 +34,12 @@ typedef struct {
     /* homotopy values at the last evaluation: H (n), Hz (n x n column-major), Ht (n) */
     cplx *H, *Hz, *Ht;
     /* linear algebra */
-    cplx *lu, *rhs;
+    cplx *rhs;
+    double *ar, *ai; /* augmented matrix of the solve, n x (n + 2) */
 } context;
-
-static double cabs1(cplx a) { return fabs(creal(a)) + fabs(cimag(a)); }
 
 static double abs2(cplx a) { return creal(a) * creal(a) + cimag(a) * cimag(a); }
 
-/* 1 / a without the library call of a C99 complex division (a finite and non-zero). */
-static cplx reciprocal(cplx a) {
-    const double d = abs2(a);
-    return creal(a) / d - I * (cimag(a) / d);
-}
 
 /* H, H_z, H_t of datum d at (z, t); returns 0 or SCDK_EVAL_FAILED. */
 static int homotopy(context *c, const cplx *z, double t, int64_t d) {
@@ -82,52 +76,72 @@ static int homotopy(context *c, const cplx *z, double t, int64_t d) {
     return 0;
 }
 
-/* Solve Hz X = B for nrhs right-hand sides (B, X: n x nrhs column-major, in place in rhs). */
+/* Solve Hz X = B for nrhs (1 or 2) right-hand sides B (n x nrhs column-major, in rhs; X
+ * replaces it). Gaussian elimination with partial pivoting on the augmented matrix [Hz B],
+ * row-major with separate real and imaginary parts (contiguous, vectorisable rows). */
 static void solve(context *c, int64_t nrhs) {
-    const int64_t n = c->n;
-    cplx *A = c->lu, *B = c->rhs;
-    memcpy(A, c->Hz, (size_t)(n * n) * sizeof(cplx));
+    const int64_t n = c->n, W = n + nrhs;
+    double *ar = c->ar, *ai = c->ai;
+    for (int64_t i = 0; i < n; ++i) {
+        for (int64_t j = 0; j < n; ++j) {
+            ar[i * W + j] = creal(c->Hz[j * n + i]);
+            ai[i * W + j] = cimag(c->Hz[j * n + i]);
+        }
+        for (int64_t r = 0; r < nrhs; ++r) {
+            ar[i * W + n + r] = creal(c->rhs[r * n + i]);
+            ai[i * W + n + r] = cimag(c->rhs[r * n + i]);
+        }
+    }
     for (int64_t j = 0; j < n; ++j) {
         int64_t p = j;
-        double best = cabs1(A[j * n + j]);
+        double best = fabs(ar[j * W + j]) + fabs(ai[j * W + j]);
         for (int64_t i = j + 1; i < n; ++i) {
-            const double v = cabs1(A[j * n + i]);
+            const double v = fabs(ar[i * W + j]) + fabs(ai[i * W + j]);
             if (v > best) {
                 best = v;
                 p = i;
             }
         }
-        if (best == 0.0) {
-            for (int64_t i = 0; i < n * nrhs; ++i) B[i] = NAN;
+        if (!(best > 0.0)) { /* exactly singular (or NaN): no solution */
+            for (int64_t i = 0; i < n * nrhs; ++i) c->rhs[i] = NAN;
             return;
         }
         if (p != j) {
-            for (int64_t col = 0; col < n; ++col) {
-                const cplx tmp = A[col * n + j];
-                A[col * n + j] = A[col * n + p];
-                A[col * n + p] = tmp;
-            }
-            for (int64_t r = 0; r < nrhs; ++r) {
-                const cplx tmp = B[r * n + j];
-                B[r * n + j] = B[r * n + p];
-                B[r * n + p] = tmp;
+            for (int64_t col = j; col < W; ++col) {
+                double t = ar[j * W + col];
+                ar[j * W + col] = ar[p * W + col];
+                ar[p * W + col] = t;
+                t = ai[j * W + col];
+                ai[j * W + col] = ai[p * W + col];
+                ai[p * W + col] = t;
             }
         }
-        const cplx inv = reciprocal(A[j * n + j]);
-        A[j * n + j] = inv; /* the diagonal keeps its reciprocal for the back substitution */
+        const double d = ar[j * W + j] * ar[j * W + j] + ai[j * W + j] * ai[j * W + j];
+        const double ir = ar[j * W + j] / d, ii = -ai[j * W + j] / d;
+        ar[j * W + j] = ir; /* the diagonal keeps its reciprocal for the back substitution */
+        ai[j * W + j] = ii;
+        const double *rr = ar + j * W, *ri = ai + j * W;
         for (int64_t i = j + 1; i < n; ++i) {
-            const cplx l = A[j * n + i] * inv;
-            A[j * n + i] = l;
-            for (int64_t col = j + 1; col < n; ++col) A[col * n + i] -= l * A[col * n + j];
-            for (int64_t r = 0; r < nrhs; ++r) B[r * n + i] -= l * B[r * n + j];
+            double *xr = ar + i * W, *xi = ai + i * W;
+            const double lr = xr[j] * ir - xi[j] * ii, li = xr[j] * ii + xi[j] * ir;
+            for (int64_t col = j + 1; col < W; ++col) {
+                const double ur = rr[col], ui = ri[col];
+                xr[col] -= lr * ur - li * ui;
+                xi[col] -= lr * ui + li * ur;
+            }
         }
     }
     for (int64_t r = 0; r < nrhs; ++r) {
-        cplx *x = B + r * n;
+        cplx *x = c->rhs + r * n;
         for (int64_t i = n - 1; i >= 0; --i) {
-            cplx acc = x[i];
-            for (int64_t col = i + 1; col < n; ++col) acc -= A[col * n + i] * x[col];
-            x[i] = acc * A[i * n + i];
+            double accr = ar[i * W + n + r], acci = ai[i * W + n + r];
+            for (int64_t col = i + 1; col < n; ++col) {
+                const double ur = ar[i * W + col], ui = ai[i * W + col];
+                accr -= ur * creal(x[col]) - ui * cimag(x[col]);
+                acci -= ur * cimag(x[col]) + ui * creal(x[col]);
+            }
+            const double dr = ar[i * W + i], di = ai[i * W + i];
+            x[i] = (accr * dr - acci * di) + I * (accr * di + acci * dr);
         }
     }
 }
@@ -260,7 +274,7 @@ int scdk_ptrack(scdk_eval_fn eval, int64_t sz_iw, int64_t sz_w, int64_t n, int64
     const size_t nin = (size_t)(2 * n + 2 * k), nout = (size_t)(2 * n + 2 * n * n + 2 * n * k);
     c.in = malloc((nin + nout + (size_t)sz_w + 1) * sizeof(double));
     c.iw = malloc(((size_t)sz_iw + 1) * sizeof(long long));
-    cplx *cbuf = malloc((size_t)(2 * n + 2 * n * n + 2 * n + 8 * n) * sizeof(cplx));
+    cplx *cbuf = malloc((size_t)(2 * n + n * n + 2 * n + 8 * n + n * (n + 2)) * sizeof(cplx));
     if (!c.in || !c.iw || !cbuf) {
         free(c.in);
         free(c.iw);
@@ -282,9 +296,10 @@ int scdk_ptrack(scdk_eval_fn eval, int64_t sz_iw, int64_t sz_w, int64_t n, int64
     c.H = cbuf;
     c.Ht = c.H + n;
     c.Hz = c.Ht + n;
-    c.lu = c.Hz + n * n;
-    c.rhs = c.lu + n * n;
+    c.rhs = c.Hz + n * n;
     cplx *path = c.rhs + 2 * n;
+    c.ar = (double *)(path + 8 * n);
+    c.ai = c.ar + n * (n + 2);
     int rc = SCDK_OK;
     for (int64_t j = 0; j < M && rc == SCDK_OK; ++j)
         rc = track_path(&c, opt, idx[j], (cplx *)z + j * n, tau + j, tau1[j], h + j, status + j,
