@@ -16,6 +16,7 @@ from __future__ import annotations
 import ctypes
 import hashlib
 import os
+from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
 
@@ -79,7 +80,7 @@ def tracker_library() -> Path:
     return target
 
 
-def _form_and_weights(system):
+def _form_and_weights(system) -> tuple[object, np.ndarray] | None:
     """``(AlgebraicForm, row weights)`` of a form or a scaled form; ``None`` otherwise."""
     from .form import AlgebraicForm
     from .scaled import ScaledForm
@@ -183,7 +184,7 @@ class CTracker:
         return TrackOutcome(z=z, tau=tau, status=status, steps=steps, accepted=accepted, h=h)
 
 
-def c_tracker(system, tracker: str = "auto"):
+def c_tracker(system, tracker: str = "auto") -> Callable[..., TrackOutcome] | None:
     """The C tracking function of a system, or ``None`` for the numpy tracker.
 
     Args:
