@@ -253,13 +253,21 @@ def real_endpoints(
 
 def dedup(x: np.ndarray, tol: float) -> np.ndarray:
     """Distinct rows of x (M, n), relative distance ``tol``; sorted lexicographically."""
-    kept: list[np.ndarray] = []
-    for row in x:
-        if not any(rel_norm((row - k)[None], k[None])[0] <= tol for k in kept):
-            kept.append(row)
+    x = np.asarray(x)
+    # a row is kept unless it lies within tol of a row kept before it, the distance relative
+    # to the kept row (rel_norm(row - k, k)); NaN distances never match
+    scale = 1.0 + np.abs(x).max(axis=1) if x.size else np.zeros(len(x))
+    kept: list[int] = []
+    for i in range(len(x)):
+        if kept:
+            with np.errstate(invalid="ignore"):
+                d = np.abs(x[i] - x[kept]).max(axis=1) / scale[kept]
+            if (d <= tol).any():
+                continue
+        kept.append(i)
     if not kept:
         return np.zeros((0, x.shape[1]), dtype=x.dtype)
-    out = np.array(kept)
+    out = x[kept]
     return out[np.lexsort(out.real.T[::-1])]
 
 
