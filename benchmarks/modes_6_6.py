@@ -9,7 +9,8 @@ For Dietmaier's 40-mode platform and ``--platforms`` random general 6-6 platform
   over ``--repeat`` runs with the paths tracked in C (the default) and in numpy (the
   reference tracker), split into the parameter homotopy (all root-count paths), polishing in
   the model and the Krawczyk certificates, the real count, ``certified`` and whether the real
-  set equals the LM reference (rotation and translation within 1e-6);
+  set equals the LM reference (rotation and translation within 1e-6); CPU-time medians too
+  (``time.process_time``: on a shared machine the wall time also counts the waits);
 * the curve search (method "curves", compiled kernels) on the same legs: median time, count;
 * the baseline: random-start Levenberg-Marquardt (tests/stewart.py, ``--lm-starts``
   starts), median time and count.
@@ -52,12 +53,20 @@ def same_set(found, reference, tol: float = 1e-6) -> bool:
     )
 
 
-def median_time(fn, repeat: int):
-    times, out = [], None
+#: CPU-time medians [s] of the last median_time call of each label (the machine may be shared).
+CPU: dict[str, float] = {}
+
+
+def median_time(fn, repeat: int, label: str = ""):
+    """Median wall time [s] of ``repeat`` calls and the last result; the median CPU time
+    (``time.process_time``) is kept in ``CPU[label]``."""
+    times, cpu, out = [], [], None
     for _ in range(repeat):
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         out = fn()
         times.append(time.perf_counter() - t)
+        cpu.append(time.process_time() - c)
+    CPU[label] = float(np.median(cpu))
     return float(np.median(times)), out
 
 
@@ -94,14 +103,18 @@ def main() -> None:
             f"residual {start.trace_residual:.1e}, {t_start:.1f} s"
         )
         p0 = form.params(legs)
-        t_query, sols = median_time(lambda m=model, lg=legs: sc.assembly_modes(m, lg), args.repeat)
+        t_query, sols = median_time(
+            lambda m=model, lg=legs: sc.assembly_modes(m, lg), args.repeat, "query"
+        )
         with numpy_tracker():
             t_query_py, sols_py = median_time(
-                lambda m=model, lg=legs: sc.assembly_modes(m, lg), args.repeat
+                lambda m=model, lg=legs: sc.assembly_modes(m, lg), args.repeat, "query_py"
             )
-        t_track, res = median_time(lambda f=form, s=start, p=p0: solve_homotopy(f, s, p), 3)
+        t_track, res = median_time(
+            lambda f=form, s=start, p=p0: solve_homotopy(f, s, p), 3, "track"
+        )
         t_track_py, _ = median_time(
-            lambda f=form, s=start, p=p0: solve_homotopy(f, s, p, tracker="python"), 3
+            lambda f=form, s=start, p=p0: solve_homotopy(f, s, p, tracker="python"), 3, "track_py"
         )
         ys = np.vstack([c.y for c in sols]) if len(sols) else np.zeros((0, model.m))
         t_cert, _ = median_time(lambda m=model, y=ys, lg=legs: certify_configurations(m, y, lg), 3)
@@ -120,13 +133,15 @@ def main() -> None:
             f"= LM set {match}: {1e3 * t_query:8.1f} ms per query, C tracker (median of "
             f"{args.repeat}); tracking {1e3 * t_track:.1f} ms ({len(res.status)} paths, median "
             f"{steps} steps), certificates {1e3 * t_cert:.1f} ms, rest (polish, configurations) "
-            f"{1e3 * max(0.0, t_query - t_track - t_cert):.1f} ms"
+            f"{1e3 * max(0.0, t_query - t_track - t_cert):.1f} ms; CPU time: query "
+            f"{1e3 * CPU['query']:.1f} ms, tracking {1e3 * CPU['track']:.1f} ms"
         )
         print(
             f"  homotopy  {len(sols_py):>3} real, certified {sols_py.certified}, = LM set "
             f"{match_py}: {1e3 * t_query_py:8.1f} ms per query, numpy tracker; tracking "
             f"{1e3 * t_track_py:.1f} ms; C / numpy: query {t_query / t_query_py:.2f}, "
-            f"tracking {t_track / t_track_py:.2f}"
+            f"tracking {t_track / t_track_py:.2f}; CPU time: query {1e3 * CPU['query_py']:.1f} ms, "
+            f"tracking {1e3 * CPU['track_py']:.1f} ms"
         )
         print(f"  curves    {len(curves):>3} real: {1e3 * t_curves:8.1f} ms (median of 3)")
         print(

@@ -38,6 +38,8 @@ _ERRORS = {1: "out of memory", 2: "the generated evaluation failed", 3: "bad siz
 
 
 class _Options(ctypes.Structure):
+    """``scdk_options`` of ``ptrack.h``: the fields of :class:`TrackerOptions`."""
+
     _fields_ = [
         ("h0", ctypes.c_double),
         ("h_min", ctypes.c_double),
