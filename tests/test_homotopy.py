@@ -346,3 +346,21 @@ def test_rotation_numerator_is_rotation_times_norm():
     back = quaternions(R)
     back *= np.sign(np.sum(back * q, axis=1))[:, None]
     assert np.allclose(back, q / np.linalg.norm(q, axis=1)[:, None], atol=1e-12)
+
+
+def test_dedup_keeps_the_first_of_each_cluster():
+    """Clusters of near-copies (1e-10 apart, relative) of rows of very different sizes: one
+    row per cluster, the first one, sorted lexicographically; a NaN row matches nothing."""
+    from scdk_sym.algebraic.homotopy import dedup
+
+    rng = np.random.default_rng(7)
+    centres = rng.normal(size=(6, 4)) * np.array([1e-3, 1.0, 1e3, 1.0])
+    labels = rng.integers(0, 6, size=40)
+    x = centres[labels] * (1 + 1e-10 * rng.normal(size=(40, 4)))
+    x = np.vstack([x, np.full((1, 4), np.nan)])
+    out = dedup(x, 1e-8)
+    firsts = [int(np.flatnonzero(labels == c)[0]) for c in np.unique(labels)]
+    expected = x[firsts]
+    expected = np.vstack([expected[np.lexsort(expected.T[::-1])], x[-1:]])  # NaN sorts last
+    assert out.shape == (len(firsts) + 1, 4)
+    np.testing.assert_array_equal(out, expected)
