@@ -6,7 +6,8 @@ ASME J. Mech. Des. 120(1), 1998), studied in joint space by Zein, Wenger & Chabl
 ("Non-singular assembly-mode changing motions for 3-RPR parallel manipulators", Mech. Mach.
 Theory 43(4), 2008): base pivots A1 = (0, 0), A2 = (15.91, 0), A3 = (0, 10); platform
 triangle B1 B2 = 17.04, B2 B3 = 16.54, B3 B1 = 20.84; the slice rho1 = 14.98 of the joint
-space. The paper's numbers are read as centimetres (the model is in metres).
+space. The published values carry no unit; they are read here as centimetres (the model is
+in metres).
 
 Over a rho2 x rho3 grid at rho1 = 14.98 cm the atlas stores, at every point, the convergent
 solution from one assembled start (status and the sign of det J_p: the start's region of
