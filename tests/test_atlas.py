@@ -146,8 +146,8 @@ def test_sweep_on_a_turning_platform_equals_solve(monkeypatch):
     """The 6-6 platform turns between the start and the points (its rotation chart is
     re-centred on each answer): the compiled sweep and sc.solve agree to 1e-12, det J_p in the
     chart centred on the answer to 1e-10. Alone in a fresh cache it compiles the 6-6's
-    kernels (13 min wall at load average 10-15, 2 min CPU); in a full run the session cache
-    shares them with the other 6-6 tests."""
+    kernels (13 min wall at load average 10-15, 2 min CPU); in a full test run they are compiled
+    once for every 6-6 test."""
     from scdk_sym.atlas import chunk
 
     model = shipped("stewart_gough")
