@@ -135,7 +135,16 @@ def newton_correction(sym) -> ca.Function:
     return ca.Function("scdk_newton1", [sym.y, sym.theta, sym.c], [ca.solve(sym.J_p, sym.g)])
 
 
-def rk4_in_s(sym, y0: ca.SX, s0, s1, theta1: ca.SX, dtheta: ca.SX, steps: int) -> ca.SX:
+def rk4_in_s(
+    sym,
+    y0: ca.SX,
+    s0,
+    s1,
+    theta1: ca.SX,
+    dtheta: ca.SX,
+    steps: int,
+    stage_jp: list | None = None,
+) -> ca.SX:
     """RK4 steps along the curve with ``s`` as the independent variable (valid off the
     singular manifold): ``dy/ds = J_p^{-1} J_s dtheta`` on ``theta = theta1 + s dtheta``.
 
@@ -147,21 +156,31 @@ def rk4_in_s(sym, y0: ca.SX, s0, s1, theta1: ca.SX, dtheta: ca.SX, steps: int) -
         theta1: (k,) actuated values at ``s = 0`` [rad or model length unit].
         dtheta: (k,) direction of the line.
         steps: number of equal RK4 steps from ``s0`` to ``s1``.
+        stage_jp: if given, ``J_p`` (m, m) at each stage is appended to it, in evaluation
+            order (the expression the slope is solved with, so a check of its determinant
+            costs no second evaluation).
 
     Returns:
         (m,) the unknowns at ``s1``.
     """
     s, a, d = ca.SX.sym("s"), ca.SX.sym("theta1", sym.k), ca.SX.sym("dtheta", sym.k)
     Jp, Js = ca.substitute([sym.J_p, sym.J_s], [sym.theta], [a + s * d])
-    dyds = ca.Function("scdk_dyds", [sym.y, s, a, d, sym.c], [ca.solve(Jp, Js @ d)])
+    f = ca.Function("scdk_dyds", [sym.y, s, a, d, sym.c], [ca.solve(Jp, Js @ d), Jp])
     c = sym.c
+
+    def dyds(y, s_):
+        slope, jp = f(y, s_, theta1, dtheta, c)
+        if stage_jp is not None:
+            stage_jp.append(jp)
+        return slope
+
     h = (s1 - s0) / steps
     yk, sk = y0, s0
     for _ in range(steps):
-        k1 = dyds(yk, sk, theta1, dtheta, c)
-        k2 = dyds(yk + h / 2 * k1, sk + h / 2, theta1, dtheta, c)
-        k3 = dyds(yk + h / 2 * k2, sk + h / 2, theta1, dtheta, c)
-        k4 = dyds(yk + h * k3, sk + h, theta1, dtheta, c)
+        k1 = dyds(yk, sk)
+        k2 = dyds(yk + h / 2 * k1, sk + h / 2)
+        k3 = dyds(yk + h / 2 * k2, sk + h / 2)
+        k4 = dyds(yk + h * k3, sk + h)
         yk = yk + h * (k1 + 2 * k2 + 2 * k3 + k4) / 6
         sk = sk + h
     return yk

@@ -100,3 +100,27 @@ class Chart:
             c[9 * i : 9 * i + 9] = (u @ vt).flatten(order="F")
             y[list(idx)] = 0.0
         return y, c
+
+    def recentred(self, y, c):
+        """Symbolic twin of :meth:`recentre` on CasADi SX: ``(y, c)`` in the chart centred on
+        ``y`` (``R_ref <- R_ref cayley(rho)``, ``rho <- 0``), without the re-orthonormalisation
+        (``c`` stays orthonormal to rounding over one step).
+
+        Args:
+            y: (m,) SX local unknowns.
+            c: (9 * number of rotations,) SX chart (column-major reference rotations).
+
+        Returns:
+            (y0, c0): SX expressions of the re-centred unknowns and chart.
+        """
+        import casadi as ca
+
+        from ..symbolic.kinematics import cayley
+
+        y_out, c_out = ca.SX(y), ca.SX(c)
+        for i, idx in enumerate(self.rotations):
+            R = ca.reshape(c[9 * i : 9 * i + 9], 3, 3) @ cayley(ca.vertcat(*[y[j] for j in idx]))
+            c_out[9 * i : 9 * i + 9] = ca.reshape(R, 9, 1)
+            for j in idx:
+                y_out[j] = 0
+        return y_out, c_out
