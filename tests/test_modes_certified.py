@@ -96,6 +96,29 @@ def test_seed_robot_both_solutions_certified():
     assert all(np.array_equal(a.y, b.y) for a, b in zip(again, sols, strict=True))
 
 
+def test_seed_robot_two_solutions_next_to_a_singular_surface_certified():
+    """theta0 1e-5 rad from the singular surface: the two real solutions lie 1.3e-5 cm apart
+    (a merge of nearby endpoints dropped one and still said "complete"). Reference,
+    independent of the homotopy: the closed-form closure and finite-difference det signs of
+    tests/references.py at each returned solution, and both solutions of the straight-path
+    solver's two branches."""
+    from references import reference
+
+    ref, model = reference("planar_hexa"), shipped("planar_hexa")
+    theta = np.array([1.3076296916771795, -0.9677712680963285, -3.113399801611976])
+    sols = sc.assembly_modes(model, theta)
+    assert len(sols) == 2, sols.report
+    assert_certified(model, sols, root_count=6)
+    u = [ref.coords(c) for c in sols]
+    for v in u:
+        assert np.abs(ref.closure(v, theta)).max() <= 1e-9
+    assert 1e-6 < ref.distance(u[0], u[1]) < 1e-4
+    assert ref.det_sign(u[0], theta) == -ref.det_sign(u[1], theta) != 0
+    for branch in ("convergent", "divergent"):
+        res = sc.solve(model, theta, branch=branch)
+        assert min(ref.distance(ref.coords(res), v) for v in u) <= 1e-9
+
+
 def test_rpr_six_real_solutions_certified():
     A, C, rho = rpr_geometries_with_six()[0]
     model = sc.builders.planar_3rpr(A, C)

@@ -49,6 +49,9 @@ RESIDUAL = 1e-9
 #: A real root of the form with max |g| above this many model sizes, before and after Newton,
 #: is no solution of the model (e.g. a weld closed with a half turn in its rotation rows).
 SPURIOUS = 1e-3
+#: Real endpoints whose polished configurations agree to this many model sizes (chart-free
+#: features) are one solution.
+DUPLICATE = 1e-10
 #: Newton steps on the model's rows per real endpoint.
 NEWTON_STEPS = 8
 #: Default bound on the monodromy loops of a start system.
@@ -325,7 +328,11 @@ def homotopy_modes(
             continue
         cfg = model.configuration(y, theta0, c)
         f = features(model, cfg.y)[0]
-        if feats and np.min(np.max(np.abs(np.vstack(feats) - f), axis=1)) <= 1e-6 * scale:
+        # distinct endpoints of the homotopy are distinct roots; only images of one
+        # configuration (polished to the same point) are merged: two real solutions next to
+        # a singular surface may lie 1e-5 model sizes apart, and the Krawczyk boxes below
+        # decide (they must be pairwise disjoint)
+        if feats and np.min(np.max(np.abs(np.vstack(feats) - f), axis=1)) <= DUPLICATE * scale:
             continue
         cfgs.append(cfg)
         feats.append(f)
