@@ -1,13 +1,39 @@
-"""scdk_sym: singularity-consistent direct kinematics of closed-chain manipulators."""
+"""scdk_sym: singularity-consistent direct kinematics of closed-chain manipulators.
 
-from . import builders
-from .atlas import atlas
-from .errors import ScdkError
-from .model.model import Model, load_model
-from .results import Configuration, Crossing, SolveResult, TrackResult
-from .solvers.modes import assembly_modes
-from .solvers.sc import solve
-from .solvers.track import track
+The public names are imported on first use, so that importing a lower layer (for instance
+:mod:`scdk_sym.model`, the description without CasADi) does not load the whole package.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from . import builders
+    from .atlas import atlas
+    from .errors import ScdkError
+    from .results import Configuration, Crossing, SolveResult, TrackResult
+    from .robot import Model, load_model
+    from .solvers.modes import assembly_modes
+    from .solvers.sc import solve
+    from .solvers.track import track
+
+#: Public name -> (module, attribute; ``None`` for the module itself).
+_PUBLIC: dict[str, tuple[str, str | None]] = {
+    "Configuration": (".results", "Configuration"),
+    "Crossing": (".results", "Crossing"),
+    "Model": (".robot", "Model"),
+    "ScdkError": (".errors", "ScdkError"),
+    "SolveResult": (".results", "SolveResult"),
+    "TrackResult": (".results", "TrackResult"),
+    "assembly_modes": (".solvers.modes", "assembly_modes"),
+    "atlas": (".atlas", "atlas"),
+    "builders": (".builders", None),
+    "load_model": (".robot", "load_model"),
+    "solve": (".solvers.sc", "solve"),
+    "track": (".solvers.track", "track"),
+}
 
 __all__ = [
     "Configuration",
@@ -23,3 +49,18 @@ __all__ = [
     "solve",
     "track",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    try:
+        module, attr = _PUBLIC[name]
+    except KeyError:
+        raise AttributeError(f"module 'scdk_sym' has no attribute {name!r}") from None
+    mod = importlib.import_module(module, __name__)
+    value = mod if attr is None else getattr(mod, attr)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

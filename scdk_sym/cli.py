@@ -86,7 +86,7 @@ def add_model_args(p: argparse.ArgumentParser) -> None:
 
 
 def load(args: argparse.Namespace):
-    from .model.model import load_model
+    from .robot import load_model
 
     model = load_model(args.model, frame=args.frame)
     if model.reduction and getattr(args, "verbose", False):
@@ -602,7 +602,7 @@ def _help_in_model_units(parser: argparse.ArgumentParser, argv: list[str]) -> No
     words = [a for a in argv if not a.startswith("-")]
     if len(words) < 2 or words[0] not in COMMANDS:
         return
-    from .model.model import load_model
+    from .robot import load_model
 
     try:
         model = load_model(words[1])

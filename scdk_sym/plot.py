@@ -21,8 +21,8 @@ import numpy as np
 
 from .errors import InputError, PlotError
 from .model.chart import rot_exp
-from .model.model import Model, as_vector
 from .results import Configuration, SolveResult, TrackResult
+from .robot import Model, as_vector
 
 #: Colours of the two branches (convergent, divergent) and of the singular configuration.
 COLORS = {"convergent": "tab:blue", "divergent": "tab:orange", "singular": "tab:red"}

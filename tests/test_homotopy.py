@@ -10,7 +10,6 @@ certifies it with the trace test.
 
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 from polynomial_systems import Quadrics, QuarticPair, StewartGough, quaternions, rotation_numerator
@@ -34,6 +33,7 @@ from scdk_sym.algebraic import (
 from scdk_sym.algebraic.homotopy import ParameterHomotopy, track_parameter_homotopy
 from scdk_sym.algebraic.tracker import DONE, STEP_LIMIT, TrackerOptions, track
 from scdk_sym.errors import HomotopyError, InputError, ScdkError
+
 
 def _residual(system, z, p):
     P = np.broadcast_to(np.asarray(p, dtype=complex), (len(z), system.n_params))

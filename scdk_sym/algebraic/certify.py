@@ -45,7 +45,7 @@ from ..results import _frozen
 from .interval import FunctionCache, IntervalFunction, as_sx_function, interval_function
 
 if TYPE_CHECKING:
-    from ..model.model import Model
+    from ..robot import Model
 
 #: Boxes tried by :func:`krawczyk` before giving up.
 TRIES = 6

@@ -65,7 +65,7 @@ from .pairs import complexify
 from .polynomial import PolynomialRows, polynomial_rows
 
 if TYPE_CHECKING:
-    from ..model.model import Model
+    from ..robot import Model
 
 #: Version of the algebraic form (part of :meth:`AlgebraicForm.content_hash`).
 FORM_VERSION = "1"
@@ -130,7 +130,7 @@ class AlgebraicForm:
     ``scdk_sym.algebraic.system.PolynomialSystem`` (see the module docstring).
 
     Attributes:
-        model: the model (:class:`~scdk_sym.model.model.Model`).
+        model: the model (:class:`~scdk_sym.robot.Model`).
         backend: ``"casadi"`` or ``"compiled"``.
         n: number of complex unknowns ``z`` (= number of rows).
         n_params: number of complex parameters ``p`` (= ``model.k``).
@@ -247,7 +247,7 @@ class AlgebraicForm:
         """Parameters ``p`` (n_params,) complex of real actuator values ``theta`` (k,)
         [rad or model length unit]: the values themselves (angles enter ``G`` through
         cos and sin)."""
-        from ..model.model import as_vector
+        from ..robot import as_vector
 
         return as_vector(theta, self.n_params, "theta").astype(complex)
 
@@ -263,7 +263,7 @@ class AlgebraicForm:
             InputError: wrong size or non-finite values.
             AlgebraicFormError: a rotation on the quaternion chart's plane at infinity.
         """
-        from ..model.model import as_vector
+        from ..robot import as_vector
 
         m = self.model
         y = as_vector(y, m.m, "y")
@@ -388,7 +388,7 @@ def algebraic_form(model: Model, backend: str = "casadi") -> AlgebraicForm:
     """The algebraic form of a loaded model (built once per model and backend, cached on it).
 
     Args:
-        model: a loaded :class:`~scdk_sym.model.model.Model`.
+        model: a loaded :class:`~scdk_sym.robot.Model`.
         backend: ``"casadi"`` (CasADi SX virtual machine) or ``"compiled"`` (generated C,
             compiled once and cached on disk by content hash).
 

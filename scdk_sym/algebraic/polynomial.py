@@ -36,7 +36,7 @@ from ..model.spec import Closure
 from ..symbolic.kinematics import rotation_error, skew
 
 if TYPE_CHECKING:
-    from ..model.model import Model
+    from ..robot import Model
 
 #: Seed of the real random affine charts of the quaternions (one 4-vector per floating joint).
 CHART_SEED = 7_250_118
@@ -227,7 +227,7 @@ def polynomial_rows(model: Model) -> PolynomialRows:
     """Write a loaded model's reduced closure system as the polynomial system ``G(z, p)``.
 
     Args:
-        model: a loaded :class:`~scdk_sym.model.model.Model`.
+        model: a loaded :class:`~scdk_sym.robot.Model`.
 
     Returns:
         The rows, unknowns and parameters as SX (see :class:`PolynomialRows`).

@@ -71,9 +71,9 @@ def worker_model(source: ModelSource):
     """The model of ``source``, built once per process."""
     model = _MODELS.get(source.content_hash)
     if model is None:
-        from ..model.model import Model
         from ..model.spec import parse_spec
         from ..model.urdf import parse_urdf
+        from ..robot import Model
 
         tree = parse_urdf(source.urdf, "robot.urdf")
         spec = parse_spec(source.yaml, "robot.yaml")

@@ -8,9 +8,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import InputError, NonSquareSystemError
-from ..model.model import Model, model_from_tree
 from ..model.spec import Spec
 from ..model.urdf import Tree
+from ..robot import Model, model_from_tree
 
 #: Smallest accepted ratio of the extreme singular values of the (scaled) J_p at home.
 MIN_CONDITION = 1e-6

@@ -8,9 +8,9 @@ import numpy as np
 
 from ..errors import InputError
 from ..model.chart import rot_log
-from ..model.model import Model
 from ..model.spec import Closure, Spec
 from ..model.urdf import TreeBuilder, rpy_matrix
+from ..robot import Model
 from .common import (
     affine_rank,
     conditioning,

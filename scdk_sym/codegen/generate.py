@@ -127,7 +127,7 @@ def generate(model, directory: str | Path, prefix: str = "scdk") -> GeneratedSou
     """Write the C sources and headers of the model's tracker into ``directory``.
 
     Args:
-        model: the model (:class:`~scdk_sym.model.model.Model`).
+        model: the model (:class:`~scdk_sym.robot.Model`).
         directory: output directory (created if needed).
         prefix: C prefix of every exported name and file name.
 

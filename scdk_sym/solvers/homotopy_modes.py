@@ -36,8 +36,8 @@ import numpy as np
 from ..errors import InputError, ScdkError
 from ..follower.geometry import features
 from ..model.chart import rot_exp
-from ..model.model import Model, as_vector
 from ..results import AssemblyModes, Configuration
+from ..robot import Model, as_vector
 
 #: Largest relative imaginary part of a real endpoint (as ``solve_homotopy`` selects them).
 REAL_TOL = 1e-8

@@ -47,8 +47,8 @@ from ..errors import InputError, ScdkError
 from ..follower.curve import Line, follow
 from ..follower.geometry import difference, features, kinds  # noqa: F401
 from ..follower.kernels import follower_kernels
-from ..model.model import Model, as_vector
 from ..results import AssemblyModes, Configuration
+from ..robot import Model, as_vector
 from .sc import validate_start
 
 BACKENDS = ("casadi", "compiled")

@@ -29,8 +29,8 @@ from ..errors import (
 from ..follower.curve import Hit, Line, Walk, follow, null_direction  # noqa: F401
 from ..follower.cvodes import BACKENDS, GRID, Engine, engine  # noqa: F401
 from ..kernels.fastcall import model_calls
-from ..model.model import Model, as_vector
 from ..results import Configuration, Crossing, PathSamples, SolveResult
+from ..robot import Model, as_vector
 
 
 def validate_start(

@@ -106,8 +106,8 @@ import numpy as np
 
 from ..errors import InputError, PathError, TrackError
 from ..kernels.fastcall import Buffered
-from ..model.model import Model
 from ..results import Configuration, Crossing, TrackResult
+from ..robot import Model
 from .sc import null_direction, trace, validate_start
 
 BACKENDS = ("c", "cvodes")

@@ -19,8 +19,8 @@ import numpy as np
 
 from ..errors import InputError, TrackError
 from ..model.chart import rot_log
-from ..model.model import Model
 from ..results import Configuration, TrackResult
+from ..robot import Model
 from .sc import validate_start
 from .track import crossings as track_crossings
 from .track import no_solution_error, undecidable_error, verify_samples

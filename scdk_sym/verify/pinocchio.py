@@ -13,7 +13,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..model.chart import rot_exp
-from ..model.model import Model
+from ..robot import Model
 
 
 @lru_cache(maxsize=32)
