@@ -18,6 +18,7 @@ if TYPE_CHECKING:
     from .solvers.modes import assembly_modes
     from .solvers.sc import solve
     from .solvers.track import track
+    from .verify.report import VerifyReport, verify_model
 
 #: Public name -> (module, attribute; ``None`` for the module itself).
 _PUBLIC: dict[str, tuple[str, str | None]] = {
@@ -33,6 +34,8 @@ _PUBLIC: dict[str, tuple[str, str | None]] = {
     "load_model": (".robot", "load_model"),
     "solve": (".solvers.sc", "solve"),
     "track": (".solvers.track", "track"),
+    "VerifyReport": (".verify.report", "VerifyReport"),
+    "verify_model": (".verify.report", "verify_model"),
 }
 
 __all__ = [
@@ -42,12 +45,14 @@ __all__ = [
     "ScdkError",
     "SolveResult",
     "TrackResult",
+    "VerifyReport",
     "assembly_modes",
     "atlas",
     "builders",
     "load_model",
     "solve",
     "track",
+    "verify_model",
 ]
 
 
