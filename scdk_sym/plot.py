@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError, PlotError
-from .model.chart import rot_exp
+from .model.rotations import rot_exp
 from .results import Configuration, SolveResult, TrackResult
 from .robot import Model, as_vector
 

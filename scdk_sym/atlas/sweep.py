@@ -30,6 +30,8 @@ from pathlib import Path
 
 import casadi as ca
 
+from ..model.rotations import cayley
+
 #: RK4 steps in s from the start to theta0 of the two passes (the second for the points the
 #: first cannot vouch for).
 STEPS = (8, 32)
@@ -118,10 +120,7 @@ def _recentred(model, y, c):
     parts_c = [c[i] for i in range(c.numel())]
     for b, idx in enumerate(model.chart.rotations):
         rho = ca.vertcat(*[y[i] for i in idx])
-        W = ca.skew(rho)
-        R = ca.reshape(c[9 * b : 9 * b + 9], 3, 3) @ (
-            ca.MX.eye(3) + 2 * (W + W @ W) / (1 + ca.dot(rho, rho))
-        )
+        R = ca.reshape(c[9 * b : 9 * b + 9], 3, 3) @ cayley(rho)
         for i in idx:
             parts_y[i] = 0
         vec = ca.vec(R)

@@ -28,10 +28,11 @@ from ..errors import (
 )
 from ..kernels.fastcall import model_calls
 from ..kernels.functions import build_kernels
-from ..model.chart import Chart, rot_exp, rot_log
+from ..model.chart import Chart
 from ..model.files import read_description
+from ..model.rotations import rot_exp, rot_log, rpy_matrix
 from ..model.spec import Spec
-from ..model.urdf import Tree, rpy_matrix, tree_to_urdf
+from ..model.urdf import Tree, tree_to_urdf
 from ..results import Configuration
 from ..symbolic.kinematics import link_placements
 from ..symbolic.system import build_symbolic

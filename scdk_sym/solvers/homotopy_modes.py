@@ -35,7 +35,7 @@ import numpy as np
 
 from ..errors import InputError, ScdkError
 from ..follower.geometry import features
-from ..model.chart import rot_exp
+from ..model.rotations import rot_exp
 from ..results import AssemblyModes, Configuration
 from ..robot import Model, as_vector
 

@@ -47,6 +47,7 @@ from ..errors import InputError, ScdkError
 from ..follower.curve import Line, follow
 from ..follower.geometry import difference, features, kinds  # noqa: F401
 from ..follower.kernels import follower_kernels
+from ..model.rotations import quaternion_matrix
 from ..results import AssemblyModes, Configuration
 from ..robot import Model, as_vector
 from .sc import validate_start
@@ -389,8 +390,8 @@ class RandomStarts:
         for r, idx in enumerate(model.chart.rotations):
             quat = self.rng.normal(size=(n, 4))
             quat /= np.linalg.norm(quat, axis=1)[:, None]
-            for j in range(n):  # uniform rotations, as charts (local rotation parameters 0)
-                C[j, 9 * r : 9 * r + 9] = _quat_matrix(quat[j]).flatten(order="F")
+            # uniform rotations, as charts (local rotation parameters 0), column-major
+            C[:, 9 * r : 9 * r + 9] = quaternion_matrix(quat).transpose(0, 2, 1).reshape(n, 9)
             Y[:, list(idx)] = 0.0
         G = np.array(model.kernels.g.map(n)(Y.T, np.tile(self.theta0[:, None], (1, n)), C.T))
         score = np.max(np.abs(G), axis=0)
@@ -445,17 +446,6 @@ class RandomStarts:
     def _checked(self, cfg: Configuration) -> Configuration | None:
         ok = cfg.residual <= self.model.tolerance and np.all(np.isfinite(cfg.theta))
         return cfg if ok else None
-
-
-def _quat_matrix(q: np.ndarray) -> np.ndarray:
-    w, x, y, z = q
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
 
 
 def _sort_key(cfg: Configuration) -> tuple:

@@ -106,6 +106,7 @@ import numpy as np
 
 from ..errors import InputError, PathError, TrackError
 from ..kernels.fastcall import Buffered
+from ..model.rotations import rot_exp
 from ..results import Configuration, Crossing, TrackResult
 from ..robot import Model
 from .sc import null_direction, trace, validate_start
@@ -359,7 +360,7 @@ class _Tracker:
         for i, idx in enumerate(self.model.chart.rotations):
             ii = list(idx)
             R_ref = self.c[9 * i : 9 * i + 9].reshape(3, 3, order="F")
-            M = R_ref.T @ _rot_exp(y[ii])
+            M = R_ref.T @ rot_exp(y[ii])
             y[ii] = np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]]) / (
                 1.0 + np.trace(M)
             )
@@ -583,12 +584,6 @@ def undecidable_error(index: int, theta, xs, miss, accuracy: float, step: float)
     )  # fmt: skip
 
 
-def _rot_exp(w: np.ndarray) -> np.ndarray:
-    from ..model.chart import rot_exp
-
-    return rot_exp(w)
-
-
 # ---------------------------------------------------------------------------- crossings
 
 
@@ -655,7 +650,7 @@ def locate(model: Model, ya, yb, tha, thb, da: float, index: int) -> Crossing:
     for i, idx in enumerate(model.chart.rotations):
         idx = list(idx)
         R_ref = c[9 * i : 9 * i + 9].reshape(3, 3, order="F")
-        M = R_ref.T @ _rot_exp(np.asarray(yb)[idx])
+        M = R_ref.T @ rot_exp(np.asarray(yb)[idx])
         yb_loc[idx] = np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]]) / (
             1 + np.trace(M)
         )

@@ -12,7 +12,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..model.chart import rot_exp
+from ..model.rotations import rot_exp
 from ..robot import Model
 
 
