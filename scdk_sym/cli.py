@@ -207,8 +207,8 @@ def _solve(args: argparse.Namespace) -> int:
             for c in r.crossings:
                 print(f"{'':>12}singular crossing ({c.kind}) at s = {c.s:.6f}: x = {fmt(c.x)}")
     if len(failed) == len(results):
-        for br, exc in failed:
-            print(f"scdk {args.command}: error: {br}: {_one_line(exc)}", file=sys.stderr)
+        for br, err in failed:
+            print(f"scdk {args.command}: error: {br}: {_one_line(err)}", file=sys.stderr)
         return 1
     return 0
 

@@ -231,7 +231,8 @@ def polynomial_rows(model: Model) -> PolynomialRows:
         if j.movable:
             M = M @ _motion(j.type, j.axis, values[j.name])
         T[j.child] = M
-    rows, labels = [], []
+    rows: list[ca.SX] = []
+    labels: list[str] = []
     for cl in model.closures:
         rows.append(_closure_rows(cl, T[cl.frame_a], T[cl.frame_b], values))
         labels.extend(f"{cl.label}.{part}" for part in _ROW_PARTS[cl.type])

@@ -175,10 +175,10 @@ def solve_chunk(model, start, thetas: np.ndarray, modes: bool = False) -> ChunkR
     if modes:
         from ..solvers.modes import assembly_modes
 
-        for i in range(N):
+        for row in range(N):
             try:
-                sols = assembly_modes(model, thetas[i], backend="compiled")
-                n_modes[i] = len(sols) if sols.certified else -1
+                sols = assembly_modes(model, thetas[row], backend="compiled")
+                n_modes[row] = len(sols) if sols.certified else -1
             except ScdkError:
-                n_modes[i] = -1
+                n_modes[row] = -1
     return ChunkResult(x, det, status, n_modes, swept)

@@ -20,6 +20,7 @@ import os
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -56,7 +57,7 @@ class Layout:
         return index * self.chunk, min(self.points, (index + 1) * self.chunk)
 
 
-_OPEN: dict[tuple[str, Layout], object] = {}
+_OPEN: dict[tuple[str, Layout], Any] = {}
 
 
 def create_or_check(path: str | Path, layout: Layout, meta: dict) -> np.ndarray:

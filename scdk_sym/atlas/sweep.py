@@ -97,13 +97,13 @@ def build_sweep(model, steps: int) -> ca.Function:
     t0 = ca.MX.sym("theta0", k)
     cm = ca.MX.sym("c", c.numel())
     end = fold(ca.vertcat(y1, 0, 1, 0), t1, t0 - t1, det(y1, t1, cm), cm)
-    yk = end[:m]
+    y0 = end[:m]
     for _ in range(POLISH):
-        yk = newton(yk, t0, cm)
-    ratio = ca.fmin(end[m + 1], det(yk, t0, cm) / det(y1, t1, cm))
-    y_sol, c_sol = _recentred(model, yk, cm)
-    outs = [yk, ratio, end[m + 2], check(yk, t0, cm), ca.vec(jp(y_sol, t0, c_sol)),
-            pose(yk, t0, cm)]  # fmt: skip
+        y0 = newton(y0, t0, cm)
+    ratio_min = ca.fmin(end[m + 1], det(y0, t0, cm) / det(y1, t1, cm))
+    y_sol, c_sol = _recentred(model, y0, cm)
+    outs = [y0, ratio_min, end[m + 2], check(y0, t0, cm), ca.vec(jp(y_sol, t0, c_sol)),
+            pose(y0, t0, cm)]  # fmt: skip
     return ca.Function(
         f"scdk_atlas_sweep_{steps}",
         [y1, t1, t0, cm],

@@ -253,5 +253,5 @@ def compile_library(sources: GeneratedSources, target: str | Path) -> Path:
     """
     target = Path(target).resolve()
     files = [str(Path(p).resolve()) for p in sources.sources]
-    run_compiler([*SHARED_FLAGS, *files, "-o", target, "-lm"], cwd=sources.directory)
+    run_compiler([*SHARED_FLAGS, *files, "-o", str(target), "-lm"], cwd=sources.directory)
     return target

@@ -25,11 +25,12 @@ class Chart:
 
     @classmethod
     def for_unknowns(cls, unknowns: tuple[str, ...], floating: tuple[str, ...]) -> Chart:
-        rots = []
+        rots: list[tuple[int, int, int]] = []
         for f in floating:
             names = [f"{f}.rx", f"{f}.ry", f"{f}.rz"]
             if all(n in unknowns for n in names):
-                rots.append(tuple(unknowns.index(n) for n in names))
+                i, j, k = (unknowns.index(n) for n in names)
+                rots.append((i, j, k))
         return cls(tuple(rots))
 
     @property

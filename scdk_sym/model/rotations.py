@@ -227,5 +227,5 @@ def quaternion_of(R: np.ndarray) -> np.ndarray:
     else:
         r = np.sqrt(1 + 2 * R[2, 2] - t)
         q = [(R[1, 0] - R[0, 1]) / r, (R[0, 2] + R[2, 0]) / r, (R[1, 2] + R[2, 1]) / r, r]
-    q = 0.5 * np.array(q)
-    return q / np.linalg.norm(q)
+    out = 0.5 * np.array(q)
+    return out / np.linalg.norm(out)

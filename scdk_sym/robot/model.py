@@ -9,13 +9,13 @@ closure system is built by :mod:`scdk_sym.symbolic` and evaluated by :mod:`scdk_
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Sequence
 from dataclasses import replace
 from functools import cached_property
 from pathlib import Path
 
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import (
     InputError,
@@ -321,7 +321,7 @@ class Model:
         )
 
     def _row_labels(self) -> list[str]:
-        labels = []
+        labels: list[str] = []
         for c in self.spec.closures:
             comps = {
                 "3d": "xyz",
@@ -451,7 +451,7 @@ class Model:
         return float(np.abs(model_calls(self).check(y, theta, c)).max())
 
     def configuration(
-        self, y: Sequence[float], theta: Sequence[float], c: np.ndarray | None = None
+        self, y: ArrayLike, theta: ArrayLike, c: np.ndarray | None = None
     ) -> Configuration:
         """Assemble a :class:`Configuration` from unknowns ``y`` (m,) and actuated ``theta`` (k,).
 
@@ -478,7 +478,7 @@ class Model:
         joints.update(zip(self.actuated, theta.tolist(), strict=True))
         return {j: joints[j] for j in self._coordinates}
 
-    def target_pose(self, x: Sequence[float]) -> np.ndarray:
+    def target_pose(self, x: ArrayLike) -> np.ndarray:
         """The 4x4 placement with workspace coordinates ``x`` (other components from home)."""
         x = as_vector(x, len(self.workspace), f"x ({', '.join(self.workspace)})")
         T = np.array(self.home.platform_pose)
@@ -491,7 +491,7 @@ class Model:
             T[:3, :3] = rpy_matrix(vals.get("roll", 0.0), vals.get("pitch", 0.0), yaw)
         return T
 
-    def inverse_kinematics(self, x: Sequence[float]) -> Configuration:
+    def inverse_kinematics(self, x: ArrayLike) -> Configuration:
         """An assembled configuration whose platform has workspace coordinates ``x``.
 
         Continuation from the home configuration along a straight line in position and a

@@ -42,6 +42,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError, ScdkError
 from ..follower.curve import Line, follow
@@ -213,7 +214,7 @@ def _actuator_scale(model: Model) -> np.ndarray:
 
 def explore(
     model: Model,
-    theta0: Sequence[float],
+    theta0: ArrayLike,
     *,
     start: Configuration | Sequence[Configuration] | None = None,
     seed: int = 0,
@@ -334,14 +335,14 @@ def explore(
                 new = both_ways(theta0 - d, d, sols[i].y, 1.0, i)
             else:
                 known = np.vstack(feats) if feats else np.zeros((0, 0))
-                st = sampler.next(known, 0.25 * scale)
+                drawn = sampler.next(known, 0.25 * scale)
                 out.random_starts += 1
-                if st is None:
+                if drawn is None:
                     out.curves += 1  # counted, so that a failing sampler cannot loop forever
                     new = 0
                 else:
                     # the paper's two answers from this start (first crossing each way)
-                    new = both_ways(st.theta, theta0 - st.theta, st.y, 0.0, -1, max_hits=1)
+                    new = both_ways(drawn.theta, theta0 - drawn.theta, drawn.y, 0.0, -1, max_hits=1)
             if new:
                 idle = dict.fromkeys(idle, 0)
                 out.last_new = (out.lines, out.random_starts)
@@ -472,7 +473,7 @@ _CURVE_DEFAULTS = {"time_budget": None, "start": None, "patience": 8, "cover": 2
 
 def assembly_modes(
     model: Model,
-    theta0: Sequence[float],
+    theta0: ArrayLike,
     *,
     method: str = "homotopy",
     seed: int = 0,

@@ -12,10 +12,9 @@ same function, :func:`scdk_sym.solvers.track.crossings`.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError, TrackError
 from ..model.rotations import cayley, rot_exp, rot_log
@@ -30,7 +29,7 @@ __all__ = ["TrackError", "track_c"]
 
 def track_c(
     model: Model,
-    thetas: Sequence[Sequence[float]],
+    thetas: ArrayLike,
     start: Configuration | None = None,
     *,
     options=None,
@@ -126,8 +125,8 @@ def _readings(thetas, k: int) -> np.ndarray:
 def _canonical(model: Model, y: np.ndarray, c: np.ndarray) -> np.ndarray:
     """Local (y, c) rows -> canonical y rows (rotation vectors)."""
     y = np.array(y, dtype=float)
-    for i, idx in enumerate(model.chart.rotations):
-        idx = list(idx)
+    for i, rot in enumerate(model.chart.rotations):
+        idx = list(rot)
         R_ref = c[:, 9 * i : 9 * i + 9].reshape(-1, 3, 3).transpose(0, 2, 1)  # column-major
         y[:, idx] = rot_log(R_ref @ cayley(y[:, idx]))
     return y
@@ -137,8 +136,8 @@ def _to_local(model: Model, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Canonical y rows -> (local y rows with zero rotation parameters, chart rows)."""
     y = np.array(y, dtype=float)
     c = np.zeros((y.shape[0], model.chart.size))
-    for i, idx in enumerate(model.chart.rotations):
-        idx = list(idx)
+    for i, rot in enumerate(model.chart.rotations):
+        idx = list(rot)
         R = rot_exp(y[:, idx])
         c[:, 9 * i : 9 * i + 9] = R.transpose(0, 2, 1).reshape(-1, 9)
         y[:, idx] = 0.0

@@ -16,7 +16,7 @@ from ..model.spec import Closure
 from ..model.urdf import Tree
 
 
-def joint_motion(kind: str, axis: np.ndarray, q: ca.SX) -> ca.SX:
+def joint_motion(kind: str, axis: np.ndarray, q: ca.SX | float) -> ca.SX:
     """4x4 transform of a one-coordinate joint about/along ``axis`` by ``q``."""
     T = ca.SX.eye(4)
     if kind == "prismatic":
@@ -87,7 +87,7 @@ def closure_residual(
     if closure.type == "2d":
         return d[:2]
     if closure.type == "distance":
-        L = values[closure.length_joint] if closure.length_joint else closure.length
+        L = values[closure.length_joint] if closure.length_joint and values else closure.length
         return (ca.dot(d, d) - L * L) / (2 * L)
     return ca.vertcat(d, rotation_error(T_a[:3, :3], T_b[:3, :3]))
 

@@ -236,7 +236,9 @@ def verify_model(
         cfg, why = None, ""
         for _ in range(4):  # halve the step while the path does not reach it
             try:
-                cfg = solve(model, home.theta + step, branch="convergent", record_path=False)
+                cfg = solve(
+                    model, home.theta + step, branch="convergent", record_path=False
+                ).configuration
                 break
             except ScdkError as exc:
                 why = f"sc.solve failed: {exc}"
