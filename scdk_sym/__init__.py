@@ -7,6 +7,8 @@ The public names are imported on first use, so that importing a lower layer (for
 from __future__ import annotations
 
 import importlib
+import sys
+import types
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
@@ -54,6 +56,20 @@ __all__ = [
     "track",
     "verify_model",
 ]
+
+
+class _Package(types.ModuleType):
+    """The package module: a subpackage named like a public function (``atlas``) stays the
+    function when the import system binds the subpackage on its first import."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        module, attr = _PUBLIC.get(name, ("", None))
+        if attr is not None and getattr(value, "__name__", "") == f"{__name__}{module}":
+            value = getattr(value, attr)
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
 
 
 def __getattr__(name: str) -> Any:

@@ -128,3 +128,13 @@ def test_public_names_still_resolve():
     assert isinstance(model, sc.Model) and model.actuated == ("theta_1", "theta_2", "theta_3")
     with pytest.raises(AttributeError, match="no attribute 'not_a_name'"):
         _ = sc.not_a_name
+
+
+def test_atlas_stays_the_function_after_its_subpackage_is_imported():
+    code = (
+        "import scdk_sym as sc, scdk_sym.atlas.store\n"
+        "from scdk_sym import atlas\n"
+        "print(callable(sc.atlas), sc.atlas is atlas, sc.atlas.__module__)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["True", "True", "scdk_sym.atlas.run"]
