@@ -31,7 +31,7 @@ import numpy as np
 
 import scdk_sym as sc
 from scdk_sym.codegen.library import tracker_library
-from scdk_sym.model.urdf import rpy_matrix
+from scdk_sym.model.rotations import rpy_matrix
 from scdk_sym.solvers.sc import solve
 from scdk_sym.solvers.track_c import track_c
 

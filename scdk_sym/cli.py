@@ -86,7 +86,7 @@ def add_model_args(p: argparse.ArgumentParser) -> None:
 
 
 def load(args: argparse.Namespace):
-    from .model.model import load_model
+    from .robot import load_model
 
     model = load_model(args.model, frame=args.frame)
     if model.reduction and getattr(args, "verbose", False):
@@ -207,8 +207,8 @@ def _solve(args: argparse.Namespace) -> int:
             for c in r.crossings:
                 print(f"{'':>12}singular crossing ({c.kind}) at s = {c.s:.6f}: x = {fmt(c.x)}")
     if len(failed) == len(results):
-        for br, exc in failed:
-            print(f"scdk {args.command}: error: {br}: {_one_line(exc)}", file=sys.stderr)
+        for br, err in failed:
+            print(f"scdk {args.command}: error: {br}: {_one_line(err)}", file=sys.stderr)
         return 1
     return 0
 
@@ -567,6 +567,37 @@ def _plot_atlas(args: argparse.Namespace) -> int:
     return 0
 
 
+def _verify_args(p: argparse.ArgumentParser) -> None:
+    add_model_args(p)
+    p.add_argument(
+        "--samples",
+        type=int,
+        default=3,
+        help="random configurations and random solutions checked besides home (default 3)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the random configurations")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+@command(
+    "verify",
+    "cross-check the model: frame placements and closures against Pinocchio, Jacobians "
+    "against finite differences (exit 1 when a check fails)",
+    _verify_args,
+)
+def _verify(args: argparse.Namespace) -> int:
+    from .verify.report import verify_model
+
+    model = load(args)
+    report = verify_model(model, samples=args.samples, seed=args.seed)
+    if args.json:
+        dump(report.to_dict())
+    else:
+        print(header(model))
+        print(report.text())
+    return 0 if report.passed else 1
+
+
 # ---------------------------------------------------------------------------- main
 
 
@@ -602,7 +633,7 @@ def _help_in_model_units(parser: argparse.ArgumentParser, argv: list[str]) -> No
     words = [a for a in argv if not a.startswith("-")]
     if len(words) < 2 or words[0] not in COMMANDS:
         return
-    from .model.model import load_model
+    from .robot import load_model
 
     try:
         model = load_model(words[1])

@@ -18,11 +18,12 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .errors import InputError, PlotError
-from .model.chart import rot_exp
-from .model.model import Model, as_vector
+from .model.rotations import rot_exp
 from .results import Configuration, SolveResult, TrackResult
+from .robot import Model, as_vector
 
 #: Colours of the two branches (convergent, divergent) and of the singular configuration.
 COLORS = {"convergent": "tab:blue", "divergent": "tab:orange", "singular": "tab:red"}
@@ -223,7 +224,7 @@ def plot_configurations(
         for S in segments:
             ax.plot(S[:, 0], S[:, 1], style, color=color, linewidth=1.6, marker="o",
                     markersize=3)  # fmt: skip
-        handles.append(Line2D([], [], color=color, linestyle=style, label=label))
+        handles.append(Line2D([], [], color=color, linestyle=style, label=label))  # type: ignore[arg-type]
     ax.set_aspect("equal", adjustable="datalim")
     ax.autoscale_view()
     ax.grid(True, alpha=0.3)
@@ -243,6 +244,8 @@ def _branch_curves(results: Sequence[SolveResult]):
     out = []
     for r in curves:
         p = r.path
+        if p is None:
+            continue
         s, det, sdot = (np.asarray(a, dtype=float) for a in (p.s, p.det_jp, p.sdot))
         d = s - 1.0
         idx = np.nonzero((d[:-1] * d[1:] <= 0) & (d[:-1] != d[1:]))[0]
@@ -313,7 +316,7 @@ def plot_phase(results: Sequence[SolveResult], path: str | Path, title: str | No
 
 def plot_solve(
     model: Model,
-    theta0: Sequence[float],
+    theta0: ArrayLike,
     start: Configuration | None = None,
     out_dir: str | Path = ".",
     prefix: str | None = None,

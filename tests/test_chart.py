@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 
 import scdk_sym as sc
-from scdk_sym.model.chart import Chart, cayley, rot_exp, rot_log
+from scdk_sym.model.chart import Chart
+from scdk_sym.model.rotations import cayley, rot_exp, rot_log
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 

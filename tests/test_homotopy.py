@@ -3,14 +3,12 @@
 References are independent of the engine: Bezout counts, numpy.roots of a univariate
 elimination, a random-start real Newton on the quadrics, and for the 6-6 platform the
 random-start Levenberg-Marquardt of tests/stewart.py. The full 6-6 monodromy from one random
-point (minutes in numpy) runs with ``SCDK_SLOW_TESTS=1``; the default suite obtains the 6-6
+point (minutes in numpy) runs with ``SCDK_SLOW=1``; the default suite obtains the 6-6
 start system by tracking Dietmaier's 40 real postures to a random complex parameter point and
 certifies it with the trace test.
 """
 
 from __future__ import annotations
-
-import os
 
 import numpy as np
 import pytest
@@ -35,8 +33,6 @@ from scdk_sym.algebraic import (
 from scdk_sym.algebraic.homotopy import ParameterHomotopy, track_parameter_homotopy
 from scdk_sym.algebraic.tracker import DONE, STEP_LIMIT, TrackerOptions, track
 from scdk_sym.errors import HomotopyError, InputError, ScdkError
-
-SLOW = os.environ.get("SCDK_SLOW_TESTS") == "1"
 
 
 def _residual(system, z, p):
@@ -295,7 +291,7 @@ def test_random_platform_real_postures_match_reference(family_start, seed):
     assert _poses_match(system, res.real_solutions, ref, 1e-8)
 
 
-@pytest.mark.skipif(not SLOW, reason="full 6-6 monodromy takes minutes in numpy")
+@pytest.mark.slow  # full 6-6 monodromy: minutes in numpy
 def test_stewart_monodromy_from_one_point_finds_40():
     system = StewartGough(DIETMAIER_BASE, DIETMAIER_PLATFORM)
     start = monodromy_solve(system, seed=0, progress=False)

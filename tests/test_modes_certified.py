@@ -38,9 +38,8 @@ from test_modes import (
 import scdk_sym as sc
 from scdk_sym.results import AssemblyModes
 
-SLOW = pytest.mark.skipif(
-    not os.environ.get("SCDK_SLOW"), reason="a 6-6 monodromy takes about a minute: SCDK_SLOW=1"
-)
+#: A 6-6 monodromy takes about a minute.
+SLOW = pytest.mark.slow
 #: Largest closure residual of a returned solution [model length unit].
 RESIDUAL = 1e-9
 

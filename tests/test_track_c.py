@@ -9,8 +9,7 @@ from stewart import fold_path
 import scdk_sym as sc
 from scdk_sym.codegen import library as clib
 from scdk_sym.errors import InputError
-from scdk_sym.model.chart import rot_log
-from scdk_sym.model.urdf import rpy_matrix
+from scdk_sym.model.rotations import rot_log, rpy_matrix
 from scdk_sym.solvers.sc import solve
 from scdk_sym.solvers.track_c import TrackError, track_c
 
@@ -267,14 +266,14 @@ def test_det_output_is_det_jp_where_the_jacobian_has_structural_zeros():
 
 def _legs(A, B, y):
     """Leg lengths of a 6-6 platform at y = (position, rotation vector) [m]."""
-    from scdk_sym.model.chart import rot_exp
+    from scdk_sym.model.rotations import rot_exp
 
     return np.linalg.norm(y[:3] + B @ rot_exp(y[3:]).T - A, axis=1)
 
 
 def _leg_jacobian_det(A, B, y):
     """det of the 6x6 platform Jacobian [u_i, (R b_i) x u_i] (u_i unit leg vectors)."""
-    from scdk_sym.model.chart import rot_exp
+    from scdk_sym.model.rotations import rot_exp
 
     Rb = B @ rot_exp(y[3:]).T
     d = y[:3] + Rb - A

@@ -24,6 +24,7 @@ import shutil
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -61,7 +62,7 @@ class Layout:
         return index * self.chunk, min(self.points, (index + 1) * self.chunk)
 
 
-_OPEN: dict[tuple[str, Layout], object] = {}
+_OPEN: dict[tuple[str, Layout], Any] = {}
 
 
 def create_or_check(path: str | Path, layout: Layout, meta: dict) -> np.ndarray:

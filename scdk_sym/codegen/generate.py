@@ -127,7 +127,7 @@ def generate(model, directory: str | Path, prefix: str = "scdk") -> GeneratedSou
     """Write the C sources and headers of the model's tracker into ``directory``.
 
     Args:
-        model: the model (:class:`~scdk_sym.model.model.Model`).
+        model: the model (:class:`~scdk_sym.robot.Model`).
         directory: output directory (created if needed).
         prefix: C prefix of every exported name and file name.
 
@@ -253,5 +253,5 @@ def compile_library(sources: GeneratedSources, target: str | Path) -> Path:
     """
     target = Path(target).resolve()
     files = [str(Path(p).resolve()) for p in sources.sources]
-    run_compiler([*SHARED_FLAGS, *files, "-o", target, "-lm"], cwd=sources.directory)
+    run_compiler([*SHARED_FLAGS, *files, "-o", str(target), "-lm"], cwd=sources.directory)
     return target

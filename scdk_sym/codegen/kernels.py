@@ -26,6 +26,7 @@ import casadi as ca
 
 from ..follower.kernels import build_follower_kernels
 from ..kernels.functions import build_kernels
+from ..model.rotations import cayley
 from ..symbolic.system import Symbolic
 
 
@@ -90,12 +91,6 @@ def _dense(f: ca.Function, name: str | None = None) -> ca.Function:
     return ca.Function(name, ins, outs, f.name_in(), f.name_out())
 
 
-def _cayley(rho: ca.SX) -> ca.SX:
-    from ..symbolic.kinematics import cayley
-
-    return cayley(rho)
-
-
 def build_tracker_kernels(
     sym: Symbolic, rotations: tuple[tuple[int, int, int], ...], prefix: str
 ) -> TrackerKernels:
@@ -120,7 +115,7 @@ def build_tracker_kernels(
     c_out = ca.SX(c)
     for i, idx in enumerate(rotations):
         R_ref = ca.reshape(c[9 * i : 9 * i + 9], 3, 3)
-        R = R_ref @ _cayley(ca.vertcat(*[y[j] for j in idx]))
+        R = R_ref @ cayley(ca.vertcat(*[y[j] for j in idx]))
         R = R @ (3 * ca.SX.eye(3) - R.T @ R) / 2
         c_out[9 * i : 9 * i + 9] = ca.reshape(R, 9, 1)
         for j in idx:

@@ -125,7 +125,7 @@ def compile_shared(source: Path, target: Path) -> Path:
     Raises:
         BuildError: see :func:`run_compiler`.
     """
-    run_compiler([*CFLAGS, source, "-o", target, "-lm"])
+    run_compiler([*CFLAGS, str(source), "-o", str(target), "-lm"])
     return target
 
 
@@ -136,7 +136,7 @@ def cache_key(model) -> str:
     here = Path(__file__).resolve().parents[1]
     for part in ("kernels/functions.py", "symbolic/kinematics.py", "symbolic/system.py"):
         h.update((here / part).read_bytes())
-    h.update(ca.__version__.encode())
+    h.update(str(getattr(ca, "__version__", "")).encode())
     h.update(" ".join(CFLAGS).encode())
     return h.hexdigest()[:24]
 

@@ -27,17 +27,17 @@ from __future__ import annotations
 
 import os
 import shutil
-from collections.abc import Sequence
 from dataclasses import replace
 
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError, ScdkError
 from ..follower.geometry import features
-from ..model.chart import rot_exp
-from ..model.model import Model, as_vector
+from ..model.rotations import rot_exp
 from ..results import AssemblyModes, Configuration
+from ..robot import Model, as_vector
 
 #: Largest relative imaginary part of a real endpoint (as ``solve_homotopy`` selects them).
 REAL_TOL = 1e-8
@@ -165,7 +165,7 @@ def model_start_system(
             start = replace(s, trace_residual=residual, trace_passed=residual <= TRACE_TOL)
             if start.trace_passed:
                 break
-        if path is not None and start.trace_passed:
+        if path is not None and start is not None and start.trace_passed:
             _save(start, path)
     memo[key] = start
     return start
@@ -248,7 +248,7 @@ def _common_chart(model: Model, ys: np.ndarray) -> np.ndarray | None:
 
 def homotopy_modes(
     model: Model,
-    theta0: Sequence[float],
+    theta0: ArrayLike,
     *,
     seed: int = 0,
     progress: bool = False,

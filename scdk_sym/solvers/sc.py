@@ -14,9 +14,9 @@ tracker and the assembly-mode search); :func:`solve` returns the first one.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import (
     InputError,
@@ -29,8 +29,8 @@ from ..errors import (
 from ..follower.curve import Hit, Line, Walk, follow, null_direction  # noqa: F401
 from ..follower.cvodes import BACKENDS, GRID, Engine, engine  # noqa: F401
 from ..kernels.fastcall import model_calls
-from ..model.model import Model, as_vector
 from ..results import Configuration, Crossing, PathSamples, SolveResult
+from ..robot import Model, as_vector
 
 
 def validate_start(
@@ -117,7 +117,7 @@ def trace(
 
 def solve(
     model: Model,
-    theta0: Sequence[float],
+    theta0: ArrayLike,
     start: Configuration | None = None,
     branch: str = "convergent",
     b: float | None = None,
@@ -478,7 +478,7 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
         conv = convergent() if fold.kind == "bifurcation" else None
         leg = across_fold(model, start, fold, theta0, backend=backend,
                           exclude=None if conv is None else conv.configuration)  # fmt: skip
-    if leg is None:
+    if leg is None or fold is None:
         tried.append("no solution across the nearest singular configuration")
     else:
         cfg, met = leg

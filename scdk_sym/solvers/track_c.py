@@ -12,15 +12,14 @@ same function, :func:`scdk_sym.solvers.track.crossings`.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError, TrackError
-from ..model.chart import rot_log
-from ..model.model import Model
+from ..model.rotations import cayley, rot_exp, rot_log
 from ..results import Configuration, TrackResult
+from ..robot import Model
 from .sc import validate_start
 from .track import crossings as track_crossings
 from .track import no_solution_error, undecidable_error, verify_samples
@@ -30,7 +29,7 @@ __all__ = ["TrackError", "track_c"]
 
 def track_c(
     model: Model,
-    thetas: Sequence[Sequence[float]],
+    thetas: ArrayLike,
     start: Configuration | None = None,
     *,
     options=None,
@@ -123,52 +122,13 @@ def _readings(thetas, k: int) -> np.ndarray:
 # ---------------------------------------------------------------------------- charts, batched
 
 
-def _skew(v: np.ndarray) -> np.ndarray:
-    S = np.zeros(v.shape[:-1] + (3, 3))
-    S[..., 0, 1], S[..., 0, 2], S[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
-    S[..., 1, 0], S[..., 2, 0], S[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
-    return S
-
-
-def _cayley(rho: np.ndarray) -> np.ndarray:
-    W = _skew(rho)
-    return np.eye(3) + 2 * (W + W @ W) / (1 + np.sum(rho * rho, axis=-1))[..., None, None]
-
-
-def _rot_log(R: np.ndarray) -> np.ndarray:
-    """Rotation vectors of (N, 3, 3) rotations (angle in [0, pi])."""
-    cosang = np.clip((np.trace(R, axis1=-2, axis2=-1) - 1) / 2, -1.0, 1.0)
-    angle = np.arccos(cosang)
-    w = np.stack([R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]], -1)
-    small = angle < 1e-9
-    near_pi = np.pi - angle < 1e-6
-    factor = np.where(small, 0.5, angle / (2 * np.sin(np.where(small | near_pi, 1.0, angle))))
-    out = factor[:, None] * w
-    for i in np.flatnonzero(near_pi):
-        out[i] = rot_log(R[i])
-    return out
-
-
-def _rot_exp(w: np.ndarray) -> np.ndarray:
-    angle = np.linalg.norm(w, axis=-1)
-    safe = np.where(angle < 1e-12, 1.0, angle)
-    K = _skew(w / safe[:, None])
-    s = np.where(angle < 1e-12, 0.0, np.sin(angle))[:, None, None]
-    c = np.where(angle < 1e-12, 0.0, 1 - np.cos(angle))[:, None, None]
-    R = np.eye(3) + s * K + c * (K @ K)
-    tiny = angle < 1e-12
-    if tiny.any():
-        R[tiny] = np.eye(3) + _skew(w[tiny])
-    return R
-
-
 def _canonical(model: Model, y: np.ndarray, c: np.ndarray) -> np.ndarray:
     """Local (y, c) rows -> canonical y rows (rotation vectors)."""
     y = np.array(y, dtype=float)
-    for i, idx in enumerate(model.chart.rotations):
-        idx = list(idx)
+    for i, rot in enumerate(model.chart.rotations):
+        idx = list(rot)
         R_ref = c[:, 9 * i : 9 * i + 9].reshape(-1, 3, 3).transpose(0, 2, 1)  # column-major
-        y[:, idx] = _rot_log(R_ref @ _cayley(y[:, idx]))
+        y[:, idx] = rot_log(R_ref @ cayley(y[:, idx]))
     return y
 
 
@@ -176,9 +136,9 @@ def _to_local(model: Model, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Canonical y rows -> (local y rows with zero rotation parameters, chart rows)."""
     y = np.array(y, dtype=float)
     c = np.zeros((y.shape[0], model.chart.size))
-    for i, idx in enumerate(model.chart.rotations):
-        idx = list(idx)
-        R = _rot_exp(y[:, idx])
+    for i, rot in enumerate(model.chart.rotations):
+        idx = list(rot)
+        R = rot_exp(y[:, idx])
         c[:, 9 * i : 9 * i + 9] = R.transpose(0, 2, 1).reshape(-1, 9)
         y[:, idx] = 0.0
     return y, c
