@@ -416,6 +416,24 @@ def _configurations_3d(model, configurations, title):
     return fig
 
 
+def first_hit(s: np.ndarray) -> tuple[int, float] | None:
+    """The first crossing of ``s = 1`` along a sampled path (the solution of a solve).
+
+    Args:
+        s: (N,) path parameter at the samples.
+
+    Returns:
+        ``(i, a)``: ``s = 1`` at the fraction ``a`` in [0, 1] of the way from sample ``i`` to
+        sample ``i + 1`` (linear interpolation), or ``None`` when the path never meets it.
+    """
+    d = np.asarray(s, dtype=float) - 1.0
+    idx = np.nonzero((d[:-1] * d[1:] <= 0) & (d[:-1] != d[1:]))[0]
+    if not idx.size:
+        return None
+    i = int(idx[0])
+    return i, float(d[i] / (d[i] - d[i + 1]))
+
+
 def _branch_curves(results: Sequence[SolveResult]):
     """(result, s, det J_p, s', style) of each recorded path, cut where it reaches s = 1."""
     curves = [r for r in results if r.path is not None]
@@ -425,11 +443,9 @@ def _branch_curves(results: Sequence[SolveResult]):
     for r in curves:
         p = r.path
         s, det, sdot = (np.asarray(a, dtype=float) for a in (p.s, p.det_jp, p.sdot))
-        d = s - 1.0
-        idx = np.nonzero((d[:-1] * d[1:] <= 0) & (d[:-1] != d[1:]))[0]
-        if idx.size:  # the solution: the first crossing of s = 1 along the path
-            i = int(idx[0])
-            a = d[i] / (d[i] - d[i + 1])
+        hit = first_hit(s)
+        if hit is not None:  # the solution: the first crossing of s = 1 along the path
+            i, a = hit
             s = np.append(s[: i + 1], 1.0)
             det = np.append(det[: i + 1], det[i] + a * (det[i + 1] - det[i]))
             sdot = np.append(sdot[: i + 1], sdot[i] + a * (sdot[i + 1] - sdot[i]))
@@ -603,6 +619,7 @@ __all__ = [
     "plot_track",
     "RobotDrawing",
     "configurations_figure",
+    "first_hit",
     "is_spatial",
     "placements",
     "rigid_groups",
