@@ -9,6 +9,7 @@ import re
 import shutil
 import subprocess
 import sys
+import time
 import urllib.request
 from importlib.util import find_spec
 
@@ -241,15 +242,27 @@ def test_missing_viser_stops_with_the_install_hint(monkeypatch, tmp_path):
 def test_live_viewer_serves_the_client_and_moves_the_robot():
     model = shipped("stewart_gough")
     cfgs = [model.inverse_kinematics([0, 0, z, 0, 0, 0]) for z in (0.5, 0.55, 0.6)]
-    viewer = view.show(model, cfgs, port=0, block=False, seconds=60.0)
+    viewer = view.show(model, cfgs, port=0, block=False, seconds=0.4)
     try:
+        viewer.play(False)
         with urllib.request.urlopen(viewer.url, timeout=30) as reply:
             assert reply.status == 200 and b"<html" in reply.read().lower()
+
+        def shown(i: int) -> bool:
+            A, P = legs_of(cfgs[i])
+            drawn = np.asarray(viewer._anim.closures.points, dtype=float)
+            at = viewer._anim.links["platform"].position
+            same = np.allclose(at, cfgs[i].platform_pose[:3, 3], atol=1e-6)
+            return bool(same and np.allclose(drawn, np.stack([A, P], axis=1), atol=1e-6))
+
         viewer.goto(2)
-        A, P = legs_of(cfgs[2])
-        drawn = np.asarray(viewer._anim.closures.points, dtype=float)
-        assert np.allclose(drawn[:, 0], A, atol=1e-6) and np.allclose(drawn[:, 1], P, atol=1e-6)
-        assert np.allclose(viewer._anim.links["platform"].position, [0, 0, 0.6], atol=1e-6)
+        assert viewer.index == 2 and shown(2) and not shown(0)
+        viewer.play()  # a frame every 0.2 s: 2 -> 0 -> 1
+        deadline = time.monotonic() + 30
+        while viewer.index == 2 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        viewer.play(False)
+        assert viewer.index != 2 and shown(viewer.index)
     finally:
         viewer.stop()
 

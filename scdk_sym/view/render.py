@@ -241,6 +241,7 @@ class Viewer:
         self._anim = _Animator(server, scene, frames)
         self._dt = seconds / max(len(frames) - 1, 1)
         self._stop = threading.Event()
+        self._shown = 0
         gui = server.gui
         gui.set_panel_label(scene.name)
         self._caption = gui.add_markdown(frames[0].caption)
@@ -257,10 +258,22 @@ class Viewer:
         self._thread.start()
 
     def goto(self, i: int) -> None:
-        """Show frame ``i``."""
+        """Show frame ``i`` (clipped to the frames), as the slider does."""
         i = int(np.clip(i, 0, len(self.frames) - 1))
         self._anim.apply(i)
         self._caption.content = self.frames[i].caption
+        self._shown = i
+        if int(self._slider.value) != i:
+            self._slider.value = i
+
+    @property
+    def index(self) -> int:
+        """The frame shown."""
+        return self._shown
+
+    def play(self, on: bool = True) -> None:
+        """Start (or stop) playing the frames in a loop, as the checkbox does."""
+        self._play.value = bool(on)
 
     def _loop(self) -> None:
         while not self._stop.wait(self._dt):

@@ -12,9 +12,10 @@ configuration, a solve with its recorded path, a track) into the configurations 
 from __future__ import annotations
 
 import io
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
@@ -124,7 +125,7 @@ class Frame:
         caption: one line naming the sample and its workspace coordinates.
     """
 
-    links: dict[str, np.ndarray]
+    links: Mapping[str, np.ndarray]
     segments: np.ndarray
     closures: np.ndarray
     cuts: np.ndarray
@@ -206,7 +207,7 @@ def frame(model: Model, scene: RobotScene, cfg: Configuration, caption: str = ""
     names = ", ".join(model.workspace)
     text = f"{caption}({names}) = {_fmt(cfg.x)[4:]}".strip()
     return Frame(
-        {name: links[name] for name in scene.moving_links},
+        MappingProxyType({name: links[name] for name in scene.moving_links}),
         np.array(segments, dtype=float).reshape(-1, 2, 3),
         np.array(closures, dtype=float).reshape(-1, 2, 3),
         np.array(cuts, dtype=float).reshape(-1, 3),
