@@ -228,6 +228,14 @@ def test_html_page_records_the_animation(tmp_path):
     assert {"/robot/platform", "/robot/platform/body_1", "/robot/closures", "/grid"} <= names
     static = recording(view.write_html(model, None, tmp_path / "home.html").read_text())
     assert static["durationSeconds"] == 0.0
+    # a platform that is no plate (the five-bar's effector point) is marked by a ball
+    five_bar = shipped("five_bar")
+    assert not [b for b in view.robot_scene(five_bar, five_bar.home).bodies if b.platform]
+    page = recording(view.write_html(five_bar, None, tmp_path / "five_bar.html").read_text())
+    marker = f"/robot/{five_bar.frame}/marker"
+    assert any(
+        m.get("name") == marker and m["type"] == "IcosphereMessage" for _, m in page["messages"]
+    )
 
 
 def test_missing_viser_stops_with_the_install_hint(monkeypatch, tmp_path):

@@ -108,8 +108,9 @@ class RobotScene:
 
     @property
     def moving_links(self) -> tuple[str, ...]:
-        """Links whose placement the frames must carry (geometry or a body outline)."""
-        names = {s.link for s in self.shapes} | {b.link for b in self.bodies}
+        """Links whose placement the frames carry: the platform, links with geometry or a
+        body outline."""
+        names = {s.link for s in self.shapes} | {b.link for b in self.bodies} | {self.platform}
         return tuple(sorted(names))
 
 
