@@ -482,6 +482,62 @@ def _plot(args: argparse.Namespace) -> int:
     return 0
 
 
+# ---------------------------------------------------------------------------- view
+
+
+def _view_args(p: argparse.ArgumentParser) -> None:
+    add_model_args(p)
+    what = p.add_mutually_exclusive_group()
+    what.add_argument("--theta", help="solve at a,b,c and animate the path; " + THETA_HELP)
+    what.add_argument("--thetas", help="track the CSV joint readings and animate the samples")
+    p.add_argument("--from-x", help=FROM_X_HELP)
+    p.add_argument(
+        "--branch",
+        default="convergent",
+        choices=["convergent", "divergent"],
+        help="branch of the --theta solve (default: convergent)",
+    )
+    p.add_argument("--html", help="write a self-contained HTML page to this file (no server)")
+    p.add_argument("--host", default="127.0.0.1", help="viewer address (0.0.0.0: every one)")
+    p.add_argument("--port", type=int, default=8080, help="viewer port (default: 8080)")
+    p.add_argument(
+        "--seconds", type=float, default=4.0, help="duration of one pass of the animation [s]"
+    )
+
+
+@command(
+    "view", "the mechanism in 3-D in a browser (viser), or a self-contained HTML page", _view_args
+)
+def _view(args: argparse.Namespace) -> int:
+    from . import view
+
+    view.require_viser()  # before any work
+    model = load(args)
+    start = start_configuration(model, args)
+    if args.theta:
+        from .solvers.sc import solve
+
+        theta = floats(args.theta, "--theta")
+        what = solve(model, theta, start=start, branch=args.branch, record_path=True)
+    elif args.thetas:
+        from .solvers.track import track
+
+        what = track(model, read_thetas(args.thetas, model), start=start)
+    else:
+        what = start
+    for note in view.robot_scene(model, start).notes:  # URDF geometry that is not drawn
+        print(f"note: {note}", file=sys.stderr)
+    if args.html:
+        path = view.write_html(model, what, args.html, seconds=args.seconds)
+        print(f"wrote {path}")
+        return 0
+    viewer = view.show(model, what, host=args.host, port=args.port, seconds=args.seconds,
+                       block=False)  # fmt: skip
+    print(f"viewer at {viewer.url} ({len(viewer.frames)} frame(s)); Ctrl-C to stop", flush=True)
+    viewer.wait()
+    return 0
+
+
 # ---------------------------------------------------------------------------- atlas
 
 

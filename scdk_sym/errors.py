@@ -174,3 +174,8 @@ class HomotopyError(SolveError):
 class AlgebraicFormError(ModelError):
     """A model's closure system has no polynomial (algebraic) form, or a point cannot be mapped
     between the model's coordinates and the form's unknowns."""
+
+
+class ViewError(ScdkError):
+    """The 3-D viewer could not show or write a scene (viser missing, nothing to show, an
+    unwritable page, a port in use)."""
