@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import BuildError
 from ..kernels.cache import cache_dir
+from ..kernels.compile import announce
 from .generate import compile_library, generate, source_key
 
 PREFIX = "scdk"
@@ -118,6 +119,8 @@ class TrackOutput:
         det: (N,) ``det J_p`` at each sample.
         codes: (N,) status of each sample (0: cheap step, 1: followed the SC curve,
             2: corrected from the predicted motion).
+        residual: (N,) max |g| of each sample, evaluated in the call by the generated closure
+            function and checked against the tolerance there (NaN from the failing sample on).
         refusal: the candidates of the failing sample when ``status`` is -9 (the readings
             are too coarse to decide between them), else None.
     """
@@ -129,6 +132,7 @@ class TrackOutput:
     x: np.ndarray
     det: np.ndarray
     codes: np.ndarray
+    residual: np.ndarray
     refusal: Refusal | None = None
 
 
@@ -147,11 +151,11 @@ class CTracker:
         self._lib = lib
         p = prefix
         self._refusal_type = refusal_type(m, k, n, nc)
-        self._track = getattr(lib, f"{p}_tracker_track_ex")
+        self._track = getattr(lib, f"{p}_tracker_track_res")
         self._track.restype = ctypes.c_int
         self._track.argtypes = [
             _dp, ctypes.c_int, _dp, ctypes.c_int, _dp, ctypes.c_int, ctypes.POINTER(Options),
-            ctypes.c_long, _dp, _dp, _dp, _dp, _dp, _ip, _lp,
+            ctypes.c_long, _dp, _dp, _dp, _dp, _dp, _dp, _ip, _lp,
             ctypes.POINTER(self._refusal_type),
         ]  # fmt: skip
         defaults = getattr(lib, f"{p}_default_options")
@@ -202,6 +206,7 @@ class CTracker:
         C = np.empty((N, self.nc))
         X = np.empty((N, self.n))
         D = np.empty(N)
+        res = np.empty(N)
         codes = np.empty(N, dtype=np.intc)
         failed = ctypes.c_long(-1)
         ref = self._refusal_type()
@@ -209,7 +214,7 @@ class CTracker:
         status = self._track(
             _ptr(y0), y0.size, c_arg, c0.size, _ptr(theta0), theta0.size,
             ctypes.byref(options) if options is not None else None,
-            N, _ptr(th), _ptr(Y), _ptr(C) if self.nc else None, _ptr(X), _ptr(D),
+            N, _ptr(th), _ptr(Y), _ptr(C) if self.nc else None, _ptr(X), _ptr(D), _ptr(res),
             codes.ctypes.data_as(_ip), ctypes.byref(failed), ctypes.byref(ref),
         )  # fmt: skip
         refusal = None
@@ -224,7 +229,7 @@ class CTracker:
                 accuracy=float(ref.accuracy),
                 step=float(ref.step),
             )
-        return TrackOutput(int(status), int(failed.value), Y, C, X, D, codes, refusal)
+        return TrackOutput(int(status), int(failed.value), Y, C, X, D, codes, res, refusal)
 
 
 def _ptr(a: np.ndarray):
@@ -241,10 +246,11 @@ def tracker_library(model) -> CTracker:
     if "_c_tracker" in store:
         return store["_c_tracker"]
     with tempfile.TemporaryDirectory() as tmp:
-        src = generate(model, Path(tmp), PREFIX)
+        src = generate(model, Path(tmp), PREFIX, split=True)
         key = source_key(src)
         target = cache_dir() / f"tracker_{key}.so"
         if not target.exists():
+            announce(model.name)
             partial = Path(tmp) / "libtracker.so"
             compile_library(src, partial)
             staged = target.with_suffix(f".{os.getpid()}.tmp")
