@@ -143,7 +143,10 @@ def build_tracker_kernels(
         recentre=recentre,
         ik_step=base.ik_step,
         check=ca.Function(
-            f"{prefix}_check", [y, theta, c], [ca.norm_inf(sym.g_check)], ["y", "theta", "c"],
+            f"{prefix}_check",
+            [y, theta, c],
+            [ca.norm_inf(sym.g_check)],
+            ["y", "theta", "c"],
             ["residual"],
         ),
     )

@@ -341,9 +341,9 @@ def follower_kernels(model, backend: str = "casadi") -> FollowerKernels:
     if backend not in store:
         kern = build_follower_kernels(model.symbolic)
         if backend == "compiled":
-            from ..kernels.compile import cached_library
+            from ..kernels.compile import OPT, cached_library
 
-            target = cached_library(kern.all(), "scdk_follow", announce_as=model.name)
+            target = cached_library(kern.all(), "scdk_follow", announce_as=model.name, opt=OPT)
             kern = FollowerKernels(*(ca.external(f.name(), str(target)) for f in kern.all()))
         store[backend] = kern
     return store[backend]

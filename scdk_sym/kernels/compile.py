@@ -183,25 +183,31 @@ def generate_c(kernels: Kernels, name: str, directory: Path, with_header: bool =
 
 
 def cached_library(
-    functions: Sequence[ca.Function], name: str, announce_as: str | None = None
+    functions: Sequence[ca.Function],
+    name: str,
+    announce_as: str | None = None,
+    opt: str = "-O3",
 ) -> Path:
     """A shared library of some Functions, compiled once into the cache directory.
 
     Keyed by a hash of the generated sources and the compiler flags; for the kernels of a
     model prefer :func:`compiled_kernels`, which needs no code generation when cached.
-    ``announce_as``: the model name to :func:`announce` when it compiles.
+    ``announce_as``: the model name to :func:`announce` when it compiles; ``opt``: the
+    optimisation level (-O3 by default: batched loops such as the algebraic form's gain from
+    it; :data:`OPT` for straight-line kernels).
     """
+    flags = (opt, *COMPILE_FLAGS[1:])
     with tempfile.TemporaryDirectory() as tmp:
         sources, _ = write_c_parts(functions, name, Path(tmp))
         h = hashlib.sha256()
         for src in sources:
             h.update(src.read_bytes())
-        h.update(" ".join(CFLAGS).encode())
+        h.update(" ".join((*flags, *LINK_FLAGS)).encode())
         target = cache_dir() / f"{name}_{h.hexdigest()[:20]}.so"
         if not target.exists():
             if announce_as:
                 announce(announce_as)
-            _compile_parts_into(sources, target)
+            _compile_parts_into(sources, target, flags)
     return target
 
 
@@ -211,9 +217,11 @@ def _compile_into(source: Path, target: Path) -> None:
     os.replace(partial, target)  # atomic: concurrent processes never load a partial file
 
 
-def _compile_parts_into(sources: Sequence[Path], target: Path) -> None:
+def _compile_parts_into(
+    sources: Sequence[Path], target: Path, flags: Sequence[str] = COMPILE_FLAGS
+) -> None:
     partial = target.with_suffix(f".{os.getpid()}.tmp")
-    compile_parallel(sources, partial)
+    compile_parallel(sources, partial, flags)
     os.replace(partial, target)  # atomic: concurrent processes never load a partial file
 
 
