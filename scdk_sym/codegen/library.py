@@ -38,11 +38,12 @@ STATUS = {
     -7: "the tracker state is not initialised",
     -8: "an option is out of range",
     -9: "the readings are too coarse to decide between two candidate solutions",
+    -10: "the path met a singular point before the solution (not solved in C)",
 }
 OK, OK_PATH, OK_PREDICTED = 0, 1, 2
 ERR_NULL, ERR_SIZE, ERR_NONFINITE, ERR_NOT_ASSEMBLED = -1, -2, -3, -4
 ERR_NO_SOLUTION, ERR_VERIFY, ERR_STATE, ERR_OPTIONS = -5, -6, -7, -8
-ERR_UNDECIDABLE = -9
+ERR_UNDECIDABLE, ERR_SINGULAR_PATH = -9, -10
 
 
 class Options(ctypes.Structure):
@@ -170,6 +171,12 @@ class CTracker:
                     f"{ctypes.sizeof(struct)}"
                 )
         self._defaults = defaults
+        self._solve = getattr(lib, f"{p}_solve_convergent")
+        self._solve.restype = ctypes.c_int
+        self._solve.argtypes = [
+            _dp, ctypes.c_int, _dp, ctypes.c_int, _dp, ctypes.c_int, _dp,
+            ctypes.POINTER(Options), _dp, _dp, _dp, _dp, _dp,
+        ]  # fmt: skip
 
     def default_options(self) -> Options:
         """The library's default options (tolerance, budgets)."""
@@ -230,6 +237,61 @@ class CTracker:
                 step=float(ref.step),
             )
         return TrackOutput(int(status), int(failed.value), Y, C, X, D, codes, res, refusal)
+
+    def solve_convergent(
+        self,
+        y1: np.ndarray,
+        c1: np.ndarray,
+        theta1: np.ndarray,
+        theta0: np.ndarray,
+        options: Options | None = None,
+    ) -> SolveOutput:
+        """The convergent solution at ``theta0`` from an assembled start, in one call into C
+        (``<prefix>_solve_convergent``: the first ``s = 1`` crossing of the straight line's
+        curve, refused with status -10 where the path meets a singular point first).
+
+        Args:
+            y1: (m,) start unknowns in the chart ``c1``.
+            c1: (nc,) start chart.
+            theta1: (k,) start actuated values.
+            theta0: (k,) target actuated values.
+            options: tracker options (default: the library's).
+        """
+        y1, c1, theta1, theta0 = (
+            np.ascontiguousarray(a, dtype=float) for a in (y1, c1, theta1, theta0)
+        )
+        y = np.full(self.m, np.nan)
+        c = np.full(max(1, self.nc), np.nan)
+        x = np.full(self.n, np.nan)
+        res, det = ctypes.c_double(np.nan), ctypes.c_double(np.nan)
+        status = self._solve(
+            _ptr(y1), y1.size, _ptr(c1) if c1.size else _ptr(np.zeros(1)), c1.size,
+            _ptr(theta1), theta1.size, _ptr(theta0) if theta0.size == self.k else None,
+            ctypes.byref(options) if options is not None else None,
+            _ptr(y), _ptr(c), _ptr(x), ctypes.byref(res), ctypes.byref(det),
+        )  # fmt: skip
+        return SolveOutput(int(status), y, c[: self.nc], x, float(res.value), float(det.value))
+
+
+@dataclass(frozen=True)
+class SolveOutput:
+    """Raw output of one call of ``<prefix>_solve_convergent``.
+
+    Attributes:
+        status: 1 (solved along the curve) or an error code (see :data:`STATUS`).
+        y: (m,) unknowns in the chart ``c`` (NaN unless solved).
+        c: (nc,) chart.
+        x: (n,) workspace coordinates.
+        residual: max |closure row| at the solution [model length unit].
+        det: ``det J_p`` at the solution.
+    """
+
+    status: int
+    y: np.ndarray
+    c: np.ndarray
+    x: np.ndarray
+    residual: float
+    det: float
 
 
 def _ptr(a: np.ndarray):
