@@ -54,6 +54,8 @@ class TrackerKernels:
             parameters of ``y0`` are zero), reference rotation re-orthonormalised.
         ik_step: (z[m+k], T_target[4,4], c) -> (z_new, residual): one Newton step of the
             inverse kinematics over ``z = (y, theta)`` (square workspaces only).
+        check: (y, theta, c) -> max |closure row|, the dropped redundant rows included (the
+            residual that verifies every sample, as ``model.residual``).
     """
 
     g: ca.Function
@@ -66,6 +68,7 @@ class TrackerKernels:
     polish: ca.Function
     recentre: ca.Function
     ik_step: ca.Function
+    check: ca.Function
 
     def all(self) -> list[ca.Function]:
         """Every kernel, in declaration order."""
@@ -107,7 +110,7 @@ def build_tracker_kernels(
         is dense (the C tracker indexes them as dense column-major arrays).
     """
     base = build_kernels(sym, name=prefix)
-    curve = build_follower_kernels(sym)
+    curve = build_follower_kernels(sym, inline=False)
     y, theta, c = sym.y, sym.theta, sym.c
 
     # recentre: R_ref <- R_ref cayley(rho), rho <- 0, one Newton-Schulz orthonormalisation
@@ -134,6 +137,13 @@ def build_tracker_kernels(
         polish=curve.polish,
         recentre=recentre,
         ik_step=base.ik_step,
+        check=ca.Function(
+            f"{prefix}_check",
+            [y, theta, c],
+            [ca.norm_inf(sym.g_check)],
+            ["y", "theta", "c"],
+            ["residual"],
+        ),
     )
     return TrackerKernels(
         **{name: _dense(fun, f"{prefix}_{name}") for name, fun in kernels.items()}

@@ -31,6 +31,7 @@ from ..follower.cvodes import BACKENDS, GRID, Engine, engine  # noqa: F401
 from ..kernels.fastcall import model_calls
 from ..results import Configuration, Crossing, PathSamples, SolveResult
 from ..robot import Model, as_vector
+from .solve_c import solve_c
 
 
 def validate_start(
@@ -142,7 +143,8 @@ def solve(
         b: the paper's signed scalar; when given, its sign selects the direction of ``nu``
             on the paper's straight path ``theta1 + s (theta0 - theta1)`` and overrides
             ``branch`` (the literal algorithm).
-        backend: "casadi" or "compiled" kernels.
+        backend: "casadi" or "compiled" kernels, or "c": the convergent solve in one call of
+            the generated C follower (:mod:`scdk_sym.solvers.solve_c`).
         max_arc: arc-length budget of the path (see :func:`trace`).
         record_path: keep the sampled curve in ``result.path`` (for plots).
         fast: for a convergent solve without ``record_path``, first try one call of the warm
@@ -163,6 +165,8 @@ def solve(
             solution at ``theta0`` is listed by :func:`scdk_sym.assembly_modes`).
         VerificationError: the final configuration failed its residual check.
     """
+    if backend == "c":  # one call of the generated C follower (scdk_sym.solvers.solve_c)
+        return solve_c(model, theta0, start, branch, b, max_arc=max_arc, record_path=record_path)
     theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
     if b is None and branch not in ("convergent", "divergent"):
         raise InputError(f"unknown branch {branch!r}; branches: convergent, divergent")

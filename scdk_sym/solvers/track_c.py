@@ -1,10 +1,11 @@
 """Direct kinematics along a trajectory with the generated C tracker, in one call into C.
 
 :func:`track_c` compiles (once, cached on disk) the standalone tracker of
-:mod:`scdk_sym.codegen`, runs the whole sequence of readings in one ``ctypes`` call, and then
-verifies every returned sample in Python with the CasADi kernels (independently of the C
-code): a sample that fails its residual check, or a failure status of the C tracker, raises
-a :class:`~scdk_sym.errors.TrackError` naming the sample (re-exported here). The C tracker
+:mod:`scdk_sym.codegen` and runs the whole sequence of readings in one ``ctypes`` call, which
+also returns the closure residual of every sample (evaluated there by the generated closure
+function, the model's ``g``); Python checks each against the model's tolerance: a sample that
+fails it, or a failure status of the C tracker, raises a
+:class:`~scdk_sym.errors.TrackError` naming the sample (re-exported here). The C tracker
 judges every reading by the rule of :mod:`scdk_sym.solvers.track` (the same as
 ``track(backend="cvodes")``), and the crossings are computed from the finished track by the
 same function, :func:`scdk_sym.solvers.track.crossings`.
@@ -12,12 +13,11 @@ same function, :func:`scdk_sym.solvers.track.crossings`.
 
 from __future__ import annotations
 
-import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError, TrackError
-from ..model.rotations import cayley, rot_exp, rot_log
+from ..model.rotations import cayley, rot_log
 from ..results import Configuration, TrackResult
 from ..robot import Model
 from .sc import validate_start
@@ -89,7 +89,7 @@ def track_c(
         )  # fmt: skip
     N = th.shape[0]
     y_can = _canonical(model, out.y, out.c)
-    residual = _residuals(model, y_can, th)
+    residual = out.residual
     verify_samples(model, residual, th)
     crossings = track_crossings(model, start, y_can, th, out.det)
     return TrackResult(
@@ -130,33 +130,3 @@ def _canonical(model: Model, y: np.ndarray, c: np.ndarray) -> np.ndarray:
         R_ref = c[:, 9 * i : 9 * i + 9].reshape(-1, 3, 3).transpose(0, 2, 1)  # column-major
         y[:, idx] = rot_log(R_ref @ cayley(y[:, idx]))
     return y
-
-
-def _to_local(model: Model, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Canonical y rows -> (local y rows with zero rotation parameters, chart rows)."""
-    y = np.array(y, dtype=float)
-    c = np.zeros((y.shape[0], model.chart.size))
-    for i, rot in enumerate(model.chart.rotations):
-        idx = list(rot)
-        R = rot_exp(y[:, idx])
-        c[:, 9 * i : 9 * i + 9] = R.transpose(0, 2, 1).reshape(-1, 9)
-        y[:, idx] = 0.0
-    return y, c
-
-
-def _residuals(model: Model, y_can: np.ndarray, th: np.ndarray) -> np.ndarray:
-    """Max |closure row| of each canonical sample (CasADi SX kernels, not the C code)."""
-    N = y_can.shape[0]
-    if N == 0:
-        return np.zeros(0)
-    y_loc, c = _to_local(model, y_can)
-    maps = model.__dict__.setdefault("_check_maps", {})
-    if N not in maps:
-        if len(maps) > 8:
-            maps.clear()
-        maps[N] = model.kernels.check.map(N)
-    check = maps[N]
-    rows = np.array(check(y_loc.T, th.T, c.T if c.size else ca.DM.zeros(0, N)))
-    res = np.max(np.abs(rows), axis=0)
-    res[~np.all(np.isfinite(y_can), axis=1)] = np.nan
-    return res

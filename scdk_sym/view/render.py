@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ViewError
-from ..model.model import Model
+from ..robot import Model
 from .scene import COLORS, Frame, RobotScene, configurations, frame, robot_scene
 
 #: How to get the optional viewer dependency.

@@ -20,9 +20,9 @@ from types import MappingProxyType
 import numpy as np
 
 from ..errors import ViewError
-from ..model.model import Model
 from ..plot import _fmt, first_hit, placements, rigid_groups, robot_drawing_3d
 from ..results import Configuration, SolveResult, TrackResult
+from ..robot import Model
 
 #: Colours (RGB, 0-255) of the picture: links drawn as segments, closure links (the cut loop
 #: pairs), the platform, other rigid bodies, the base, and URDF geometry without a colour.
