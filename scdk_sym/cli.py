@@ -13,7 +13,7 @@ import numpy as np
 from .errors import InputError, ScdkError, SolveError
 
 if TYPE_CHECKING:
-    from .results import SolveResult
+    from .results import Configuration, SolveResult, TrackResult
 
 #: Subcommand name -> (help, add-arguments function, run function); extended by modules below.
 COMMANDS: dict[str, tuple[str, Callable, Callable]] = {}
@@ -514,6 +514,7 @@ def _view(args: argparse.Namespace) -> int:
     view.require_viser()  # before any work
     model = load(args)
     start = start_configuration(model, args)
+    what: SolveResult | TrackResult | Configuration
     if args.theta:
         from .solvers.sc import solve
 

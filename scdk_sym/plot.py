@@ -309,12 +309,12 @@ def is_spatial(model: Model, configurations: Sequence[Configuration]) -> bool:
         True when the points of :func:`robot_drawing_3d` (bodies, segments, closures) spread
         along z by more than ``1e-9`` of the model's size [model length unit].
     """
-    z = []
+    z: list[np.ndarray] = []
     for cfg in configurations:
         d = robot_drawing_3d(model, cfg)
         z += [P[:, 2] for P in (*d.polygons, *d.segments, *d.closures)]
-    z = np.concatenate(z) if z else np.zeros(1)
-    return float(np.ptp(z)) > 1e-9 * max(1.0, model.length_scale)
+    heights = np.concatenate(z) if z else np.zeros(1)
+    return float(np.ptp(heights)) > 1e-9 * max(1.0, model.length_scale)
 
 
 def configurations_figure(
@@ -399,7 +399,7 @@ def _configurations_3d(model, configurations, title):
             ax.plot(S[:, 0], S[:, 1], S[:, 2], style, color=color, linewidth=1.6, marker="o",
                     markersize=3)  # fmt: skip
             seen.append(S)
-        handles.append(Line2D([], [], color=color, linestyle=style, label=label))
+        handles.append(Line2D([], [], color=color, linestyle=style, label=label))  # type: ignore[arg-type]
     P = np.vstack(seen) if seen else np.zeros((1, 3))
     lo, hi = P.min(axis=0), P.max(axis=0)
     half = 0.5 * max(float(np.max(hi - lo)), 1e-9 * max(1.0, model.length_scale))

@@ -77,7 +77,7 @@ def tracker_library() -> Path:
     target = cache_dir() / f"ptrack_{h.hexdigest()[:20]}.so"
     if not target.exists():
         partial = target.with_suffix(f".{os.getpid()}.tmp")
-        run_compiler([*TRACKER_CFLAGS, src / "ptrack.c", "-o", partial, "-lm"])
+        run_compiler([*TRACKER_CFLAGS, str(src / "ptrack.c"), "-o", str(partial), "-lm"])
         os.replace(partial, target)  # atomic: concurrent processes never load a partial file
     return target
 
@@ -214,7 +214,7 @@ def c_tracker(system, tracker: str = "auto") -> Callable[..., TrackOutcome] | No
             )
         return None
     form, weights = fw
-    memo = form.model.__dict__
+    memo = form.model.__dict__  # type: ignore[attr-defined]
     ct = memo.get(_ATTR)
     if ct is None:
         try:

@@ -138,8 +138,8 @@ def plot_atlas(
             if len(edges):
                 from matplotlib.collections import LineCollection
 
-                ax.add_collection(LineCollection(edges, colors="k", linewidths=1.0))
-                handles = [Line2D([], [], color="k", lw=1.0, label="count changes: singular")]
+                ax.add_collection(LineCollection(list(edges), colors="k", linewidths=1.0))
+                handles = [Line2D([], [], color="k", lw=1.0, label="count changes: singular")]  # type: ignore[list-item]
         ax.set_title(title, fontsize=10)
         ax.set_xlabel(axes[0])
         ax.set_ylabel(axes[1])

@@ -95,13 +95,13 @@ def build_sweep(model, steps: int) -> ca.Function:
     t0 = ca.MX.sym("theta0", k)
     cm = ca.MX.sym("c", c.numel())
     end = fold(ca.vertcat(y1, 0, 1, 0), t1, t0 - t1, det(y1, t1, cm), cm)
-    yk = end[:m]
+    y_end = end[:m]
     for _ in range(POLISH):
-        yk = yk - newton(yk, t0, cm)
-    ratio = ca.fmin(end[m + 1], det(yk, t0, cm) / det(y1, t1, cm))
-    y_sol, c_sol = recentre(yk, cm)
-    outs = [yk, ratio, end[m + 2], check(yk, t0, cm), ca.vec(jp(y_sol, t0, c_sol)),
-            pose(yk, t0, cm)]  # fmt: skip
+        y_end = y_end - newton(y_end, t0, cm)
+    ratio = ca.fmin(end[m + 1], det(y_end, t0, cm) / det(y1, t1, cm))
+    y_sol, c_sol = recentre(y_end, cm)
+    outs = [y_end, ratio, end[m + 2], check(y_end, t0, cm), ca.vec(jp(y_sol, t0, c_sol)),
+            pose(y_end, t0, cm)]  # fmt: skip
     return ca.Function(
         f"scdk_atlas_sweep_{steps}",
         [y1, t1, t0, cm],

@@ -322,7 +322,7 @@ def build_follower_kernels(sym, inline: bool = True) -> FollowerKernels:
     f_predict = ca.Function(
         "scdk_follow_predict",
         [y, theta1, dtheta, c],
-        [rk4_in_s(sym, y, 0.0, 1.0, theta1, dtheta, 1, inline)],
+        [rk4_in_s(sym, y, 0.0, 1.0, theta1, dtheta, 1, inline=inline)],
         ["y", "theta1", "dtheta", "c"],
         ["y1"],
     )

@@ -162,11 +162,18 @@ def compile_parallel(
         objects = [Path(tmp) / f"{i:03d}_{src.stem}.o" for i, src in enumerate(sources)]
 
         def one(pair: tuple[Path, Path]) -> None:
-            run_compiler([*compile_flags, "-c", pair[0], "-o", pair[1]], cwd=cwd)
+            run_compiler([*compile_flags, "-c", str(pair[0]), "-o", str(pair[1])], cwd=cwd)
 
         with ThreadPoolExecutor(max_workers=jobs()) as pool:
             list(pool.map(one, zip(sources, objects, strict=True)))
-        link = [*compile_flags, *link_flags, *objects, "-o", Path(target).resolve(), "-lm"]
+        link = [
+            *compile_flags,
+            *link_flags,
+            *map(str, objects),
+            "-o",
+            str(Path(target).resolve()),
+            "-lm",
+        ]
         run_compiler(link, cwd=cwd)
     return Path(target)
 

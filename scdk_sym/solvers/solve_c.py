@@ -15,9 +15,8 @@ in Python (:func:`scdk_sym.solvers.sc.solve`'s own check), so nothing unverified
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import NotAssembledError, SolveError
 from ..results import Configuration, SolveResult
@@ -28,7 +27,7 @@ __all__ = ["solve_c"]
 
 def solve_c(
     model: Model,
-    theta0: Sequence[float],
+    theta0: ArrayLike,
     start: Configuration | None = None,
     branch: str = "convergent",
     b: float | None = None,
@@ -66,13 +65,13 @@ def solve_c(
     fallback = dict(kwargs, backend="compiled")
     if b is not None or branch != "convergent" or kwargs.get("record_path", False):
         return solve(model, theta0, start, branch, b, **fallback)
-    theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
+    th0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
     start = validate_start(model, start, check_residual=False)
     lib = tracker_library(model)
     y1, c1 = model.chart.to_local(start.y)
-    out = lib.solve_convergent(y1, c1, start.theta, theta0)
+    out = lib.solve_convergent(y1, c1, start.theta, th0)
     if out.status in (ERR_SINGULAR_PATH, ERR_NO_SOLUTION):
-        return solve(model, theta0, start, branch, b, **fallback)
+        return solve(model, th0, start, branch, b, **fallback)
     if out.status == ERR_NOT_ASSEMBLED:
         residual = model.residual(start.y, start.theta)
         raise NotAssembledError(
@@ -82,8 +81,8 @@ def solve_c(
         )
     if out.status < 0:
         raise SolveError(
-            f"C solve at theta0={theta0.tolist()} failed: {STATUS.get(out.status, out.status)} "
+            f"C solve at theta0={th0.tolist()} failed: {STATUS.get(out.status, out.status)} "
             f"(status {out.status}); try backend='compiled'"
         )
     y = model.chart.to_canonical(out.y, out.c)
-    return _result(model, y, theta0, (), "convergent", float(np.sign(out.det)), start, None)
+    return _result(model, y, th0, (), "convergent", float(np.sign(out.det)), start, None)

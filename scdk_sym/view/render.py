@@ -93,6 +93,7 @@ class _Animator:
             elif shape.kind == "sphere":
                 api.add_icosphere(at, radius=float(shape.size[0]), color=shape.color, **pose)
             else:
+                assert shape.vertices is not None and shape.faces is not None
                 api.add_mesh_simple(at, vertices=shape.vertices.astype(np.float32),
                                     faces=shape.faces.astype(np.uint32), color=shape.color,
                                     **pose)  # fmt: skip

@@ -199,7 +199,8 @@ def frame(model: Model, scene: RobotScene, cfg: Configuration, caption: str = ""
     links, _ = placements(model, cfg)
     drawing = robot_drawing_3d(model, cfg)
     segments = [S for S, drawn in zip(drawing.segments, scene.skeleton, strict=True) if drawn]
-    closures, cuts = [], []
+    closures: list[np.ndarray] = []
+    cuts: list[np.ndarray] = []
     for S, kind in zip(drawing.closures, drawing.closure_types, strict=True):
         if kind == "distance":
             closures.append(S)
@@ -209,9 +210,9 @@ def frame(model: Model, scene: RobotScene, cfg: Configuration, caption: str = ""
     text = f"{caption}({names}) = {_fmt(cfg.x)[4:]}".strip()
     return Frame(
         MappingProxyType({name: links[name] for name in scene.moving_links}),
-        np.array(segments, dtype=float).reshape(-1, 2, 3),
-        np.array(closures, dtype=float).reshape(-1, 2, 3),
-        np.array(cuts, dtype=float).reshape(-1, 3),
+        np.array(segments, dtype=np.float64).reshape(-1, 2, 3),
+        np.array(closures, dtype=np.float64).reshape(-1, 2, 3),
+        np.array(cuts, dtype=np.float64).reshape(-1, 3),
         text,
     )
 
@@ -334,7 +335,8 @@ def _shape(link: str, el, source: str, materials: dict, folder: Path | None, not
             material = materials[material.name]
         if material.color is not None:
             rgba = np.clip(np.asarray(material.color.rgba, dtype=float)[:3], 0.0, 1.0)
-            color = tuple(int(round(255 * c)) for c in rgba)
+            r, g_, b = (int(round(255 * c)) for c in rgba)
+            color = (r, g_, b)
     if g is None:
         return None
     if g.box is not None:
@@ -374,8 +376,8 @@ def _load_mesh(filename: str, folder: Path | None):
         import trimesh
 
         mesh = trimesh.load(str(path), force="mesh")
-        V = np.asarray(mesh.vertices, dtype=float)
-        F = np.asarray(mesh.faces, dtype=np.int64)
+        V = np.asarray(mesh.vertices, dtype=np.float64)  # type: ignore[attr-defined]
+        F = np.asarray(mesh.faces, dtype=np.int64)  # type: ignore[attr-defined]
     except Exception as exc:  # trimesh raises assorted errors on unreadable files
         return f"{path} unreadable ({type(exc).__name__})"
     if not len(V) or not len(F):
