@@ -126,6 +126,32 @@ def test_trace_test_rejects_incomplete_sets(quadrics):
         assert trace_test(system, start.solutions[:keep], start.p, start.b, rng) > 1e-4
 
 
+def test_monodromy_stops_when_its_test_passes_and_says_why_it_failed():
+    system = Quadrics(3, seed=3)
+    rng = np.random.default_rng(11)
+    residuals: list[float] = []
+
+    def counted(sols, p, b):
+        residuals.append(trace_test(system, sols, p, b, rng))
+        return residuals[-1]
+
+    start = monodromy_solve(system, seed=0, progress=False, max_loops=40, test=counted)
+    # the first stable count is the Bezout number 2^3: one test, passed, no further loop
+    assert start.root_count == 8 and start.trace_passed and start.reason == ""
+    assert len(residuals) == 1 and residuals[0] < 1e-8 and start.trace_residual == residuals[0]
+    assert start.loops < 40
+
+    def short(sols, p, b):  # the trace of the set without its first point
+        residuals.append(trace_test(system, sols[1:], p, b, rng))
+        return residuals[-1]
+
+    residuals.clear()
+    failed = monodromy_solve(system, seed=0, progress=False, max_loops=12, test=short)
+    assert failed.loops == 12 and not failed.trace_passed and len(residuals) >= 1
+    assert min(residuals) > 1e-4
+    assert failed.reason.startswith("trace test failed") and "12 monodromy loops" in failed.reason
+
+
 def test_quadrics_real_solutions_match_random_start_newton(quadrics):
     system, start = quadrics
     p0 = np.random.default_rng(5).normal(size=3)

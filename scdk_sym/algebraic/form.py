@@ -71,6 +71,8 @@ if TYPE_CHECKING:
 FORM_VERSION = "1"
 BACKENDS = ("casadi", "compiled")
 _CACHE_ATTR = "_algebraic_forms"
+#: Scale of the imaginary parts of random complex angles (start points and angle parameters).
+ANGLE_IMAG = 0.1
 #: Batch sizes whose mapped Functions are kept per form.
 _MAPS_KEPT = 16
 
@@ -172,10 +174,16 @@ class AlgebraicForm:
         """A random complex ``z`` (n,) on which every structural row vanishes, and a random
         complex parameter point ``p`` (n_params,).
 
-        Angles: ``(cos t, sin t)`` of a complex ``t``; quaternions: a complex normal ``q``
-        scaled onto the chart (``a . q = 1``), ``w = 1 / (q . q)``; lengths and translations:
-        complex normals times the model's size; ``p``: the home actuator values plus a
-        complex normal (times the model's size for lengths).
+        Angles: ``(cos t, sin t)`` of a complex ``t`` with an imaginary part of the order of
+        :data:`ANGLE_IMAG`; quaternions: a complex normal ``q`` scaled onto the chart
+        (``a . q = 1``), ``w = 1 / (q . q)``; lengths and translations: complex normals times
+        the model's size; ``p``: the home actuator values plus a complex normal (times the
+        model's size for lengths, times :data:`ANGLE_IMAG` for angles).
+
+        The imaginary parts of angles add up along a chain of joints and a rotation grows
+        like ``exp`` of their sum: with imaginary parts of order one, a model with long
+        chains (several loops in series) gets a base fibre whose points are hundreds of
+        times the model's scale, where Newton stagnates above the tracker's tolerances.
         """
         scale = float(self.model.length_scale) or 1.0
         z = np.zeros(self.n, dtype=complex)
@@ -185,7 +193,7 @@ class AlgebraicForm:
 
         for s in self.rows.slots:
             if s.kind == "angle":
-                t = rng.uniform(-np.pi, np.pi) + 0.5j * rng.normal()
+                t = rng.uniform(-np.pi, np.pi) + 1j * ANGLE_IMAG * rng.normal()
                 z[list(s.z)] = np.cos(t), np.sin(t)
             elif s.kind == "length":
                 z[s.z[0]] = scale * cnormal()
@@ -195,7 +203,7 @@ class AlgebraicForm:
                 z[list(s.z[:3])] = scale * cnormal(3)
                 z[list(s.z[3:7])] = q
                 z[s.z[7]] = 1.0 / (q @ q)
-        widths = np.array([scale if k == "length" else 1.0 for k in self.rows.param_kinds])
+        widths = np.array([scale if k == "length" else ANGLE_IMAG for k in self.rows.param_kinds])
         p = self.model.home.theta + widths * cnormal(self.n_params)
         return z, p
 

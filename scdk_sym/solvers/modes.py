@@ -509,7 +509,8 @@ def assembly_modes(
             in a row without a new solution before stopping, 8), ``cover`` (times each known
             solution must be met again, 2), ``max_curves`` (400). Homotopy only:
             ``max_loops`` (bound on the monodromy loops), ``cache`` (disk cache of the start
-            system, True).
+            system, True), ``rebuild`` (compute the start system again even if a proven or a
+            failed one is cached, False).
 
     Returns:
         :class:`~scdk_sym.results.AssemblyModes`: a sequence of
@@ -527,11 +528,11 @@ def assembly_modes(
     if method == "homotopy":
         from .homotopy_modes import homotopy_modes
 
-        extra = set(options) - {"max_loops", "cache"}
+        extra = set(options) - {"max_loops", "cache", "rebuild"}
         if extra:
             raise InputError(
                 f"option(s) {', '.join(sorted(extra))} belong to method='curves'; "
-                "the homotopy takes seed, progress, backend, max_loops, cache"
+                "the homotopy takes seed, progress, backend, max_loops, cache, rebuild"
             )
         return homotopy_modes(
             model, theta0, seed=seed, progress=progress, backend=backend or "auto", **options
