@@ -13,7 +13,11 @@ although a solution exists), crash (any other exception), timeout. Then commande
 and each sample is compared with the commanded pose.
 
     python benchmarks/fuzz.py [--count 100000] [--seed 0] [--models NAME ...]
-        [--backend cvodes|compiled] [--tracks 20] [--workers 1] [--limit 60]
+        [--backend cvodes|compiled] [--tracks 20] [--workers 1] [--limit 60] [--out DIR]
+
+With ``--out DIR`` every finished work unit is saved there (a pickle per unit, named by its
+model, seed, backend, limit and chunk); a run interrupted and started again with the same
+arguments and ``--out`` solves only the missing units and reports on all of them.
 
 ``--count`` is the total number of solves (two per scenario, split evenly over the models).
 Prints progress every ``--every`` solves, then a table per model and branch, the refusals
@@ -24,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import pickle
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -37,6 +42,7 @@ from references import (  # noqa: E402  (references shared with the tests)
     draw_tracks,
     run_solves,
     run_tracks,
+    warm_up,
 )
 
 #: Scenarios per work unit (one seeded draw + solve in one process).
@@ -63,12 +69,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=1, help="processes")
     parser.add_argument("--limit", type=float, default=60.0, help="time limit per solve [s]")
     parser.add_argument("--every", type=int, default=2000, help="progress every N solves")
+    parser.add_argument("--out", type=Path, help="directory keeping finished units (resume)")
     args = parser.parse_args(argv)
 
     per_model = max(1, math.ceil(args.count / (2 * len(args.models))))
-    units = []
-    for name in args.models:
-        for chunk in range(math.ceil(per_model / CHUNK)):
+    units = []  # interleaved over the models: a partial run covers every model evenly
+    for chunk in range(math.ceil(per_model / CHUNK)):
+        for name in args.models:
             size = min(CHUNK, per_model - chunk * CHUNK)
             units.append((name, chunk, size))
     total = 2 * per_model * len(args.models)
@@ -78,22 +85,48 @@ def main(argv: list[str] | None = None) -> int:
         f"limit {args.limit:g} s per solve",
         flush=True,
     )
+    if args.backend == "compiled":  # compile once here, not in every worker at once
+        for name in args.models:
+            warm_up(name, args.backend)
     report = Report()
     t0 = time.perf_counter()
     done, shown = 0, 0
+    saved: dict[tuple, Path] = {}
+    if args.out is not None:
+        args.out.mkdir(parents=True, exist_ok=True)
+        for unit in units:
+            name, chunk, size = unit
+            saved[unit] = args.out / (
+                f"{name}-s{args.seed}-{args.backend}-l{args.limit:g}-n{size}-c{chunk}.pkl"
+            )
     with ProcessPoolExecutor(args.workers) as pool:
-        futures = [
-            pool.submit(solve_chunk, name, chunk, size, args.seed, args.backend, args.limit)
-            for name, chunk, size in units
-        ]
+        futures = {}
+        for unit in units:
+            path = saved.get(unit)
+            if path is not None and path.exists():
+                outs = pickle.loads(path.read_bytes())
+                report.solves += outs
+                done += len(outs)
+                continue
+            fut = pool.submit(solve_chunk, *unit, args.seed, args.backend, args.limit)
+            futures[fut] = unit
+        if done:
+            print(f"  {done} solves loaded from {args.out}", flush=True)
+        resumed, t0 = done, time.perf_counter()
         for fut in as_completed(futures):
             outs = fut.result()
+            path = saved.get(futures[fut])
+            if path is not None:
+                part = path.with_suffix(".part")
+                part.write_bytes(pickle.dumps(outs))
+                part.replace(path)
             report.solves += outs
             done += len(outs)
             if done - shown >= args.every or done == total:
                 shown = done
                 el = time.perf_counter() - t0
-                bad, left = len(report.failures()), el / done * (total - done)
+                bad = len(report.failures())
+                left = el / max(1, done - resumed) * (total - done)
                 print(
                     f"  {done}/{total} solves, {el:.0f} s elapsed, ~{left:.0f} s to go; "
                     f"silently wrong or crashed so far: {bad}",

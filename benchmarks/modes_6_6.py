@@ -6,9 +6,11 @@ For Dietmaier's 40-mode platform and ``--platforms`` random general 6-6 platform
 * the start system of each platform (monodromy + trace test): wall time, loops, root count
   (loaded from the disk cache on a second run: ``loops`` is then the stored count);
 * ``assembly_modes`` (method "homotopy", start system in memory): median wall time per query
-  over ``--repeat`` runs, split into the parameter homotopy (all root-count paths, numpy),
-  polishing in the model and the Krawczyk certificates, the real count, ``certified`` and
-  whether the real set equals the LM reference (rotation and translation within 1e-6);
+  over ``--repeat`` runs with the paths tracked in C (the default) and in numpy (the
+  reference tracker), split into the parameter homotopy (all root-count paths), polishing in
+  the model and the Krawczyk certificates, the real count, ``certified`` and whether the real
+  set equals the LM reference (rotation and translation within 1e-6); CPU-time medians too
+  (``time.process_time``: on a shared machine the wall time also counts the waits);
 * the curve search (method "curves", compiled kernels) on the same legs: median time, count;
 * the baseline: random-start Levenberg-Marquardt (tests/stewart.py, ``--lm-starts``
   starts), median time and count.
@@ -19,6 +21,8 @@ For Dietmaier's 40-mode platform and ``--platforms`` random general 6-6 platform
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
 import sys
 import time
 from pathlib import Path
@@ -27,6 +31,7 @@ import numpy as np
 
 import scdk_sym as sc
 from scdk_sym.algebraic import algebraic_form, certify_configurations, solve_homotopy
+from scdk_sym.algebraic import homotopy as homotopy_module
 from scdk_sym.algebraic.scaled import scaled_form
 from scdk_sym.solvers.homotopy_modes import model_start_system
 
@@ -48,13 +53,32 @@ def same_set(found, reference, tol: float = 1e-6) -> bool:
     )
 
 
-def median_time(fn, repeat: int):
-    times, out = [], None
+#: CPU-time medians [s] of the last median_time call of each label (the machine may be shared).
+CPU: dict[str, float] = {}
+
+
+def median_time(fn, repeat: int, label: str = ""):
+    """Median wall time [s] of ``repeat`` calls and the last result; the median CPU time
+    (``time.process_time``) is kept in ``CPU[label]``."""
+    times, cpu, out = [], [], None
     for _ in range(repeat):
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         out = fn()
         times.append(time.perf_counter() - t)
+        cpu.append(time.process_time() - c)
+    CPU[label] = float(np.median(cpu))
     return float(np.median(times)), out
+
+
+@contextlib.contextmanager
+def numpy_tracker():
+    """Queries inside track their paths with the numpy tracker (the C one is skipped)."""
+    saved = homotopy_module.c_tracker
+    homotopy_module.c_tracker = lambda system, tracker="auto": None
+    try:
+        yield
+    finally:
+        homotopy_module.c_tracker = saved
 
 
 def main() -> None:
@@ -67,6 +91,7 @@ def main() -> None:
     for seed in range(1, args.platforms + 1):
         platforms[f"random #{seed}"] = random_platform(seed)
     summary = []
+    print("load average (1, 5, 15 min): {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
     for name, (A, B, legs) in platforms.items():
         model = sc.builders.stewart_gough(A, B)
         form = scaled_form(algebraic_form(model, "compiled"))
@@ -78,8 +103,19 @@ def main() -> None:
             f"residual {start.trace_residual:.1e}, {t_start:.1f} s"
         )
         p0 = form.params(legs)
-        t_query, sols = median_time(lambda m=model, lg=legs: sc.assembly_modes(m, lg), args.repeat)
-        t_track, res = median_time(lambda f=form, s=start, p=p0: solve_homotopy(f, s, p), 3)
+        t_query, sols = median_time(
+            lambda m=model, lg=legs: sc.assembly_modes(m, lg), args.repeat, "query"
+        )
+        with numpy_tracker():
+            t_query_py, sols_py = median_time(
+                lambda m=model, lg=legs: sc.assembly_modes(m, lg), args.repeat, "query_py"
+            )
+        t_track, res = median_time(
+            lambda f=form, s=start, p=p0: solve_homotopy(f, s, p), 3, "track"
+        )
+        t_track_py, _ = median_time(
+            lambda f=form, s=start, p=p0: solve_homotopy(f, s, p, tracker="python"), 3, "track_py"
+        )
         ys = np.vstack([c.y for c in sols]) if len(sols) else np.zeros((0, model.m))
         t_cert, _ = median_time(lambda m=model, y=ys, lg=legs: certify_configurations(m, y, lg), 3)
         t_lm, ref = median_time(
@@ -90,26 +126,38 @@ def main() -> None:
             3,
         )
         match = same_set(list(sols), ref)
+        match_py = same_set(list(sols_py), ref)
         steps = int(np.median(res.steps))
         print(
             f"  homotopy  {len(sols):>3} real of {sols.root_count}, certified {sols.certified}, "
-            f"= LM set {match}: {1e3 * t_query:8.1f} ms per query (median of {args.repeat}); "
-            f"tracking {1e3 * t_track:.1f} ms ({len(res.status)} paths, median {steps} steps), "
-            f"certificates {1e3 * t_cert:.1f} ms, rest (polish, configurations) "
-            f"{1e3 * max(0.0, t_query - t_track - t_cert):.1f} ms"
+            f"= LM set {match}: {1e3 * t_query:8.1f} ms per query, C tracker (median of "
+            f"{args.repeat}); tracking {1e3 * t_track:.1f} ms ({len(res.status)} paths, median "
+            f"{steps} steps), certificates {1e3 * t_cert:.1f} ms, rest (polish, configurations) "
+            f"{1e3 * max(0.0, t_query - t_track - t_cert):.1f} ms; CPU time: query "
+            f"{1e3 * CPU['query']:.1f} ms, tracking {1e3 * CPU['track']:.1f} ms"
+        )
+        print(
+            f"  homotopy  {len(sols_py):>3} real, certified {sols_py.certified}, = LM set "
+            f"{match_py}: {1e3 * t_query_py:8.1f} ms per query, numpy tracker; tracking "
+            f"{1e3 * t_track_py:.1f} ms; C / numpy: query {t_query / t_query_py:.2f}, "
+            f"tracking {t_track / t_track_py:.2f}; CPU time: query {1e3 * CPU['query_py']:.1f} ms, "
+            f"tracking {1e3 * CPU['track_py']:.1f} ms"
         )
         print(f"  curves    {len(curves):>3} real: {1e3 * t_curves:8.1f} ms (median of 3)")
         print(
             f"  LM        {len(ref):>3} real: {1e3 * t_lm:8.1f} ms "
             f"({args.lm_starts} starts, median of 3)"
         )
-        summary.append((sols.root_count == 40, sols.certified, match, t_query))
+        summary.append((sols.root_count == 40, sols.certified, match, t_query, t_query_py, t_lm))
     n = len(summary)
     print(
         f"{n} platforms: root count 40 in {sum(s[0] for s in summary)}, certified in "
         f"{sum(s[1] for s in summary)}, real set = LM in {sum(s[2] for s in summary)}; "
-        f"median query {1e3 * float(np.median([s[3] for s in summary])):.1f} ms"
+        f"median query {1e3 * float(np.median([s[3] for s in summary])):.1f} ms (C tracker), "
+        f"{1e3 * float(np.median([s[4] for s in summary])):.1f} ms (numpy tracker), LM "
+        f"{1e3 * float(np.median([s[5] for s in summary])):.1f} ms"
     )
+    print("load average (1, 5, 15 min): {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
 
 
 if __name__ == "__main__":

@@ -1,9 +1,11 @@
 """Time per solve of the paper's example (planar HEXA-type robot, section 5).
 
-Prints the median time per solve of both branches with the CasADi SX Functions and with the
-compiled (generated C) kernels, for both modelings, and the ratio to a baseline measured in
-the same run: a plain numpy Newton iteration (x in R^3, the reduced model's closed-form
-residual) from the same start, which finds one solution and has no branch control.
+Prints the median time per solve of both branches with the CasADi SX Functions, with the
+compiled (generated C) kernels and with ``backend="c"`` (the convergent solve in one call of
+the generated C follower; its divergent branch is the compiled solve), for both modelings, and
+the ratio to a baseline measured in the same run: a plain numpy Newton iteration (x in R^3,
+the reduced model's closed-form residual) from the same start, which finds one solution and
+has no branch control.
 
     python benchmarks/seed_example.py [--repeat 200] [--clock cpu]
 
@@ -75,7 +77,7 @@ def main() -> None:
     for name in ("planar_hexa", "planar_hexa_reduced"):
         model = sc.load_model(ROOT / "models" / name)
         start = model.inverse_kinematics(X1)
-        for backend in ("cvodes", "compiled"):
+        for backend in ("cvodes", "compiled", "c"):
             for branch in ("convergent", "divergent"):
                 res = solve(model, THETA0, start=start, branch=branch, backend=backend)
 

@@ -1,15 +1,23 @@
-"""Time per step of three direct-kinematics trackers on one smooth path of models/stewart_gough.
+"""Time per step of direct-kinematics trackers on one smooth path of models/stewart_gough.
 
 On the same trajectory (every pose coordinate a sine of its own frequency, leg lengths from the
-closed-form inverse kinematics), prints microseconds per step, the median over repeats, and
-the speed-up over the baseline measured in the same run (its time / the tracker's time):
+closed-form inverse kinematics), prints microseconds per step, the median over repeats, the
+speed-up over the numpy baseline measured in the same run (its time / the tracker's time) and
+the time ratio to the plain-C Newton tracker of the same run (the tracker's time / its time):
 
 - the generated C tracker (:mod:`scdk_sym.codegen`), the whole trajectory in one ctypes call
-  (and :func:`scdk_sym.solvers.track_c.track_c`, which adds the Python-side verification);
+  (and :func:`scdk_sym.solvers.track_c.track_c`, which adds the conversion of the charts and
+  the crossings; the residual of every sample comes from the C call);
 - the CVODES tracker (``sc.track(..., backend="cvodes")`` when available, else a
   singularity-consistent solve with CVODES from each previous sample);
-- the baseline: a plain warm-started Newton tracker in numpy (the conventional method: leg
+- a plain warm-started Newton tracker in C (``benchmarks/newton_c/newton.c``: analytic leg
+  Jacobian, 6x6 elimination, no branch control), compiled here with the flags of the
+  generated tracker;
+- the baseline: the same warm-started Newton tracker in numpy (the conventional method: leg
   residuals, analytic Jacobian, position and rotation updated from the previous pose).
+
+``--opt=-O1,-O2,-O3`` also compiles the generated tracker at each optimisation level and times
+the raw call of each, interleaved in the same run.
 
 Then the errors of the C, CVODES and Newton trackers on a path that turns the platform through
 its singular orientation (yaw ~ 90 deg), sampled at 399, 40 and 20 readings: the C and CVODES
@@ -17,21 +25,26 @@ trackers judge every reading by the same rule (and refuse a reading they cannot 
 Newton tracker turns back on the wrong branch.
 
     python benchmarks/track_hexapod.py [--samples 3000] [--repeat 20] [--cvodes-samples 0]
+                                       [--opt=-O1,-O2,-O3]
 """
 
 from __future__ import annotations
 
 import argparse
+import ctypes
+import importlib
 import math
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
 import scdk_sym as sc
-from scdk_sym.codegen.library import tracker_library
-from scdk_sym.model.urdf import rpy_matrix
+from scdk_sym.codegen.library import CTracker, tracker_library
+from scdk_sym.kernels.compile import compile_parallel
+from scdk_sym.model.rotations import rpy_matrix
 from scdk_sym.solvers.sc import solve
 from scdk_sym.solvers.track_c import track_c
 
@@ -40,6 +53,60 @@ sys.path.insert(0, str(ROOT / "tests"))
 from stewart import anchors, fold_path, leg_lengths  # noqa: E402  (shared with the tests)
 
 MODEL = ROOT / "models" / "stewart_gough"
+NEWTON_C = Path(__file__).resolve().parent / "newton_c" / "newton.c"
+# the module, not the function that scdk_sym.codegen re-exports under the same name
+generate = importlib.import_module("scdk_sym.codegen.generate")
+
+
+def c_newton(directory: Path):
+    """Compile newton_c/newton.c with the generated tracker's flags; returns a tracker
+    ``(A, B, x0, thetas) -> (N, 6) poses`` (x0 = (p, rpy))."""
+    target = compile_parallel(
+        [NEWTON_C], directory / "libnewton.so", generate.COMPILE_FLAGS, generate.LINK_FLAGS
+    )
+    fn = ctypes.CDLL(str(target)).newton_track
+    dp = ctypes.POINTER(ctypes.c_double)
+    fn.restype = ctypes.c_long
+    fn.argtypes = [dp, dp, dp, ctypes.c_long, dp, dp, ctypes.c_double, ctypes.c_int]
+
+    def track(A, B, x0, thetas, tol=1e-12):
+        A, B, x0, th = (np.ascontiguousarray(a, dtype=float) for a in (A, B, x0, thetas))
+        out = np.empty((len(th), 6))
+        status = fn(*(a.ctypes.data_as(dp) for a in (A, B, x0)), len(th),
+                    th.ctypes.data_as(dp), out.ctypes.data_as(dp), tol, 20)  # fmt: skip
+        if status < 0:
+            raise RuntimeError(f"C Newton did not converge at sample {-1 - status}")
+        return out
+
+    return track
+
+
+def opt_levels(model, levels: list[str], thetas: np.ndarray, n: int, repeat: int) -> None:
+    """Compile the generated tracker at each optimisation level, time the raw calls
+    (interleaved) and print us/step and the ratio to the first level."""
+    y0, c0 = model.chart.to_local(model.home.y)
+    libs, build = {}, {}
+    with tempfile.TemporaryDirectory() as tmp:
+        src = generate.generate(model, Path(tmp), "scdk", split=True)
+        for opt in levels:
+            flags = tuple(opt if f.startswith("-O") else f for f in generate.COMPILE_FLAGS)
+            t = time.perf_counter()
+            target = Path(tmp) / f"lib{opt.strip('-')}.so"
+            compile_parallel(src.sources, target, flags, generate.LINK_FLAGS, cwd=Path(tmp))
+            build[opt] = time.perf_counter() - t
+            libs[opt] = CTracker(target, model.m, model.k, model.chart.size, len(model.workspace))
+        times = {opt: [] for opt in levels}
+        for _ in range(repeat):
+            for opt, lib in libs.items():
+                t = time.perf_counter()
+                lib.track(y0, c0, model.home.theta, thetas)
+                times[opt].append(time.perf_counter() - t)
+    base = float(np.median(times[levels[0]]))
+    print(f"\ngenerated tracker by optimisation level (raw call, {n} samples, interleaved):")
+    for opt in levels:
+        med = float(np.median(times[opt]))
+        print(f"  {opt}: compile {build[opt]:6.2f} s (2 parallel jobs), {1e6 * med / n:7.2f} "
+              f"us/step, {med / base:.3f}x the time of {levels[0]}")  # fmt: skip
 
 
 def smooth_path(home: np.ndarray, n: int) -> np.ndarray:
@@ -133,6 +200,7 @@ def main() -> None:
     parser.add_argument(
         "--cvodes-samples", type=int, default=0, help="CVODES on the first samples only (0: all)"
     )
+    parser.add_argument("--opt", default="", help="e.g. -O1,-O2,-O3: time each level")
     args = parser.parse_args()
 
     model = sc.load_model(MODEL)
@@ -144,16 +212,20 @@ def main() -> None:
     y0, c0 = model.chart.to_local(start.y)
     n = len(thetas)
 
-    x_c = track_c(model, thetas, start).x
+    x_c = sc.track(model, thetas, start=start, backend="c").x
     x_newton = newton_tracker(A, B, start.x, thetas)
+    workdir = tempfile.TemporaryDirectory()
+    newton_in_c = c_newton(Path(workdir.name))
+    x_newton_c = newton_in_c(A, B, start.x, thetas)
     nc = args.cvodes_samples if 0 < args.cvodes_samples < n else n
     t0 = time.perf_counter()
     x_cvodes = cvodes_tracker(model, thetas[:nc], start)
     first_cvodes = 1e6 * (time.perf_counter() - t0) / nc
 
     t_c = per_step(lambda: lib.track(y0, c0, start.theta, thetas), n, args.repeat)
-    t_track_c = per_step(lambda: track_c(model, thetas, start), n, args.repeat)
+    t_track_c = per_step(lambda: sc.track(model, thetas, start=start, backend="c"), n, args.repeat)
     t_newton = per_step(lambda: newton_tracker(A, B, start.x, thetas), n, max(3, args.repeat // 4))
+    t_newton_c = per_step(lambda: newton_in_c(A, B, start.x, thetas), n, args.repeat)
     t_cvodes = first_cvodes
     if args.repeat_cvodes > 1:
         t_cvodes = per_step(
@@ -164,17 +236,22 @@ def main() -> None:
     if nc < n:
         source += f", first {nc} samples"
     print(f"models/stewart_gough, smooth 6-dof path of {n} samples (legs from closed-form IK)")
-    print(f"{'tracker':<54}{'us/step':>10}{'speed-up':>10}{'max |x - x_IK|':>16}")
+    print(f"{'tracker':<46}{'us/step':>10}{'speed-up':>10}{'vs C Newton':>13}"
+          f"{'max |x - x_IK|':>16}")  # fmt: skip
     rows = [
         ("C tracker, one ctypes call", t_c, x_c, X),
-        ("track_c (C call + Python verification)", t_track_c, x_c, X),
+        ("track(backend='c') (C call + Python)", t_track_c, x_c, X),
         (f"CVODES ({source})", t_cvodes, x_cvodes, X[:nc]),
+        ("Newton, warm-started, plain C", t_newton_c, x_newton_c, X),
         ("Newton, warm-started (numpy baseline)", t_newton, x_newton, X),
     ]
     for name, t, x, truth in rows:
         err = float(np.max(np.abs(x - truth)))
-        print(f"{name:<54}{t:>10.2f}{t_newton / t:>9.3g}x{err:>16.1e}")
+        print(f"{name:<46}{t:>10.2f}{t_newton / t:>9.3g}x{t / t_newton_c:>12.3g}x{err:>16.1e}")
     print(f"C tracker vs CVODES: max |dx| = {np.max(np.abs(x_c[:nc] - x_cvodes)):.1e}")
+    if args.opt:
+        opt_levels(model, args.opt.split(","), thetas, n, args.repeat)
+    workdir.cleanup()
 
     Xf = fold_path(model.home.x, 400)
     th_f = leg_lengths(Xf, A, B)

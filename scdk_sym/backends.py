@@ -81,7 +81,7 @@ ALIASES: Mapping[str, str] = MappingProxyType({"casadi": "cvodes"})
 #: by adding its name here and dispatching on it (e.g. ``"c"`` for ``solve``).
 OFFERS: Mapping[str, tuple[str, ...]] = MappingProxyType(
     {
-        "solve": ("compiled", "cvodes"),
+        "solve": ("c", "compiled", "cvodes"),
         "track": ("c", "cvodes"),
         "modes": ("compiled", "cvodes"),  # the certified homotopy
         "curves": ("compiled", "cvodes"),  # the real-curve search of the modes

@@ -14,7 +14,7 @@ from . import backends
 from .errors import InputError, ScdkError, SolveError
 
 if TYPE_CHECKING:
-    from .results import SolveResult
+    from .results import Configuration, SolveResult, TrackResult
 
 #: Subcommand name -> (help, add-arguments function, run function); extended by modules below.
 COMMANDS: dict[str, tuple[str, Callable, Callable]] = {}
@@ -113,7 +113,7 @@ def add_model_args(p: argparse.ArgumentParser) -> None:
 
 
 def load(args: argparse.Namespace):
-    from .model.model import load_model
+    from .robot import load_model
 
     model = load_model(args.model, frame=args.frame)
     if model.reduction and getattr(args, "verbose", False):
@@ -237,8 +237,8 @@ def _solve(args: argparse.Namespace) -> int:
             for c in r.crossings:
                 print(f"{'':>12}singular crossing ({c.kind}) at s = {c.s:.6f}: x = {fmt(c.x)}")
     if len(failed) == len(results):
-        for br, exc in failed:
-            print(f"scdk {args.command}: error: {br}: {_one_line(exc)}", file=sys.stderr)
+        for br, err in failed:
+            print(f"scdk {args.command}: error: {br}: {_one_line(err)}", file=sys.stderr)
         return 1
     return 0
 
@@ -505,6 +505,63 @@ def _plot(args: argparse.Namespace) -> int:
     return 0
 
 
+# ---------------------------------------------------------------------------- view
+
+
+def _view_args(p: argparse.ArgumentParser) -> None:
+    add_model_args(p)
+    what = p.add_mutually_exclusive_group()
+    what.add_argument("--theta", help="solve at a,b,c and animate the path; " + THETA_HELP)
+    what.add_argument("--thetas", help="track the CSV joint readings and animate the samples")
+    p.add_argument("--from-x", help=FROM_X_HELP)
+    p.add_argument(
+        "--branch",
+        default="convergent",
+        choices=["convergent", "divergent"],
+        help="branch of the --theta solve (default: convergent)",
+    )
+    p.add_argument("--html", help="write a self-contained HTML page to this file (no server)")
+    p.add_argument("--host", default="127.0.0.1", help="viewer address (0.0.0.0: every one)")
+    p.add_argument("--port", type=int, default=8080, help="viewer port (default: 8080)")
+    p.add_argument(
+        "--seconds", type=float, default=4.0, help="duration of one pass of the animation [s]"
+    )
+
+
+@command(
+    "view", "the mechanism in 3-D in a browser (viser), or a self-contained HTML page", _view_args
+)
+def _view(args: argparse.Namespace) -> int:
+    from . import view
+
+    view.require_viser()  # before any work
+    model = load(args)
+    start = start_configuration(model, args)
+    what: SolveResult | TrackResult | Configuration
+    if args.theta:
+        from .solvers.sc import solve
+
+        theta = floats(args.theta, "--theta")
+        what = solve(model, theta, start=start, branch=args.branch, record_path=True)
+    elif args.thetas:
+        from .solvers.track import track
+
+        what = track(model, read_thetas(args.thetas, model), start=start)
+    else:
+        what = start
+    for note in view.robot_scene(model, start).notes:  # URDF geometry that is not drawn
+        print(f"note: {note}", file=sys.stderr)
+    if args.html:
+        path = view.write_html(model, what, args.html, seconds=args.seconds)
+        print(f"wrote {path}")
+        return 0
+    viewer = view.show(model, what, host=args.host, port=args.port, seconds=args.seconds,
+                       block=False)  # fmt: skip
+    print(f"viewer at {viewer.url} ({len(viewer.frames)} frame(s)); Ctrl-C to stop", flush=True)
+    viewer.wait()
+    return 0
+
+
 # ---------------------------------------------------------------------------- atlas
 
 
@@ -611,6 +668,37 @@ def _plot_atlas(args: argparse.Namespace) -> int:
     return 0
 
 
+def _verify_args(p: argparse.ArgumentParser) -> None:
+    add_model_args(p)
+    p.add_argument(
+        "--samples",
+        type=int,
+        default=3,
+        help="random configurations and random solutions checked besides home (default 3)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the random configurations")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+@command(
+    "verify",
+    "cross-check the model: frame placements and closures against Pinocchio, Jacobians "
+    "against finite differences (exit 1 when a check fails)",
+    _verify_args,
+)
+def _verify(args: argparse.Namespace) -> int:
+    from .verify.report import verify_model
+
+    model = load(args)
+    report = verify_model(model, samples=args.samples, seed=args.seed)
+    if args.json:
+        dump(report.to_dict())
+    else:
+        print(header(model))
+        print(report.text())
+    return 0 if report.passed else 1
+
+
 # ---------------------------------------------------------------------------- main
 
 
@@ -646,7 +734,7 @@ def _help_in_model_units(parser: argparse.ArgumentParser, argv: list[str]) -> No
     words = [a for a in argv if not a.startswith("-")]
     if len(words) < 2 or words[0] not in COMMANDS:
         return
-    from .model.model import load_model
+    from .robot import load_model
 
     try:
         model = load_model(words[1])

@@ -7,6 +7,7 @@ programmatically, and its message is one line that names the cause.
 from __future__ import annotations
 
 from collections.abc import Iterable
+from os import PathLike
 
 
 class ScdkError(Exception):
@@ -157,7 +158,7 @@ class OutputError(ScdkError):
         path: the file or folder that was asked for.
     """
 
-    def __init__(self, message: str, path: str) -> None:
+    def __init__(self, message: str, path: str | PathLike[str]) -> None:
         self.path = str(path)
         super().__init__(f"{self.path}: {message}")
 
@@ -173,3 +174,8 @@ class HomotopyError(SolveError):
 class AlgebraicFormError(ModelError):
     """A model's closure system has no polynomial (algebraic) form, or a point cannot be mapped
     between the model's coordinates and the form's unknowns."""
+
+
+class ViewError(ScdkError):
+    """The 3-D viewer could not show or write a scene (viser missing, nothing to show, an
+    unwritable page, a port in use)."""

@@ -15,14 +15,16 @@ its Agg canvas, so it never changes the caller's backend.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .errors import InputError, PlotError
-from .model.chart import rot_exp
-from .model.model import Model, as_vector
+from .model.rotations import rot_exp
 from .results import Configuration, SolveResult, TrackResult
+from .robot import Model, as_vector
 
 #: Colours of the two branches (convergent, divergent) and of the singular configuration.
 COLORS = {"convergent": "tab:blue", "divergent": "tab:orange", "singular": "tab:red"}
@@ -74,8 +76,17 @@ def _save(fig, path: str | Path) -> Path:
 # ---------------------------------------------------------------------------- geometry
 
 
-def _placements(model: Model, cfg: Configuration) -> tuple[dict, dict]:
-    """World placements (4x4) of every link and of every joint frame (before its motion)."""
+def placements(model: Model, cfg: Configuration) -> tuple[dict, dict]:
+    """World placements of every link and of every joint frame (before its motion).
+
+    Args:
+        model: the model.
+        cfg: a configuration (its ``joints`` give every joint value).
+
+    Returns:
+        (links, frames): link name -> (4, 4) placement in the base frame, joint name ->
+        (4, 4) placement of the joint frame [model length unit].
+    """
     values = dict(cfg.joints)
     links: dict[str, np.ndarray] = {model.tree.root: np.eye(4)}
     frames: dict[str, np.ndarray] = {}
@@ -95,7 +106,7 @@ def _placements(model: Model, cfg: Configuration) -> tuple[dict, dict]:
     return links, frames
 
 
-def _rigid_groups(model: Model) -> dict[str, int]:
+def rigid_groups(model: Model) -> dict[str, int]:
     """Link -> index of its rigid body (links joined by fixed joints)."""
     parent = {link: link for link in model.tree.links}
 
@@ -112,6 +123,31 @@ def _rigid_groups(model: Model) -> dict[str, int]:
     return {link: roots.index(find(link)) for link in model.tree.links}
 
 
+@dataclass(frozen=True)
+class RobotDrawing:
+    """The robot of one configuration as flat bodies and segments, in the base frame.
+
+    Attributes:
+        polygons: (N, d) outlines of the rigid bodies with three or more points that span an
+            area, the base first (empty (0, d) when the base is no such body) [model length
+            unit].
+        polygon_links: a link of each polygon's body ('' for an empty base).
+        segments: (2, d) links drawn as a segment from where they are driven to where they
+            drive (legs, arms, rods).
+        segment_links: the link each segment belongs to.
+        closures: (2, d) each loop closure's two frame origins (A, B): a distance closure's
+            segment (a leg of fixed or actuated length), a point for the other types.
+        closure_types: the type of each closure ("3d", "2d", "6d", "distance").
+    """
+
+    polygons: tuple[np.ndarray, ...]
+    polygon_links: tuple[str, ...]
+    segments: tuple[np.ndarray, ...]
+    segment_links: tuple[str, ...]
+    closures: tuple[np.ndarray, ...]
+    closure_types: tuple[str, ...]
+
+
 def robot_drawing(model: Model, cfg: Configuration) -> tuple[list, list]:
     """Polygons (rigid bodies with three or more points) and segments of a configuration.
 
@@ -119,23 +155,52 @@ def robot_drawing(model: Model, cfg: Configuration) -> tuple[list, list]:
         (polygons, segments): lists of (N, 2) and (2, 2) arrays of x-y points in the base
         frame [model length unit]; the first polygon is the base (empty if it is not one).
     """
-    links, frames = _placements(model, cfg)
-    group = _rigid_groups(model)
+    d = _drawing(model, cfg, 2)
+    segments = list(d.segments)
+    segments += [c for c, t in zip(d.closures, d.closure_types, strict=True) if t == "distance"]
+    return list(d.polygons), segments
+
+
+def robot_drawing_3d(model: Model, cfg: Configuration) -> RobotDrawing:
+    """The robot of a configuration in 3-D: bodies outlined in their own plane, segments.
+
+    A body whose points are not coplanar is outlined by the hull of their projection on the
+    best-fitting plane.
+
+    Args:
+        model: the model.
+        cfg: the configuration.
+
+    Returns:
+        The drawing, every array with 3 columns (x, y, z) [model length unit].
+    """
+    return _drawing(model, cfg, 3)
+
+
+def _drawing(model: Model, cfg: Configuration, dims: int) -> RobotDrawing:
+    """The drawing in the x-y plane (``dims`` 2) or in space (``dims`` 3)."""
+    links, frames = placements(model, cfg)
+    group = rigid_groups(model)
     points: dict[int, list[np.ndarray]] = {}
+    members: dict[int, str] = {}
     for link, T in links.items():
         points.setdefault(group[link], []).append(T[:3, 3])
+        members.setdefault(group[link], link)
     for j in model.tree.joints:  # joint frames belong to the body of their parent link
         points[group[j.parent]].append(frames[j.name][:3, 3])
-    polygons, big = [], set()
+    polygons, polygon_links, big = [], [], set()
     base = group[model.tree.root]
+    tol = 1e-9 * max(1.0, model.length_scale) ** 2
     for g in sorted(points, key=lambda g: (g != base, g)):  # the base first
-        P = np.unique(np.round(np.array(points[g])[:, :2], 12), axis=0)
-        if len(P) >= 3 and _area(P) > 1e-9 * max(1.0, model.length_scale) ** 2:
-            polygons.append(_hull(P))
+        outline = _outline(np.array(points[g]), dims, tol)
+        if outline is not None:
+            polygons.append(outline)
+            polygon_links.append(members[g])
             big.add(g)
     if base not in big:
-        polygons.insert(0, np.zeros((0, 2)))
-    segments = []
+        polygons.insert(0, np.zeros((0, dims)))
+        polygon_links.insert(0, "")
+    segments, segment_links = [], []
     entry = {j.child: j for j in model.tree.joints}
     scale = 1e-12 * max(1.0, model.length_scale)
     for j in model.tree.joints:
@@ -147,11 +212,37 @@ def robot_drawing(model: Model, cfg: Configuration) -> tuple[list, list]:
         a = frames[into.name][:3, 3]
         b = links[j.child][:3, 3] if j.type == "fixed" else frames[j.name][:3, 3]
         if np.linalg.norm(a - b) > scale:
-            segments.append(np.array([a[:2], b[:2]]))
-    for c in model.closures:
-        if c.type == "distance":
-            segments.append(np.array([links[c.frame_a][:2, 3], links[c.frame_b][:2, 3]]))
-    return polygons, segments
+            segments.append(np.array([a[:dims], b[:dims]]))
+            segment_links.append(j.parent)
+    closures = tuple(
+        np.array([links[c.frame_a][:dims, 3], links[c.frame_b][:dims, 3]]) for c in model.closures
+    )
+    return RobotDrawing(
+        tuple(polygons),
+        tuple(polygon_links),
+        tuple(segments),
+        tuple(segment_links),
+        closures,
+        tuple(c.type for c in model.closures),
+    )
+
+
+def _outline(P: np.ndarray, dims: int, tol: float) -> np.ndarray | None:
+    """The hull of a body's points (x-y or in their best plane), ``None`` below area ``tol``."""
+    if dims == 2:
+        Q = np.unique(np.round(P[:, :2], 12), axis=0)
+        if len(Q) >= 3 and _area(Q) > tol:
+            return _hull(Q)
+        return None
+    Q = np.unique(np.round(P, 12), axis=0)
+    if len(Q) < 3:
+        return None
+    centre = Q.mean(axis=0)
+    _, _, Vt = np.linalg.svd(Q - centre)
+    flat = np.unique(np.round((Q - centre) @ Vt[:2].T, 12), axis=0)
+    if len(flat) < 3 or _area(flat) <= tol:
+        return None
+    return centre + _hull(flat) @ Vt[:2]
 
 
 def _area(P: np.ndarray) -> float:
@@ -190,7 +281,10 @@ def plot_configurations(
     path: str | Path,
     title: str | None = None,
 ) -> Path:
-    """Draw configurations of the robot in the base x-y plane (the paper's Fig. 4).
+    """Draw configurations of the robot (the paper's Fig. 4) and write the PNG.
+
+    Planar robots are drawn in the base x-y plane, spatial ones (e.g. a 6-6 platform) in 3-D
+    (see :func:`configurations_figure`).
 
     Args:
         model: the model.
@@ -201,9 +295,52 @@ def plot_configurations(
     Returns:
         The path written.
     """
+    return _save(configurations_figure(model, configurations, title), path)
+
+
+def is_spatial(model: Model, configurations: Sequence[Configuration]) -> bool:
+    """Whether the drawn robot leaves a plane ``z = const`` in any of the configurations.
+
+    Args:
+        model: the model.
+        configurations: the configurations to draw.
+
+    Returns:
+        True when the points of :func:`robot_drawing_3d` (bodies, segments, closures) spread
+        along z by more than ``1e-9`` of the model's size [model length unit].
+    """
+    z: list[np.ndarray] = []
+    for cfg in configurations:
+        d = robot_drawing_3d(model, cfg)
+        z += [P[:, 2] for P in (*d.polygons, *d.segments, *d.closures)]
+    heights = np.concatenate(z) if z else np.zeros(1)
+    return float(np.ptp(heights)) > 1e-9 * max(1.0, model.length_scale)
+
+
+def configurations_figure(
+    model: Model,
+    configurations: Sequence[tuple[str, Configuration, str]],
+    title: str | None = None,
+):
+    """The figure of :func:`plot_configurations` (a matplotlib ``Figure`` on an Agg canvas).
+
+    Planar robots: one 2-D axes in the base x-y plane. Spatial robots
+    (:func:`is_spatial`): one 3-D axes with the base, each rigid body outlined and filled,
+    and every segment (legs, arms, distance closures) as a line from end to end.
+
+    Args:
+        model: the model.
+        configurations: (label, configuration, colour) triples, drawn in order.
+        title: figure title (default: the model name).
+
+    Raises:
+        PlotError: no configuration, or matplotlib is missing.
+    """
     if not configurations:
         raise PlotError("no configuration to draw")
     require_matplotlib()
+    if is_spatial(model, [cfg for _, cfg, _ in configurations]):
+        return _configurations_3d(model, configurations, title)
     from matplotlib.lines import Line2D
     from matplotlib.patches import Polygon
 
@@ -223,7 +360,7 @@ def plot_configurations(
         for S in segments:
             ax.plot(S[:, 0], S[:, 1], style, color=color, linewidth=1.6, marker="o",
                     markersize=3)  # fmt: skip
-        handles.append(Line2D([], [], color=color, linestyle=style, label=label))
+        handles.append(Line2D([], [], color=color, linestyle=style, label=label))  # type: ignore[arg-type]
     ax.set_aspect("equal", adjustable="datalim")
     ax.autoscale_view()
     ax.grid(True, alpha=0.3)
@@ -232,7 +369,70 @@ def plot_configurations(
     ax.set_title(title or f"{model.name}: configurations")
     ax.legend(handles=handles, loc="best", fontsize="small")
     fig.tight_layout()
-    return _save(fig, path)
+    return fig
+
+
+def _configurations_3d(model, configurations, title):
+    """The 3-D figure of :func:`configurations_figure`."""
+    from matplotlib.lines import Line2D
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    fig = _figure(6.5, 6.0)
+    ax = fig.add_subplot(1, 1, 1, projection="3d")
+    handles, seen = [], []
+    for n, (label, cfg, color) in enumerate(configurations):
+        drawing = robot_drawing_3d(model, cfg)
+        style = "--" if label.startswith("start") else "-"
+        base, polygons = drawing.polygons[0], drawing.polygons[1:]
+        if n == 0 and len(base):  # the base does not move: drawn once
+            ax.add_collection3d(Poly3DCollection([base], facecolor="0.85", edgecolor="black",
+                                                 linewidth=1.2, alpha=0.6))  # fmt: skip
+            seen.append(base)
+        for P in polygons:
+            face = Poly3DCollection([P], facecolor=color, edgecolor=color, linestyle=style,
+                                    linewidth=1.4, alpha=0.25)  # fmt: skip
+            ax.add_collection3d(face)
+            seen.append(P)
+        legs = [c for c, t in zip(drawing.closures, drawing.closure_types, strict=True)
+                if t == "distance"]  # fmt: skip
+        for S in (*drawing.segments, *legs):
+            ax.plot(S[:, 0], S[:, 1], S[:, 2], style, color=color, linewidth=1.6, marker="o",
+                    markersize=3)  # fmt: skip
+            seen.append(S)
+        handles.append(Line2D([], [], color=color, linestyle=style, label=label))  # type: ignore[arg-type]
+    P = np.vstack(seen) if seen else np.zeros((1, 3))
+    lo, hi = P.min(axis=0), P.max(axis=0)
+    half = 0.5 * max(float(np.max(hi - lo)), 1e-9 * max(1.0, model.length_scale))
+    mid = 0.5 * (lo + hi)
+    ax.set_xlim(mid[0] - half, mid[0] + half)  # equal scales on the three axes
+    ax.set_ylim(mid[1] - half, mid[1] + half)
+    ax.set_zlim(mid[2] - half, mid[2] + half)
+    ax.set_box_aspect((1.0, 1.0, 1.0))
+    ax.set_xlabel("x")
+    ax.set_ylabel("y")
+    ax.set_zlabel("z")
+    ax.set_title(title or f"{model.name}: configurations")
+    ax.legend(handles=handles, loc="upper left", fontsize="small")
+    fig.tight_layout()
+    return fig
+
+
+def first_hit(s: np.ndarray) -> tuple[int, float] | None:
+    """The first crossing of ``s = 1`` along a sampled path (the solution of a solve).
+
+    Args:
+        s: (N,) path parameter at the samples.
+
+    Returns:
+        ``(i, a)``: ``s = 1`` at the fraction ``a`` in [0, 1] of the way from sample ``i`` to
+        sample ``i + 1`` (linear interpolation), or ``None`` when the path never meets it.
+    """
+    d = np.asarray(s, dtype=float) - 1.0
+    idx = np.nonzero((d[:-1] * d[1:] <= 0) & (d[:-1] != d[1:]))[0]
+    if not idx.size:
+        return None
+    i = int(idx[0])
+    return i, float(d[i] / (d[i] - d[i + 1]))
 
 
 def _branch_curves(results: Sequence[SolveResult]):
@@ -243,12 +443,12 @@ def _branch_curves(results: Sequence[SolveResult]):
     out = []
     for r in curves:
         p = r.path
+        if p is None:
+            continue
         s, det, sdot = (np.asarray(a, dtype=float) for a in (p.s, p.det_jp, p.sdot))
-        d = s - 1.0
-        idx = np.nonzero((d[:-1] * d[1:] <= 0) & (d[:-1] != d[1:]))[0]
-        if idx.size:  # the solution: the first crossing of s = 1 along the path
-            i = int(idx[0])
-            a = d[i] / (d[i] - d[i + 1])
+        hit = first_hit(s)
+        if hit is not None:  # the solution: the first crossing of s = 1 along the path
+            i, a = hit
             s = np.append(s[: i + 1], 1.0)
             det = np.append(det[: i + 1], det[i] + a * (det[i + 1] - det[i]))
             sdot = np.append(sdot[: i + 1], sdot[i] + a * (sdot[i + 1] - sdot[i]))
@@ -313,7 +513,7 @@ def plot_phase(results: Sequence[SolveResult], path: str | Path, title: str | No
 
 def plot_solve(
     model: Model,
-    theta0: Sequence[float],
+    theta0: ArrayLike,
     start: Configuration | None = None,
     out_dir: str | Path = ".",
     prefix: str | None = None,
@@ -420,5 +620,12 @@ __all__ = [
     "plot_phase",
     "plot_solve",
     "plot_track",
+    "RobotDrawing",
+    "configurations_figure",
+    "first_hit",
+    "is_spatial",
+    "placements",
+    "rigid_groups",
     "robot_drawing",
+    "robot_drawing_3d",
 ]

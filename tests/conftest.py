@@ -4,6 +4,9 @@ From the start of the session (before any test module is imported), ``SCDK_CACHE
 ``XDG_CACHE_HOME``) point at one temporary folder of this run: every test, and every ``scdk``
 process a test starts, reuses the kernels compiled earlier in the run, and nothing is written
 to the user's cache (``~/.cache/scdk_sym``). The folder is removed at the end of the run.
+
+Tests marked ``@pytest.mark.slow`` (minutes each) run only with ``SCDK_SLOW=1``, the suite's
+one switch for them.
 """
 
 from __future__ import annotations
@@ -19,7 +22,12 @@ _SAVED: dict[str, str | None] = {}
 _FOLDER: list[Path] = []
 
 
+#: Environment variable that turns on the tests marked ``slow``.
+SLOW_SWITCH = "SCDK_SLOW"
+
+
 def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line("markers", f"slow: runs only with {SLOW_SWITCH}=1 (minutes)")
     folder = Path(tempfile.mkdtemp(prefix="scdk_test_cache_"))
     _FOLDER.append(folder)
     for name, value in (
@@ -28,6 +36,15 @@ def pytest_configure(config: pytest.Config) -> None:
     ):
         _SAVED[name] = os.environ.get(name)
         os.environ[name] = str(value)
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    if os.environ.get(SLOW_SWITCH) == "1":
+        return
+    skip = pytest.mark.skip(reason=f"slow: set {SLOW_SWITCH}=1 to run it")
+    for item in items:
+        if "slow" in item.keywords:
+            item.add_marker(skip)
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:

@@ -1139,6 +1139,11 @@ def warm_up(name: str, backend: str) -> None:
             sc.track(model, np.array([theta, step]), backend=backend)
         else:
             sc.solve(model, step, backend=backend, record_path=False)
+            # the follower's own kernels (fold location, nearest singular point, detours)
+            # are built on first use, which a plain convergent solve may not reach
+            from scdk_sym.follower.kernels import follower_kernels
+
+            follower_kernels(model, backend)
     except sc.ScdkError:
         pass
 

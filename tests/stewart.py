@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scdk_sym.model.urdf import rpy_matrix  # checked against first principles in test_urdf
+from scdk_sym.model.rotations import rpy_matrix  # checked against first principles in test_urdf
 
 
 def anchors(model_dir: Path) -> tuple[np.ndarray, np.ndarray]:

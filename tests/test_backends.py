@@ -74,8 +74,8 @@ def test_every_entry_point_refuses_an_unknown_name_listing_its_names(function):
 
 
 def test_entry_points_refuse_names_of_other_functions():
-    with pytest.raises(InputError, match="'c' is not offered by solve; backends: auto, compiled"):
-        sc.solve(shipped("planar_hexa"), SEED_THETA0, backend="c")
+    with pytest.raises(InputError, match="'c' is not offered by modes; backends: auto, compiled"):
+        sc.assembly_modes(shipped("planar_3rpr"), [0.4, 0.5, 0.4], backend="c")
     with pytest.raises(InputError, match="'compiled' is not offered by track; backends: auto, c"):
         sc.track(shipped("planar_hexa"), [SEED_THETA0], backend="compiled")
     with pytest.raises(InputError, match="'c' is not offered by kernels"):

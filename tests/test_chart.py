@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 
 import scdk_sym as sc
-from scdk_sym.model.chart import Chart, cayley, rot_exp, rot_log
+from scdk_sym.model.chart import Chart
+from scdk_sym.model.rotations import cayley, rot_exp, rot_log
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 
@@ -181,3 +182,33 @@ def test_crossings_are_singularities_of_the_mechanism() -> None:
         assert ratio < 1e-6, ratio
     # and the solution itself is regular
     assert min_sv_ratio(line_jacobian(m, np.array(res.platform_pose))) > 1e-3
+
+
+def test_symbolic_recentring_matches_axis_angle() -> None:
+    """``Chart.recentred`` (CasADi, used inside compiled kernels): the new reference rotation
+    is ``R_ref`` times the rotation of angle ``2 atan |rho|`` about ``rho`` (Rodrigues'
+    formula here), the rotation parameters become 0 and the other unknowns stay."""
+    import casadi as ca
+
+    chart = Chart(((1, 2, 3), (5, 6, 7)))
+    y, c = ca.SX.sym("y", 9), ca.SX.sym("c", 18)
+    f = ca.Function("recentred", [y, c], list(chart.recentred(y, c)))
+    rng = np.random.default_rng(5)
+    for _ in range(5):
+        yv = rng.uniform(-1.5, 1.5, 9)
+        refs = [rodrigues(*unit_and_norm(rng.normal(size=3))) for _ in range(2)]
+        cv = np.concatenate([R.flatten(order="F") for R in refs])
+        y0, c0 = (np.array(o).ravel() for o in f(yv, cv))
+        for b, idx in enumerate(chart.rotations):
+            rho = yv[list(idx)]
+            axis, size = unit_and_norm(rho)
+            expect = refs[b] @ rodrigues(axis, 2 * math.atan(size))
+            np.testing.assert_allclose(c0[9 * b : 9 * b + 9], expect.flatten(order="F"),
+                                       rtol=0, atol=1e-14)  # fmt: skip
+            np.testing.assert_array_equal(y0[list(idx)], 0.0)
+        np.testing.assert_array_equal(y0[[0, 4, 8]], yv[[0, 4, 8]])
+
+
+def unit_and_norm(v: np.ndarray) -> tuple[np.ndarray, float]:
+    n = float(np.linalg.norm(v))
+    return v / n, n

@@ -4,8 +4,9 @@ from dataclasses import fields
 
 import numpy as np
 import pytest
-from factories import hexapod, needs_compiler, shipped
+from factories import MODELS, hexapod, needs_compiler, shipped
 
+import scdk_sym as sc
 from scdk_sym.errors import BuildError
 from scdk_sym.kernels import compile as comp
 from scdk_sym.kernels.cache import cache_dir
@@ -39,3 +40,20 @@ def test_missing_compiler_is_a_build_error(monkeypatch):
     monkeypatch.setattr(comp.shutil, "which", lambda name: None)
     with pytest.raises(BuildError, match="no C compiler found"):
         comp.compiler()
+
+
+def test_first_compilation_is_announced_once_and_split_sources_compile(
+    tmp_path, monkeypatch, capsys
+):
+    """A first compiled use prints one stderr line; the split library equals the SX kernels."""
+    monkeypatch.setenv("SCDK_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(comp, "_announced", set())
+    model = shipped("planar_3rpr")
+    c_k = comp.compiled_kernels(model)
+    comp.compiled_kernels(sc.load_model(MODELS / "planar_3rpr"))  # cached on disk: silent
+    assert capsys.readouterr().err == f"compiling kernels for {model.name}...\n"
+    assert len(list(tmp_path.glob("kernels_*.so"))) == 1
+    rng = np.random.default_rng(5)
+    args = [rng.normal(scale=0.3, size=model.kernels.g.size_in(i)) for i in range(3)]
+    expected = np.array(model.kernels.g(*args))
+    np.testing.assert_allclose(np.array(c_k.g(*args)), expected, rtol=1e-12, atol=1e-12)

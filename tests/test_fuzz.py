@@ -24,6 +24,8 @@ from references import (
     NAMES,
     SHIPPED,
     Report,
+    Scenario,
+    classify,
     draw_scenarios,
     draw_tracks,
     load,
@@ -174,3 +176,77 @@ def test_fuzz_tracks(name: str) -> None:
     for o in outs:
         if o.status == "ok":
             assert o.error <= 1e-6
+
+
+#: Divergent solves the fuzz found refused although another solution exists (seed 0 of
+#: ``benchmarks/fuzz.py``): every real solution at theta0 is the last resort across the
+#: nearest singular configuration. (model, kind, theta0, start (y, theta) or None for home)
+DIVERGENT_CASES = [
+    (
+        "delta",
+        "small",
+        [-2.632679869281611, 0.8275108415395422, -2.6338651925552514],
+        (
+            [-0.0238068624828572, -0.030714384383159727, -0.1721685468766239],
+            [-2.6091793552119493, 0.8023856054325447, -2.6118671371494524],
+        ),
+    ),
+    (
+        "delta",
+        "near_singular",
+        [0.45782286591233934, -2.6454653553058924, -2.646595330260529],
+        (
+            [0.03524635754189256, -0.035025176540101566, -0.15222094091098515],
+            [0.04334907189640669, -2.4107961124369317, -2.4505840264832925],
+        ),
+    ),
+    (
+        "five_bar",
+        "small",
+        [2.288573879981142, 2.9246592203239525],
+        (
+            [-0.015190455969631594, 0.28425440946743724],
+            [2.266923806743033, 2.9037353575881824],
+        ),
+    ),
+    ("5bar_linkage_iso3d", "near_singular", [2.352439619767056, 0.6010503765557498], None),
+]
+
+
+@pytest.mark.parametrize(("name", "kind", "theta0", "start"), DIVERGENT_CASES)
+def test_divergent_cases_found_refused_by_the_fuzz(name: str, kind: str, theta0, start) -> None:
+    import scdk_sym as sc
+    from scdk_sym.errors import PathError
+
+    ref, model = reference(name), load(name)
+    yt = None if start is None else (np.array(start[0]), np.array(start[1]))
+    cfg = model.home if yt is None else model.configuration(*yt)
+    # target: only compared to tell the generating solution; the start's coordinates here
+    scen = Scenario(name, kind, np.array(theta0), ref.coords(cfg), start_yt=yt)
+    res = sc.solve(model, scen.theta0, start=None if yt is None else cfg, branch="divergent")
+    out = classify(ref, scen, cfg, res)
+    assert out.status == "ok", out.detail
+    assert out.residual <= 1e-7
+    assert len(res.crossings) >= 1
+    try:
+        conv = sc.solve(model, scen.theta0, start=None if yt is None else cfg)
+    except PathError:  # the straight path from the start closes on itself (iso3d)
+        return
+    assert ref.distance(ref.coords(res), ref.coords(conv)) > 1e-6
+
+
+def test_convergent_next_to_a_fold_at_s_1_keeps_the_incoming_sheet() -> None:
+    """The seed robot from home to a theta0 2e-5 rad from the singular surface (a case the
+    fuzz found answered with the mirror solution and no crossing): the curve folds at
+    s = 1 - 1e-8, the two solutions at theta0 are 7e-5 apart; the answer must be the one with
+    the start's det sign (reference: finite-difference det of the closed-form closure)."""
+    import scdk_sym as sc
+
+    ref, model = reference("planar_hexa"), load("planar_hexa")
+    theta0 = np.array([1.1500828787946733, -0.882904667438344, -3.051203418182742])
+    res = sc.solve(model, theta0)
+    scen = Scenario("planar_hexa", "across", theta0, ref.coords(model.home))
+    out = classify(ref, scen, model.home, res)
+    assert out.status == "ok", out.detail
+    assert out.parity == "agree"
+    assert ref.det_sign(ref.coords(res), theta0) == ref.det_sign(ref.home_x, model.home.theta)

@@ -3,14 +3,12 @@
 References are independent of the engine: Bezout counts, numpy.roots of a univariate
 elimination, a random-start real Newton on the quadrics, and for the 6-6 platform the
 random-start Levenberg-Marquardt of tests/stewart.py. The full 6-6 monodromy from one random
-point (minutes in numpy) runs with ``SCDK_SLOW_TESTS=1``; the default suite obtains the 6-6
+point (minutes in numpy) runs with ``SCDK_SLOW=1``; the default suite obtains the 6-6
 start system by tracking Dietmaier's 40 real postures to a random complex parameter point and
 certifies it with the trace test.
 """
 
 from __future__ import annotations
-
-import os
 
 import numpy as np
 import pytest
@@ -35,8 +33,6 @@ from scdk_sym.algebraic import (
 from scdk_sym.algebraic.homotopy import ParameterHomotopy, track_parameter_homotopy
 from scdk_sym.algebraic.tracker import DONE, STEP_LIMIT, TrackerOptions, track
 from scdk_sym.errors import HomotopyError, InputError, ScdkError
-
-SLOW = os.environ.get("SCDK_SLOW_TESTS") == "1"
 
 
 def _residual(system, z, p):
@@ -128,6 +124,32 @@ def test_trace_test_rejects_incomplete_sets(quadrics):
     rng = np.random.default_rng(11)
     for keep in (7, 4, 1):
         assert trace_test(system, start.solutions[:keep], start.p, start.b, rng) > 1e-4
+
+
+def test_monodromy_stops_when_its_test_passes_and_says_why_it_failed():
+    system = Quadrics(3, seed=3)
+    rng = np.random.default_rng(11)
+    residuals: list[float] = []
+
+    def counted(sols, p, b):
+        residuals.append(trace_test(system, sols, p, b, rng))
+        return residuals[-1]
+
+    start = monodromy_solve(system, seed=0, progress=False, max_loops=40, test=counted)
+    # the first stable count is the Bezout number 2^3: one test, passed, no further loop
+    assert start.root_count == 8 and start.trace_passed and start.reason == ""
+    assert len(residuals) == 1 and residuals[0] < 1e-8 and start.trace_residual == residuals[0]
+    assert start.loops < 40
+
+    def short(sols, p, b):  # the trace of the set without its first point
+        residuals.append(trace_test(system, sols[1:], p, b, rng))
+        return residuals[-1]
+
+    residuals.clear()
+    failed = monodromy_solve(system, seed=0, progress=False, max_loops=12, test=short)
+    assert failed.loops == 12 and not failed.trace_passed and len(residuals) >= 1
+    assert min(residuals) > 1e-4
+    assert failed.reason.startswith("trace test failed") and "12 monodromy loops" in failed.reason
 
 
 def test_quadrics_real_solutions_match_random_start_newton(quadrics):
@@ -295,7 +317,7 @@ def test_random_platform_real_postures_match_reference(family_start, seed):
     assert _poses_match(system, res.real_solutions, ref, 1e-8)
 
 
-@pytest.mark.skipif(not SLOW, reason="full 6-6 monodromy takes minutes in numpy")
+@pytest.mark.slow  # full 6-6 monodromy: minutes in numpy
 def test_stewart_monodromy_from_one_point_finds_40():
     system = StewartGough(DIETMAIER_BASE, DIETMAIER_PLATFORM)
     start = monodromy_solve(system, seed=0, progress=False)
@@ -346,3 +368,21 @@ def test_rotation_numerator_is_rotation_times_norm():
     back = quaternions(R)
     back *= np.sign(np.sum(back * q, axis=1))[:, None]
     assert np.allclose(back, q / np.linalg.norm(q, axis=1)[:, None], atol=1e-12)
+
+
+def test_dedup_keeps_the_first_of_each_cluster():
+    """Clusters of near-copies (1e-10 apart, relative) of rows of very different sizes: one
+    row per cluster, the first one, sorted lexicographically; a NaN row matches nothing."""
+    from scdk_sym.algebraic.homotopy import dedup
+
+    rng = np.random.default_rng(7)
+    centres = rng.normal(size=(6, 4)) * np.array([1e-3, 1.0, 1e3, 1.0])
+    labels = rng.integers(0, 6, size=40)
+    x = centres[labels] * (1 + 1e-10 * rng.normal(size=(40, 4)))
+    x = np.vstack([x, np.full((1, 4), np.nan)])
+    out = dedup(x, 1e-8)
+    firsts = [int(np.flatnonzero(labels == c)[0]) for c in np.unique(labels)]
+    expected = x[firsts]
+    expected = np.vstack([expected[np.lexsort(expected.T[::-1])], x[-1:]])  # NaN sorts last
+    assert out.shape == (len(firsts) + 1, 4)
+    np.testing.assert_array_equal(out, expected)

@@ -1,8 +1,11 @@
-"""The test session itself: a private kernel cache, compile tests skipped without a compiler."""
+"""The test session itself: a private kernel cache, compile tests skipped without a compiler,
+and the package clean for mypy and ruff (skipped only when the tool is not installed)."""
 
 from __future__ import annotations
 
+import importlib.util
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -64,3 +67,31 @@ def test_compile_tests_skip_when_cc_is_missing(tmp_path):
     assert proc.returncode == 0, proc.stdout[-2000:]
     assert "failed" not in proc.stdout and "passed" not in proc.stdout
     assert "SKIPPED" in proc.stdout and "/nonexistent/cc" in proc.stdout
+
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _tool(name: str) -> list[str]:
+    """The command running ``name`` from this environment, or a skip when it is missing."""
+    if importlib.util.find_spec(name) is not None:
+        return [sys.executable, "-m", name]
+    found = shutil.which(name)
+    if found is None:
+        pytest.skip(f"{name} is not installed: pip install '.[test]'")
+    return [found]
+
+
+def test_mypy_is_clean():
+    # the configuration in pyproject.toml; its cache (.mypy_cache) keeps reruns to seconds
+    proc = subprocess.run([*_tool("mypy")], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]
+    assert "Success: no issues found" in proc.stdout
+
+
+@pytest.mark.parametrize("args", [["check", "."], ["format", "--check", "."]])
+def test_ruff_is_clean(args):
+    proc = subprocess.run(
+        [*_tool("ruff"), *args], cwd=ROOT, capture_output=True, text=True, timeout=300
+    )
+    assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]

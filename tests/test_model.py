@@ -1,4 +1,4 @@
-"""Model loading, validation, square reduction, inverse kinematics (scdk_sym.model.model)."""
+"""Model loading, validation, square reduction, inverse kinematics (scdk_sym.robot.model)."""
 
 import math
 import shutil

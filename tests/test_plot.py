@@ -6,7 +6,7 @@ import sys
 
 import numpy as np
 import pytest
-from factories import SEED_THETA0, SEED_X1, shipped
+from factories import MODELS, SEED_THETA0, SEED_X1, shipped
 
 import scdk_sym as sc
 from scdk_sym import plot
@@ -112,3 +112,72 @@ def test_plot_errors_are_package_errors(tmp_path, monkeypatch):
     with pytest.raises(plot.PlotError, match=r'pip install "scdk_sym\[plot\]"'):
         plot.plot_configurations(model, [("home", model.home, "gray")], tmp_path / "y.png")
     assert issubclass(plot.PlotError, sc.ScdkError)
+
+
+def _drawn_segments_3d(fig) -> list[np.ndarray]:
+    """Every straight line of the figure's single 3-D axes as a (2, 3) array of its ends."""
+    (ax,) = fig.axes
+    assert ax.name == "3d"
+    out = []
+    for line in ax.get_lines():
+        x, y, z = (np.asarray(v, dtype=float) for v in line.get_data_3d())
+        if len(x) == 2:
+            out.append(np.c_[x, y, z])
+    return out
+
+
+def _has_segment(drawn: list[np.ndarray], a: np.ndarray, b: np.ndarray, tol: float) -> bool:
+    return any(min(np.abs(S - [a, b]).max(), np.abs(S - [b, a]).max()) < tol for S in drawn)
+
+
+def test_spatial_configuration_is_drawn_in_3d_with_its_legs():
+    """The 6-6 hexapod's six legs join the base points to the platform points moved by the
+    configuration's platform_pose (computed here from the builder's inputs), in 3-D axes."""
+    from factories import hexapod
+
+    model = hexapod()
+    ang_b = np.radians([0, 120, 240]).repeat(2) + np.radians([-12, 12] * 3)
+    ang_p = np.roll(np.radians([60, 180, 300]).repeat(2) + np.radians([-20, 20] * 3), 1)
+    A = np.c_[0.5 * np.cos(ang_b), 0.5 * np.sin(ang_b), np.zeros(6)]  # as factories.hexapod
+    B = np.c_[0.3 * np.cos(ang_p), 0.3 * np.sin(ang_p), np.zeros(6)]
+    rng = np.random.default_rng(7)
+    x = np.array([0.0, 0.0, 0.6, 0.0, 0.0, 0.0]) + rng.uniform(-0.05, 0.05, 6)
+    cfg = model.inverse_kinematics(x)
+    T = np.asarray(cfg.platform_pose)
+    P = B @ T[:3, :3].T + T[:3, 3]
+    assert np.allclose(np.linalg.norm(P - A, axis=1), cfg.theta, atol=1e-9)  # the legs
+    fig = plot.configurations_figure(model, [("moved", cfg, "tab:blue")])
+    drawn = _drawn_segments_3d(fig)
+    for a, p in zip(A, P, strict=True):
+        assert _has_segment(drawn, a, p, 1e-9), (a, p)
+    # a leg through the wrong platform point (the pose ignored) is not drawn
+    assert not _has_segment(drawn, A[0], B[0] + [0.0, 0.0, 0.6], 1e-3)
+    # the base and the platform are outlined by those six corners each
+    outlines = plot.robot_drawing_3d(model, cfg).polygons
+    assert len(outlines) == 2
+    assert same_points(outlines[0], A, 1e-9) and same_points(outlines[1], P, 1e-9)
+    assert len(fig.axes[0].collections) == 2  # both filled
+
+
+def test_shipped_6_6_legs_end_at_the_urdf_anchor_points():
+    """models/stewart_gough: leg ends from the URDF text (anchor joint origins) and the pose."""
+    from references import read_urdf
+
+    model = shipped("stewart_gough")
+    joints = read_urdf(MODELS / "stewart_gough" / "robot.urdf")
+    A = np.array([joints[f"base_anchor_{i}_joint"].xyz for i in range(1, 7)])
+    B = np.array([joints[f"platform_anchor_{i}_joint"].xyz for i in range(1, 7)])
+    cfg = model.inverse_kinematics([0.02, -0.03, 0.58, 0.05, -0.04, 0.1])
+    T = np.asarray(cfg.platform_pose)
+    P = B @ T[:3, :3].T + T[:3, 3]
+    drawn = _drawn_segments_3d(plot.configurations_figure(model, [("c", cfg, "tab:orange")]))
+    assert sum(_has_segment(drawn, a, p, 1e-9) for a, p in zip(A, P, strict=True)) == 6
+    assert not _has_segment(drawn, A[0], P[1], 1e-3)
+
+
+@pytest.mark.parametrize("name", ["planar_hexa", "planar_3rpr", "five_bar"])
+def test_planar_configurations_stay_2d(name):
+    model = shipped(name)
+    assert not plot.is_spatial(model, [model.home])
+    fig = plot.configurations_figure(model, [("home", model.home, "tab:blue")])
+    assert [ax.name for ax in fig.axes] == ["rectilinear"]

@@ -124,7 +124,7 @@ def test_start_already_at_theta0_returns_it():
         ({"theta0": "abc"}, InputError, "must be 3 numbers"),
         ({"branch": "sideways"}, InputError, "unknown branch 'sideways'; branches: convergent"),
         ({"b": 0.0}, InputError, "non-zero"),
-        ({"backend": "gpu"}, InputError, "'gpu' is not offered by solve; backends: auto, compiled"),
+        ({"backend": "gpu"}, InputError, "'gpu' is not offered by solve; backends: auto, c, comp"),
         ({"start": "home"}, InputError, "start must be a Configuration"),
     ],
 )

@@ -14,7 +14,7 @@ from factories import hexapod, shipped
 
 import scdk_sym as sc
 from scdk_sym.errors import InputError, NotAssembledError
-from scdk_sym.model.chart import rot_exp
+from scdk_sym.model.rotations import rot_exp
 
 SINGULAR_PHI = 0.575360  # the paper's singular configuration of the seed robot (x = y = 0)
 

@@ -18,7 +18,7 @@ from stewart import fold_path
 
 from scdk_sym.codegen import library as clib
 from scdk_sym.errors import TrackError
-from scdk_sym.model.urdf import rpy_matrix
+from scdk_sym.model.rotations import rpy_matrix
 from scdk_sym.solvers import track as rule
 from scdk_sym.solvers.track import track
 

@@ -9,8 +9,7 @@ from stewart import fold_path
 import scdk_sym as sc
 from scdk_sym.codegen import library as clib
 from scdk_sym.errors import InputError
-from scdk_sym.model.chart import rot_log
-from scdk_sym.model.urdf import rpy_matrix
+from scdk_sym.model.rotations import rot_log, rpy_matrix
 from scdk_sym.solvers.sc import solve
 from scdk_sym.solvers.track_c import TrackError, track_c
 
@@ -163,13 +162,45 @@ def test_c_boundary_reports_nan_and_sizes(hexapod):
     assert lib.track(y0, c0, hexapod.home.theta, thetas[:3], opt).status == clib.ERR_OPTIONS
 
 
-def test_python_verification_catches_a_wrong_sample(hexapod, monkeypatch):
+def test_c_residuals_equal_the_casadi_residuals(hexapod):
+    """The residual function of the C call (``scdk_check``) equals model.residual (CasADi SX)
+    at seeded random points off the closure manifold, and the residuals a track returns are
+    those of its samples."""
+    import ctypes
+
+    lib = clib.tracker_library(hexapod)
+    check = lib._lib.scdk_check
+    check.restype = ctypes.c_int
+    dp = ctypes.POINTER(ctypes.c_double)
+    rng = np.random.default_rng(11)
+    y0, c0 = hexapod.chart.to_local(hexapod.home.y)
+    work = (ctypes.c_double * 4096)()
+    iw = (ctypes.c_longlong * 1024)()
+    for _ in range(20):
+        y = y0 + rng.normal(scale=0.02, size=hexapod.m)
+        theta = hexapod.home.theta + rng.normal(scale=0.02, size=hexapod.k)
+        r = ctypes.c_double(np.nan)
+        ins = [np.ascontiguousarray(a, dtype=float) for a in (y, theta, c0)]
+        args = (dp * 3)(*(a.ctypes.data_as(dp) for a in ins))
+        res = (dp * 1)(ctypes.cast(ctypes.pointer(r), dp))
+        assert check(args, res, iw, work, 0) == 0
+        ref = hexapod.residual(y, theta, c0)
+        assert ref > 1e-4  # off the manifold: a number worth comparing
+        assert r.value == pytest.approx(ref, rel=1e-12)
+    X = smooth_path(hexapod.home.x, 100)
+    thetas = leg_lengths(X)
+    out = lib.track(y0, c0, hexapod.home.theta, thetas)
+    ref = [hexapod.residual(y, th, c) for y, th, c in zip(out.y, thetas, out.c, strict=True)]
+    assert out.status >= 0 and np.all(out.residual <= 1e-14) and max(ref) <= 1e-14
+
+
+def test_a_sample_with_a_large_residual_is_refused(hexapod, monkeypatch):
     thetas = leg_lengths(smooth_path(hexapod.home.x, 12))
     real = clib.CTracker.track
 
     def corrupted(self, *args, **kwargs):
         out = real(self, *args, **kwargs)
-        out.y[7, 2] += 1e-6  # 1 um off: a wrong answer the C status does not show
+        out.residual[7] = 10 * hexapod.tolerance  # a residual over the tolerance
         return out
 
     monkeypatch.setattr(clib.CTracker, "track", corrupted)
@@ -267,14 +298,14 @@ def test_det_output_is_det_jp_where_the_jacobian_has_structural_zeros():
 
 def _legs(A, B, y):
     """Leg lengths of a 6-6 platform at y = (position, rotation vector) [m]."""
-    from scdk_sym.model.chart import rot_exp
+    from scdk_sym.model.rotations import rot_exp
 
     return np.linalg.norm(y[:3] + B @ rot_exp(y[3:]).T - A, axis=1)
 
 
 def _leg_jacobian_det(A, B, y):
     """det of the 6x6 platform Jacobian [u_i, (R b_i) x u_i] (u_i unit leg vectors)."""
-    from scdk_sym.model.chart import rot_exp
+    from scdk_sym.model.rotations import rot_exp
 
     Rb = B @ rot_exp(y[3:]).T
     d = y[:3] + Rb - A

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from scdk_sym.errors import ModelError
-from scdk_sym.model.urdf import parse_urdf, rpy_from_matrix, rpy_matrix, tree_to_urdf
+from scdk_sym.model.rotations import rpy_from_matrix, rpy_matrix
+from scdk_sym.model.urdf import parse_urdf, tree_to_urdf
 
 TWO_LINK = """<robot name="r">
   <link name="base"/><link name="a"/><link name="b"/>

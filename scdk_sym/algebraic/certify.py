@@ -40,12 +40,12 @@ from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from ..kernels.fastcall import Buffered
-from ..model.chart import rot_exp
+from ..model.rotations import gibbs, rot_exp
 from ..results import _frozen
 from .interval import FunctionCache, IntervalFunction, as_sx_function, interval_function
 
 if TYPE_CHECKING:
-    from ..model.model import Model
+    from ..robot import Model
 
 #: Boxes tried by :func:`krawczyk` before giving up.
 TRIES = 6
@@ -541,13 +541,6 @@ def certify_solution(
     return krawczyk(closure_function(model), y, np.concatenate([theta, c]), tries=tries)
 
 
-def _gibbs(R: np.ndarray) -> np.ndarray:
-    """Rodrigues (Gibbs) parameters ``tan(angle / 2) axis`` of a rotation (inverse Cayley)."""
-    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    with np.errstate(divide="ignore", invalid="ignore"):  # a half turn: inf, refused later
-        return w / (1.0 + float(np.trace(R)))
-
-
 def certify_configurations(
     model: Model,
     ys: ArrayLike,
@@ -588,7 +581,7 @@ def certify_configurations(
     for i, idx in enumerate(model.chart.rotations):
         ref = c[9 * i : 9 * i + 9].reshape(3, 3, order="F")
         for row in local:
-            row[list(idx)] = _gibbs(ref.T @ rot_exp(row[list(idx)]))
+            row[list(idx)] = gibbs(ref.T @ rot_exp(row[list(idx)]))
     far = np.flatnonzero(~np.all(np.abs(local) < 1e8, axis=1))
     if far.size:
         raise InputError(

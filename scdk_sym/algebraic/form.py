@@ -61,50 +61,20 @@ import numpy as np
 from ..backends import resolve
 from ..errors import AlgebraicFormError, InputError
 from ..kernels.fastcall import Buffered
-from ..model.chart import cayley, rot_exp
+from ..model.rotations import cayley, quaternion_matrix, quaternion_of, rot_exp
 from .pairs import complexify
 from .polynomial import PolynomialRows, polynomial_rows
 
 if TYPE_CHECKING:
-    from ..model.model import Model
+    from ..robot import Model
 
 #: Version of the algebraic form (part of :meth:`AlgebraicForm.content_hash`).
 FORM_VERSION = "1"
 _CACHE_ATTR = "_algebraic_forms"
+#: Scale of the imaginary parts of random complex angles (start points and angle parameters).
+ANGLE_IMAG = 0.1
 #: Batch sizes whose mapped Functions are kept per form.
 _MAPS_KEPT = 16
-
-
-def quaternion_of(R: np.ndarray) -> np.ndarray:
-    """(4,) unit quaternion (scalar first) of a rotation matrix (Shepperd's method)."""
-    t = np.trace(R)
-    cand = np.array([t, R[0, 0], R[1, 1], R[2, 2]])
-    i = int(np.argmax(cand))
-    if i == 0:
-        r = np.sqrt(1 + t)
-        q = [r, (R[2, 1] - R[1, 2]) / r, (R[0, 2] - R[2, 0]) / r, (R[1, 0] - R[0, 1]) / r]
-    elif i == 1:
-        r = np.sqrt(1 + 2 * R[0, 0] - t)
-        q = [(R[2, 1] - R[1, 2]) / r, r, (R[0, 1] + R[1, 0]) / r, (R[0, 2] + R[2, 0]) / r]
-    elif i == 2:
-        r = np.sqrt(1 + 2 * R[1, 1] - t)
-        q = [(R[0, 2] - R[2, 0]) / r, (R[0, 1] + R[1, 0]) / r, r, (R[1, 2] + R[2, 1]) / r]
-    else:
-        r = np.sqrt(1 + 2 * R[2, 2] - t)
-        q = [(R[1, 0] - R[0, 1]) / r, (R[0, 2] + R[2, 0]) / r, (R[1, 2] + R[2, 1]) / r, r]
-    q = 0.5 * np.array(q)
-    return q / np.linalg.norm(q)
-
-
-def _quaternion_matrix(q: np.ndarray) -> np.ndarray:
-    a, b, c, d = q
-    return np.array(
-        [
-            [a * a + b * b - c * c - d * d, 2 * (b * c - a * d), 2 * (b * d + a * c)],
-            [2 * (b * c + a * d), a * a - b * b + c * c - d * d, 2 * (c * d - a * b)],
-            [2 * (b * d - a * c), 2 * (c * d + a * b), a * a - b * b - c * c + d * d],
-        ]
-    )
 
 
 def _complex(re: np.ndarray, im: np.ndarray) -> np.ndarray:
@@ -130,7 +100,7 @@ class AlgebraicForm:
     ``scdk_sym.algebraic.system.PolynomialSystem`` (see the module docstring).
 
     Attributes:
-        model: the model (:class:`~scdk_sym.model.model.Model`).
+        model: the model (:class:`~scdk_sym.robot.Model`).
         backend: ``"cvodes"`` (SX) or ``"compiled"`` (see :mod:`scdk_sym.backends`).
         n: number of complex unknowns ``z`` (= number of rows).
         n_params: number of complex parameters ``p`` (= ``model.k``).
@@ -204,10 +174,16 @@ class AlgebraicForm:
         """A random complex ``z`` (n,) on which every structural row vanishes, and a random
         complex parameter point ``p`` (n_params,).
 
-        Angles: ``(cos t, sin t)`` of a complex ``t``; quaternions: a complex normal ``q``
-        scaled onto the chart (``a . q = 1``), ``w = 1 / (q . q)``; lengths and translations:
-        complex normals times the model's size; ``p``: the home actuator values plus a
-        complex normal (times the model's size for lengths).
+        Angles: ``(cos t, sin t)`` of a complex ``t`` with an imaginary part of the order of
+        :data:`ANGLE_IMAG`; quaternions: a complex normal ``q`` scaled onto the chart
+        (``a . q = 1``), ``w = 1 / (q . q)``; lengths and translations: complex normals times
+        the model's size; ``p``: the home actuator values plus a complex normal (times the
+        model's size for lengths, times :data:`ANGLE_IMAG` for angles).
+
+        The imaginary parts of angles add up along a chain of joints and a rotation grows
+        like ``exp`` of their sum: with imaginary parts of order one, a model with long
+        chains (several loops in series) gets a base fibre whose points are hundreds of
+        times the model's scale, where Newton stagnates above the tracker's tolerances.
         """
         scale = float(self.model.length_scale) or 1.0
         z = np.zeros(self.n, dtype=complex)
@@ -217,7 +193,7 @@ class AlgebraicForm:
 
         for s in self.rows.slots:
             if s.kind == "angle":
-                t = rng.uniform(-np.pi, np.pi) + 0.5j * rng.normal()
+                t = rng.uniform(-np.pi, np.pi) + 1j * ANGLE_IMAG * rng.normal()
                 z[list(s.z)] = np.cos(t), np.sin(t)
             elif s.kind == "length":
                 z[s.z[0]] = scale * cnormal()
@@ -227,7 +203,7 @@ class AlgebraicForm:
                 z[list(s.z[:3])] = scale * cnormal(3)
                 z[list(s.z[3:7])] = q
                 z[s.z[7]] = 1.0 / (q @ q)
-        widths = np.array([scale if k == "length" else 1.0 for k in self.rows.param_kinds])
+        widths = np.array([scale if k == "length" else ANGLE_IMAG for k in self.rows.param_kinds])
         p = self.model.home.theta + widths * cnormal(self.n_params)
         return z, p
 
@@ -247,7 +223,7 @@ class AlgebraicForm:
         """Parameters ``p`` (n_params,) complex of real actuator values ``theta`` (k,)
         [rad or model length unit]: the values themselves (angles enter ``G`` through
         cos and sin)."""
-        from ..model.model import as_vector
+        from ..robot import as_vector
 
         return as_vector(theta, self.n_params, "theta").astype(complex)
 
@@ -263,7 +239,7 @@ class AlgebraicForm:
             InputError: wrong size or non-finite values.
             AlgebraicFormError: a rotation on the quaternion chart's plane at infinity.
         """
-        from ..model.model import as_vector
+        from ..robot import as_vector
 
         m = self.model
         y = as_vector(y, m.m, "y")
@@ -337,7 +313,7 @@ class AlgebraicForm:
                 y[s.y[0]] = z[s.z[0]]
             else:
                 q = z[list(s.z[3:7])]
-                u, _, vt = np.linalg.svd(_quaternion_matrix(q / np.linalg.norm(q)))
+                u, _, vt = np.linalg.svd(quaternion_matrix(q))
                 i = m.chart.rotations.index(tuple(s.y[3:]))
                 c[9 * i : 9 * i + 9] = (u @ vt).flatten(order="F")
                 y[list(s.y[:3])] = z[list(s.z[:3])]
@@ -388,7 +364,7 @@ def algebraic_form(model: Model, backend: str = "cvodes") -> AlgebraicForm:
     """The algebraic form of a loaded model (built once per model and backend, cached on it).
 
     Args:
-        model: a loaded :class:`~scdk_sym.model.model.Model`.
+        model: a loaded :class:`~scdk_sym.robot.Model`.
         backend: ``"cvodes"`` (CasADi SX virtual machine) or ``"compiled"`` (generated C,
             compiled once and cached on disk by content hash); see :mod:`scdk_sym.backends`.
 

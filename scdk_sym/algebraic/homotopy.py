@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import HomotopyError, InputError
+from .ctracker import c_tracker
 from .endgame import EG_INFINITY, EG_SINGULAR, cauchy_endgame
 from .system import PolynomialSystem
 from .tracker import DIVERGED, DONE, TrackerOptions, newton, rel_norm, track
@@ -100,6 +101,7 @@ def track_parameter_homotopy(
     endgame: bool = True,
     r0: float = 0.01,
     cond_max: float = 1e13,
+    tracker: str = "python",
 ) -> PathEndpoints:
     """Track paths of a parameter homotopy from t = 0 to t = 1.
 
@@ -113,6 +115,9 @@ def track_parameter_homotopy(
         r0: the endgame starts at t = 1 - r0.
         cond_max: largest condition number of H_z (rows and columns scaled) at a regular
             endpoint.
+        tracker: ``"python"`` (numpy), ``"c"`` or ``"auto"`` (see
+            :func:`~scdk_sym.algebraic.ctracker.c_tracker`): who tracks the straight part of
+            the paths; the endgame always runs in numpy.
 
     Returns:
         :class:`PathEndpoints`.
@@ -126,7 +131,16 @@ def track_parameter_homotopy(
     if M == 0:
         return PathEndpoints(out, status.astype(str), winding, np.zeros(0, dtype=int))
     t_split = 1.0 - r0 if endgame else 1.0
-    first = track(homotopy, tmap, z, idx, np.zeros(M), np.full(M, t_split), options)
+    ctrack = c_tracker(system, tracker)
+    if not (isinstance(homotopy, ParameterHomotopy) and homotopy.system is system):
+        ctrack = None  # the C tracker evaluates the system's own G
+
+    def segment(z0, ix, tau0, tau1, h0=None):
+        if ctrack is not None:
+            return ctrack(homotopy, z0, ix, tau0, tau1, options, h0)
+        return track(homotopy, tmap, z0, ix, tau0, tau1, options, h0)
+
+    first = segment(z, idx, np.zeros(M), np.full(M, t_split))
     steps = first.steps.copy()
     # before t = 1 a path only diverges by passing close to a solution's escape (probability
     # zero with the gamma trick): "failed", so that the caller may retry with another gamma
@@ -134,16 +148,7 @@ def track_parameter_homotopy(
         status[first.status == DIVERGED] = "at_infinity"
     ok1 = np.flatnonzero(first.status == DONE)
     if endgame:
-        second = track(
-            homotopy,
-            tmap,
-            first.z[ok1],
-            idx[ok1],
-            first.tau[ok1],
-            np.ones(ok1.size),
-            options,
-            first.h[ok1],
-        )
+        second = segment(first.z[ok1], idx[ok1], first.tau[ok1], np.ones(ok1.size), first.h[ok1])
         steps[ok1] += second.steps
         arrived = second.status == DONE
         zr, reg = _regular(system, homotopy, second.z[arrived], idx[ok1][arrived], cond_max)
@@ -248,13 +253,21 @@ def real_endpoints(
 
 def dedup(x: np.ndarray, tol: float) -> np.ndarray:
     """Distinct rows of x (M, n), relative distance ``tol``; sorted lexicographically."""
-    kept: list[np.ndarray] = []
-    for row in x:
-        if not any(rel_norm((row - k)[None], k[None])[0] <= tol for k in kept):
-            kept.append(row)
+    x = np.asarray(x)
+    # a row is kept unless it lies within tol of a row kept before it, the distance relative
+    # to the kept row (rel_norm(row - k, k)); NaN distances never match
+    scale = 1.0 + np.abs(x).max(axis=1) if x.size else np.zeros(len(x))
+    kept: list[int] = []
+    for i in range(len(x)):
+        if kept:
+            with np.errstate(invalid="ignore"):
+                d = np.abs(x[i] - x[kept]).max(axis=1) / scale[kept]
+            if (d <= tol).any():
+                continue
+        kept.append(i)
     if not kept:
         return np.zeros((0, x.shape[1]), dtype=x.dtype)
-    out = np.array(kept)
+    out = x[kept]
     return out[np.lexsort(out.real.T[::-1])]
 
 
@@ -267,6 +280,7 @@ def solve_homotopy(
     options: TrackerOptions | None = None,
     real_tol: float = 1e-8,
     attempts: int = 3,
+    tracker: str = "auto",
 ) -> HomotopyResult:
     """Every solution of G(z, p0) = 0 by the parameter homotopy from a start system.
 
@@ -281,6 +295,8 @@ def solve_homotopy(
         options: tracker step control.
         real_tol: largest ``max|Im z| / (1 + max|z|)`` of a real solution.
         attempts: gammas tried while some path fails on the way (each attempt reruns all).
+        tracker: ``"auto"`` (the C tracker for a model's algebraic form when a C compiler is
+            present, else numpy), ``"c"`` or ``"python"``.
 
     Returns:
         A :class:`HomotopyResult` (of the last attempt).
@@ -312,7 +328,7 @@ def solve_homotopy(
         gamma = complex(np.exp(2j * np.pi * rng.uniform()))
         hom = ParameterHomotopy(system, start.p[None], p0[None], start.b[None], b_to[None], [gamma])
         ends = track_parameter_homotopy(
-            system, start.solutions, hom, np.zeros(R, dtype=int), options
+            system, start.solutions, hom, np.zeros(R, dtype=int), options, tracker=tracker
         )
         if not (ends.status == "failed").any():
             break

@@ -112,7 +112,7 @@ def _ipow(x: arb, n: int) -> arb:
 def _pow(x: arb, y: arb) -> arb:
     """``x ** y``: repeated products for an exact integer ``y``, else ``exp(y log x)``."""
     if y.is_exact() and y.is_integer() and abs(y) <= 64:
-        return _ipow(x, int(y.mid().unique_fmpz()))
+        return _ipow(x, int(y.mid().unique_fmpz()))  # type: ignore[arg-type]
     return x**y
 
 

@@ -54,6 +54,7 @@ class StartSystem:
         trace_passed: ``trace_residual <= trace_tol``: the set is complete.
         loops: monodromy loops run.
         seed: the seed the start system was computed with.
+        reason: why the set is not proven complete (empty when ``trace_passed``).
     """
 
     p: np.ndarray
@@ -64,6 +65,7 @@ class StartSystem:
     trace_passed: bool
     loops: int
     seed: int
+    reason: str = ""
 
 
 def _cnormal(rng: np.random.Generator, shape) -> np.ndarray:
@@ -163,12 +165,13 @@ def monodromy_solve(
     trace_map: Callable[[np.ndarray], np.ndarray] | None = None,
     options: TrackerOptions | None = None,
     progress: bool = True,
+    test: Callable[[np.ndarray, np.ndarray, np.ndarray], float] | None = None,
 ) -> StartSystem:
     """A complete start system by monodromy loops and a trace test.
 
     Loops run until the solution count has not changed for ``stable_loops`` loops; then the
-    trace test runs; if it fails, loops continue (and the test reruns when the count is stable
-    again) until ``max_loops``.
+    completeness test runs and the loops stop as soon as it passes; if it fails, loops
+    continue (and the test reruns when the count is stable again) until ``max_loops``.
 
     Args:
         system: the polynomial system.
@@ -178,10 +181,14 @@ def monodromy_solve(
         trace_tol: largest trace residual of a complete set.
         trace_map: the traced functions (see :func:`trace_test`).
         options: tracker step control.
-        progress: show a tqdm progress bar.
+        progress: show a tqdm progress bar (on stderr, after the first 2 s).
+        test: ``test(solutions, p, b) -> residual``, the completeness test (default:
+            :func:`trace_test` with ``trace_map``); the set is complete when the residual is
+            at most ``trace_tol``.
 
     Returns:
-        A :class:`StartSystem` (``trace_passed`` False if the budget ran out).
+        A :class:`StartSystem` (``trace_passed`` False if the budget ran out, ``reason``
+        saying so).
 
     Raises:
         HomotopyError: the random point does not satisfy the structural rows.
@@ -203,7 +210,14 @@ def monodromy_solve(
     sols = z0[None].copy()
     pscale, bscale = 1.0 + np.abs(p).max(), 1.0 + np.abs(b).max()
     residual, passed, stable, loops = float("inf"), False, 0, 0
-    bar = tqdm(total=max_loops, desc="monodromy", unit="loop", disable=not progress, leave=False)
+    if test is None:
+
+        def test(sols, p, b):
+            return trace_test(system, sols, p, b, rng, trace_map=trace_map, options=options)
+
+    bar = tqdm(
+        total=max_loops, desc="monodromy", unit="loop", disable=not progress, leave=False, delay=2
+    )
     try:
         while loops < max_loops:
             nodes = [(p, b)]
@@ -229,13 +243,26 @@ def monodromy_solve(
             bar.update(1)
             bar.set_postfix(solutions=len(sols))
             if stable >= stable_loops:
-                residual = trace_test(system, sols, p, b, rng, trace_map=trace_map, options=options)
+                residual = float(test(sols, p, b))
                 passed = residual <= trace_tol
+                bar.set_postfix(solutions=len(sols), trace=f"{residual:.0e}")
                 if passed:
                     break
                 stable = 0
     finally:
         bar.close()
+    if passed:
+        reason = ""
+    elif np.isfinite(residual):
+        reason = (
+            f"trace test failed (residual {residual:.1e} > {trace_tol:.0e}) after {loops} "
+            f"monodromy loops, {len(sols)} solutions"
+        )
+    else:
+        reason = (
+            f"no trace test passed: {len(sols)} solutions after {loops} monodromy loops "
+            "(the count never stayed stable, or paths failed along the trace pencil)"
+        )
     return StartSystem(
         p=p,
         b=b,
@@ -245,6 +272,7 @@ def monodromy_solve(
         trace_passed=passed,
         loops=loops,
         seed=seed,
+        reason=reason,
     )
 
 

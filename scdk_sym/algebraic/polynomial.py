@@ -32,11 +32,12 @@ import casadi as ca
 import numpy as np
 
 from ..errors import AlgebraicFormError
+from ..model.rotations import axis_rotation, quaternion_numerator
 from ..model.spec import Closure
-from ..symbolic.kinematics import rotation_error, skew
+from ..symbolic.kinematics import rotation_error
 
 if TYPE_CHECKING:
-    from ..model.model import Model
+    from ..robot import Model
 
 #: Seed of the real random affine charts of the quaternions (one 4-vector per floating joint).
 CHART_SEED = 7_250_118
@@ -101,28 +102,12 @@ class PolynomialRows:
         return int(self.p.numel())
 
 
-def quaternion_numerator(q: ca.SX) -> ca.SX:
-    """(3, 3) ``N(q)`` with ``R = N(q) / (q . q)`` the rotation of the quaternion ``q``
-    (scalar first), quadratic in ``q``."""
-    a, b, c, d = q[0], q[1], q[2], q[3]
-    return ca.vertcat(
-        ca.horzcat(a * a + b * b - c * c - d * d, 2 * (b * c - a * d), 2 * (b * d + a * c)),
-        ca.horzcat(2 * (b * c + a * d), a * a - b * b + c * c - d * d, 2 * (c * d - a * b)),
-        ca.horzcat(2 * (b * d - a * c), 2 * (c * d + a * b), a * a - b * b - c * c + d * d),
-    )
-
-
-def _rotation(axis: np.ndarray, c, s) -> ca.SX:
-    K = np.asarray(skew(ca.DM(axis)))
-    return ca.SX(np.eye(3)) + s * ca.DM(K) + (1 - c) * ca.DM(K @ K)
-
-
 def _motion(kind: str, axis: np.ndarray, value) -> ca.SX:
     T = ca.SX.eye(4)
     if kind == "prismatic":
         T[:3, 3] = ca.DM(axis) * value
     elif kind in ("revolute", "continuous"):
-        T[:3, :3] = _rotation(axis, *value)
+        T[:3, :3] = axis_rotation(axis, *value)
     else:  # floating: (translation (3,), rotation (3, 3))
         T[:3, :3] = value[1]
         T[:3, 3] = value[0]
@@ -227,7 +212,7 @@ def polynomial_rows(model: Model) -> PolynomialRows:
     """Write a loaded model's reduced closure system as the polynomial system ``G(z, p)``.
 
     Args:
-        model: a loaded :class:`~scdk_sym.model.model.Model`.
+        model: a loaded :class:`~scdk_sym.robot.Model`.
 
     Returns:
         The rows, unknowns and parameters as SX (see :class:`PolynomialRows`).
@@ -246,7 +231,8 @@ def polynomial_rows(model: Model) -> PolynomialRows:
         if j.movable:
             M = M @ _motion(j.type, j.axis, values[j.name])
         T[j.child] = M
-    rows, labels = [], []
+    rows: list[ca.SX] = []
+    labels: list[str] = []
     for cl in model.closures:
         rows.append(_closure_rows(cl, T[cl.frame_a], T[cl.frame_b], values))
         labels.extend(f"{cl.label}.{part}" for part in _ROW_PARTS[cl.type])

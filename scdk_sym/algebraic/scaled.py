@@ -12,8 +12,12 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from .form import AlgebraicForm
 
 
 def row_weights(form) -> np.ndarray:
@@ -41,7 +45,7 @@ class ScaledForm:
         weights: (n,) row weights.
     """
 
-    form: object
+    form: AlgebraicForm
     weights: np.ndarray = field(repr=False)
 
     @property

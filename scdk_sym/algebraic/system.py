@@ -22,12 +22,22 @@ import numpy as np
 class PolynomialSystem(Protocol):
     """A square family G(z, p) = 0, holomorphic in z (C^n) and in the parameters p (C^n_params)."""
 
-    n: int  # number of complex unknowns z (= number of rows)
-    n_params: int  # number of complex parameters p
-    offset_rows: np.ndarray  # (n,) bool: rows that take a generic constant offset b_i in the
-    # homotopy family G(z, p) + b = 0 (closure rows). Structural rows
-    # (c^2 + s^2 - 1, a quaternion chart a.q - 1, w (q.q) - 1) are False:
-    # b_i = 0 there always.
+    @property
+    def n(self) -> int:
+        """Number of complex unknowns z (= number of rows)."""
+        ...
+
+    @property
+    def n_params(self) -> int:
+        """Number of complex parameters p."""
+        ...
+
+    @property
+    def offset_rows(self) -> np.ndarray:
+        """(n,) bool: rows that take a generic constant offset b_i in the homotopy family
+        G(z, p) + b = 0 (closure rows). Structural rows (c^2 + s^2 - 1, a quaternion chart
+        a.q - 1, w (q.q) - 1) are False: b_i = 0 there always."""
+        ...
 
     def evaluate(self, z: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """z: (N, n) complex, p: (N, n_params) complex ->

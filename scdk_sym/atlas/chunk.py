@@ -71,9 +71,9 @@ def worker_model(source: ModelSource):
     """The model of ``source``, built once per process."""
     model = _MODELS.get(source.content_hash)
     if model is None:
-        from ..model.model import Model
         from ..model.spec import parse_spec
         from ..model.urdf import parse_urdf
+        from ..robot import Model
 
         tree = parse_urdf(source.urdf, "robot.urdf")
         spec = parse_spec(source.yaml, "robot.yaml")
@@ -175,10 +175,10 @@ def solve_chunk(model, start, thetas: np.ndarray, modes: bool = False) -> ChunkR
     if modes:
         from ..solvers.modes import assembly_modes
 
-        for i in range(N):
+        for row in range(N):
             try:
-                sols = assembly_modes(model, thetas[i], backend="compiled")
-                n_modes[i] = len(sols) if sols.certified else -1
+                sols = assembly_modes(model, thetas[row], backend="compiled")
+                n_modes[row] = len(sols) if sols.certified else -1
             except ScdkError:
-                n_modes[i] = -1
+                n_modes[row] = -1
     return ChunkResult(x, det, status, n_modes, swept)

@@ -96,6 +96,7 @@ def plot_atlas(
         panels.append(("real assembly modes", nm))
 
     from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
     fig = _figure(4.6 * len(panels), 4.8)
@@ -133,6 +134,12 @@ def plot_atlas(
             mesh = ax.pcolormesh(u, v, data.T, cmap=cmap, norm=norm, shading="nearest")
             bar = fig.colorbar(mesh, ax=ax, ticks=range(-1, top + 1), fraction=0.05)
             bar.set_label("count (-1: search failed)")
+            edges = count_boundaries(u, v, data)
+            if len(edges):
+                from matplotlib.collections import LineCollection
+
+                ax.add_collection(LineCollection(list(edges), colors="k", linewidths=1.0))
+                handles = [Line2D([], [], color="k", lw=1.0, label="count changes: singular")]  # type: ignore[list-item]
         ax.set_title(title, fontsize=10)
         ax.set_xlabel(axes[0])
         ax.set_ylabel(axes[1])
@@ -147,6 +154,40 @@ def plot_atlas(
             )
     fig.tight_layout()
     return _save(fig, out)
+
+
+def count_boundaries(u: np.ndarray, v: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """Cell edges between grid neighbours of different assembly-mode counts.
+
+    Two modes meet (``det J_p = 0``) on a singular curve, where the real count changes: these
+    edges are the singular curves of the slice as the grid resolves them. Neighbours where
+    either count is unknown (-1) are skipped.
+
+    Args:
+        u: (nu,) values of the horizontal axis.
+        v: (nv,) values of the vertical axis.
+        counts: (nu, nv) counts of the slice.
+
+    Returns:
+        (E, 2, 2) segments ``[[u0, v0], [u1, v1]]`` in axis units.
+    """
+    du = np.diff(u) / 2 if len(u) > 1 else np.ones(1)
+    dv = np.diff(v) / 2 if len(v) > 1 else np.ones(1)
+    known = counts >= 0
+    segs = []
+    for i, j in zip(*np.nonzero((counts[1:] != counts[:-1]) & known[1:] & known[:-1]), strict=True):
+        um = u[i] + du[i]  # between columns i and i + 1
+        lo = v[j] - (dv[j - 1] if j > 0 else dv[0])
+        hi = v[j] + (dv[j] if j < len(dv) else dv[-1])
+        segs.append([[um, lo], [um, hi]])
+    for i, j in zip(
+        *np.nonzero((counts[:, 1:] != counts[:, :-1]) & known[:, 1:] & known[:, :-1]), strict=True
+    ):
+        vm = v[j] + dv[j]
+        lo = u[i] - (du[i - 1] if i > 0 else du[0])
+        hi = u[i] + (du[i] if i < len(du) else du[-1])
+        segs.append([[lo, vm], [hi, vm]])
+    return np.array(segs, dtype=float).reshape(-1, 2, 2)
 
 
 def _viridis(n: int) -> np.ndarray:

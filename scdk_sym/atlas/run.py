@@ -94,6 +94,7 @@ def _task(
     cfg = model.configuration(np.array(start[0]), np.array(start[1]))
     a, b = layout.bounds(index)
     th = grid.thetas(a, b) if grid is not None else thetas
+    assert th is not None  # _points gives a grid or the thetas
     res = solve_chunk(model, cfg, th, modes)
     write_chunk(out, layout, index, th, res)
     return index, time.perf_counter() - t0, time.thread_time() - c0, res.swept
@@ -159,7 +160,8 @@ def atlas(
     if workers and scheduler is not None:
         raise InputError("atlas: give workers (a local cluster) or scheduler, not both")
     grid, thetas, what = _points(model, grid_or_thetas, start)
-    points = grid.size if grid is not None else len(thetas)
+    assert grid is not None or thetas is not None  # _points gives one of them
+    points = grid.size if grid is not None else len(thetas)  # type: ignore[arg-type]
     layout = Layout(points, model.k, len(model.workspace), int(min(chunk, max(points, 1))), modes)
     meta = {
         "format": FORMAT,
@@ -193,7 +195,7 @@ def atlas(
     bar = _bar(progress, points, already)
     count = [already]
 
-    spent = [0.0, 0.0, 0]
+    spent: list[float] = [0.0, 0.0, 0]
 
     def finished(index: int, seconds: float, cpu: float, swept: int) -> None:
         spent[0] += seconds
@@ -208,7 +210,7 @@ def atlas(
 
     def args(i: int):
         a, b = layout.bounds(i)
-        rows = None if grid is not None else thetas[a:b]
+        rows = None if grid is not None else thetas[a:b]  # type: ignore[index]
         return (source, st, str(out), layout, i, grid, rows, modes)
 
     try:
@@ -222,7 +224,17 @@ def atlas(
         if bar is not None:
             bar.close()
     counts = _counts(out, len(STATUS))
-    return AtlasRun(out, points, layout.chunks, len(todo), counts, time.perf_counter() - t0, *spent)
+    return AtlasRun(
+        out,
+        points,
+        layout.chunks,
+        len(todo),
+        counts,
+        time.perf_counter() - t0,
+        spent[0],
+        spent[1],
+        int(spent[2]),
+    )
 
 
 def _points(model, grid_or_thetas, start) -> tuple[Grid | None, np.ndarray | None, dict]:

@@ -11,6 +11,9 @@ points along the first axis of every array):
 * attribute ``scdk_atlas``: what the store is for (model hash, grid or the hash of the
   explicit thetas, start, modes, chunk size, package version); a store whose attribute
   differs from the requested run is refused.
+
+Written for zarr 3 (Python >= 3.11) and zarr 2.18 (Python 3.10, where zarr 3 does not
+install): the only difference used is how a group's arrays and attributes are created.
 """
 
 from __future__ import annotations
@@ -18,8 +21,10 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -33,7 +38,8 @@ def _zarr():
     try:
         import zarr
     except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise AtlasError("the atlas needs zarr: pip install 'zarr>=3'") from exc
+        hint = "'zarr>=3'" if sys.version_info >= (3, 11) else "'zarr>=2.18,<3'"
+        raise AtlasError(f"the atlas needs zarr: pip install {hint}") from exc
     return zarr
 
 
@@ -56,7 +62,7 @@ class Layout:
         return index * self.chunk, min(self.points, (index + 1) * self.chunk)
 
 
-_OPEN: dict[tuple[str, Layout], object] = {}
+_OPEN: dict[tuple[str, Layout], Any] = {}
 
 
 def create_or_check(path: str | Path, layout: Layout, meta: dict) -> np.ndarray:

@@ -17,9 +17,11 @@ whether the answer is that solution:
 A point the sweep cannot vouch for is solved by :func:`scdk_sym.solve` itself; both give the
 same root to rounding (the test suite compares them to 1e-12).
 
+The steps are the curve follower's: :func:`scdk_sym.follower.kernels.rk4_in_s` (whose stage
+``J_p`` gives the ``det J_p`` checks) and :func:`scdk_sym.follower.kernels.newton_correction`.
 The kernel is generated, compiled once per model into the disk cache (keyed by the model's
-kernel hash and this module's source) and loaded with ``casadi.external``; mapped over a
-chunk of points it is one call per chunk.
+kernel hash and the sources it is built from) and loaded with ``casadi.external``; mapped
+over a chunk of points it is one call per chunk.
 """
 
 from __future__ import annotations
@@ -39,7 +41,12 @@ POLISH = 2
 
 
 def build_sweep(model, steps: int) -> ca.Function:
-    """The SX sweep Function of a model.
+    """The sweep Function of a model, on the curve follower's kernels.
+
+    Each step is one :func:`~scdk_sym.follower.kernels.rk4_in_s` step followed by
+    :data:`NEWTON` :func:`~scdk_sym.follower.kernels.newton_correction` steps; ``det J_p`` is
+    taken at every RK stage from the ``J_p`` the stage's slope is solved with. The answer is
+    re-centred with :meth:`scdk_sym.model.chart.Chart.recentred`.
 
     Signature: ``(y1[m], theta1[k], theta0[k], c) -> (y0[m], det_ratio_min, correction,
     residual, J_p0[m*m], x0[n])`` with ``y`` in the local chart ``c`` of the start;
@@ -48,44 +55,37 @@ def build_sweep(model, steps: int) -> ca.Function:
     ``residual`` the largest verification row at the end, ``J_p0`` in the chart centred on
     the solution (as :func:`scdk_sym.solve` checks it).
     """
+    from ..follower.kernels import newton_correction, rk4_in_s
+
     sym = model.symbolic
     y, theta, c = sym.y, sym.theta, sym.c
     m, k = sym.m, sym.k
     jp = ca.Function("jp", [y, theta, c], [sym.J_p])
     det = ca.Function("det", [y, theta, c], [ca.det(sym.J_p)])
-    parts = ca.Function("parts", [y, theta, c], [sym.g, sym.J_p, sym.J_s])
-    newton = ca.Function("newton", [y, theta, c], [y - ca.solve(sym.J_p, sym.g)])
+    newton = newton_correction(sym)
     check = ca.Function("check", [y, theta, c], [ca.norm_inf(sym.g_check)])
     pose = ca.Function("pose", [y, theta, c], [sym.x])
+    recentre = ca.Function("recentre", [y, c], list(model.chart.recentred(y, c)))
 
     th1 = ca.SX.sym("theta1", k)
     dth = ca.SX.sym("dtheta", k)
-    cc = ca.SX.sym("c", c.numel())
     d1 = ca.SX.sym("det1")
     h = 1.0 / steps
 
-    # one RK4 step and a Newton correction; state = (y, s, det ratio, worst correction).
-    # Each evaluation point shares one evaluation of (g, J_p, J_s) between dy/ds and det J_p.
+    # one RK4 step and Newton corrections; state = (y, s, det ratio, worst correction)
     state = ca.SX.sym("state", m + 3)
     yk, s, ratio, worst = state[:m], state[m], state[m + 1], state[m + 2]
-    slopes = []
-    yy = yk
-    for frac, nxt in ((0.0, 0.5), (0.5, 0.5), (0.5, 1.0), (1.0, None)):
-        _, Jp, Js = parts(yy, th1 + (s + frac * h) * dth, cc)
-        slopes.append(ca.solve(Jp, Js @ dth))  # dy/ds = J_p^-1 j_s, j_s = J_s dtheta
+    stages: list = []
+    pred = rk4_in_s(sym, yk, s, s + h, th1, dth, 1, stage_jp=stages)
+    for Jp in stages:
         ratio = ca.fmin(ratio, ca.det(Jp) / d1)
-        if nxt is not None:
-            yy = yk + nxt * h * slopes[-1]
-    k1, k2, k3, k4 = slopes
-    pred = yk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
     yn = pred
     for _ in range(NEWTON):
-        gp, Jpp, _ = parts(yn, th1 + (s + h) * dth, cc)
-        yn = yn - ca.solve(Jpp, gp)
+        yn = yn - newton(yn, th1 + (s + h) * dth, c)
     worst = ca.fmax(worst, ca.norm_inf(yn - pred) / (ca.norm_inf(yn - yk) + 1e-300))
     step = ca.Function(
         f"scdk_atlas_step_{steps}",
-        [state, th1, dth, d1, cc],
+        [state, th1, dth, d1, c],
         [ca.vertcat(yn, s + h, ratio, worst)],
     )
     fold = step.fold(steps)
@@ -95,13 +95,13 @@ def build_sweep(model, steps: int) -> ca.Function:
     t0 = ca.MX.sym("theta0", k)
     cm = ca.MX.sym("c", c.numel())
     end = fold(ca.vertcat(y1, 0, 1, 0), t1, t0 - t1, det(y1, t1, cm), cm)
-    yk = end[:m]
+    y_end = end[:m]
     for _ in range(POLISH):
-        yk = newton(yk, t0, cm)
-    ratio = ca.fmin(end[m + 1], det(yk, t0, cm) / det(y1, t1, cm))
-    y_sol, c_sol = _recentred(model, yk, cm)
-    outs = [yk, ratio, end[m + 2], check(yk, t0, cm), ca.vec(jp(y_sol, t0, c_sol)),
-            pose(yk, t0, cm)]  # fmt: skip
+        y_end = y_end - newton(y_end, t0, cm)
+    ratio = ca.fmin(end[m + 1], det(y_end, t0, cm) / det(y1, t1, cm))
+    y_sol, c_sol = recentre(y_end, cm)
+    outs = [y_end, ratio, end[m + 2], check(y_end, t0, cm), ca.vec(jp(y_sol, t0, c_sol)),
+            pose(y_end, t0, cm)]  # fmt: skip
     return ca.Function(
         f"scdk_atlas_sweep_{steps}",
         [y1, t1, t0, cm],
@@ -111,31 +111,15 @@ def build_sweep(model, steps: int) -> ca.Function:
     )
 
 
-def _recentred(model, y, c):
-    """``(y, c)`` in the chart centred on ``y`` (rho = 0), as ``model.chart.to_local`` of the
-    canonical ``y`` gives it (:mod:`scdk_sym.model.chart`)."""
-    parts_y = [y[i] for i in range(y.numel())]
-    parts_c = [c[i] for i in range(c.numel())]
-    for b, idx in enumerate(model.chart.rotations):
-        rho = ca.vertcat(*[y[i] for i in idx])
-        W = ca.skew(rho)
-        R = ca.reshape(c[9 * b : 9 * b + 9], 3, 3) @ (
-            ca.MX.eye(3) + 2 * (W + W @ W) / (1 + ca.dot(rho, rho))
-        )
-        for i in idx:
-            parts_y[i] = 0
-        vec = ca.vec(R)
-        for j in range(9):
-            parts_c[9 * b + j] = vec[j]
-    return ca.vertcat(*parts_y), ca.vertcat(*parts_c) if parts_c else c
-
-
 def sweep_key(model) -> str:
-    """Cache key of a model's sweep library: its kernel hash and this module's source."""
+    """Cache key of a model's sweep library: its kernel hash and the sources the sweep is
+    built from (this module, the follower's kernels, the chart)."""
     from ..kernels.compile import cache_key
 
     h = hashlib.sha256(cache_key(model).encode())
-    h.update(Path(__file__).read_bytes())
+    package = Path(__file__).resolve().parents[1]
+    for part in ("atlas/sweep.py", "follower/kernels.py", "model/chart.py"):
+        h.update((package / part).read_bytes())
     return h.hexdigest()[:24]
 
 

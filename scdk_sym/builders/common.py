@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import TypeVar
 
 import numpy as np
 
 from ..errors import InputError, NonSquareSystemError
-from ..model.model import Model, model_from_tree
 from ..model.spec import Spec
 from ..model.urdf import Tree
+from ..robot import Model, model_from_tree
+
+T = TypeVar("T")
 
 #: Smallest accepted ratio of the extreme singular values of the (scaled) J_p at home.
 MIN_CONDITION = 1e-6
@@ -101,7 +104,7 @@ def conditioning(J: np.ndarray) -> float:
     return float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
 
 
-def pick(candidates: Sequence, score) -> object:
+def pick(candidates: Sequence[T], score: Callable[[T], float]) -> T | None:
     """The first candidate scoring at least half the best score (``None`` if all score 0)."""
     scores = [score(c) for c in candidates]
     best = max(scores)

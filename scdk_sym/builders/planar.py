@@ -7,9 +7,9 @@ import math
 import numpy as np
 
 from ..errors import InputError
-from ..model.model import Model, model_from_tree
 from ..model.spec import Closure, Spec
 from ..model.urdf import TreeBuilder
+from ..robot import Model, model_from_tree
 from .common import (
     affine_rank,
     conditioning,

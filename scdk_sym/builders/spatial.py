@@ -7,10 +7,10 @@ import math
 import numpy as np
 
 from ..errors import InputError
-from ..model.chart import rot_log
-from ..model.model import Model
+from ..model.rotations import rot_log, rpy_matrix
 from ..model.spec import Closure, Spec
-from ..model.urdf import TreeBuilder, rpy_matrix
+from ..model.urdf import TreeBuilder
+from ..robot import Model
 from .common import (
     affine_rank,
     conditioning,

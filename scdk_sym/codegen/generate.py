@@ -26,13 +26,17 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, OutputError
-from ..kernels.compile import run_compiler, write_c
+from ..kernels.compile import OPT, compile_parallel, write_c, write_c_parts
 from . import templates
 from .kernels import build_tracker_kernels
 
-#: Flags of the shared library built for Python (``-Bsymbolic``: the tracker calls its own
-#: kernels even if another library of the process exports the same names).
-SHARED_FLAGS = ("-std=c99", "-O2", "-Wall", "-shared", "-fPIC", "-Wl,-Bsymbolic")
+#: Flags compiling each source of the shared library built for Python (the optimisation
+#: level of :mod:`scdk_sym.kernels.compile`).
+COMPILE_FLAGS = ("-std=c99", OPT, "-Wall", "-fPIC")
+#: Flags linking it (``-Bsymbolic``: the tracker calls its own kernels even if another library
+#: of the process exports the same names).
+LINK_FLAGS = ("-shared", "-Wl,-Bsymbolic")
+SHARED_FLAGS = (*COMPILE_FLAGS, *LINK_FLAGS)
 
 
 @dataclass(frozen=True)
@@ -42,10 +46,13 @@ class GeneratedSources:
     Attributes:
         directory: where they were written.
         prefix: C prefix of every exported name.
-        kernels_c: CasADi-generated kernels (``<prefix>_kernels.c``).
+        kernels_c: CasADi-generated kernels (``<prefix>_kernels.c``; written split, the first
+            of ``parts``).
         kernels_h: their header.
         tracker_c: the tracker (``<prefix>_tracker.c``).
         tracker_h: its header (include this one).
+        parts: written split, the kernels' sources, one per kernel
+            (``<prefix>_kernels_00.c``, ...), else empty.
     """
 
     directory: Path
@@ -54,11 +61,12 @@ class GeneratedSources:
     kernels_h: Path
     tracker_c: Path
     tracker_h: Path
+    parts: tuple[Path, ...] = ()
 
     @property
-    def sources(self) -> tuple[Path, Path]:
-        """The two C sources to compile."""
-        return (self.kernels_c, self.tracker_c)
+    def sources(self) -> tuple[Path, ...]:
+        """The C sources to compile."""
+        return (*(self.parts or (self.kernels_c,)), self.tracker_c)
 
 
 def check_prefix(prefix: str) -> str:
@@ -90,7 +98,7 @@ def _floats(values) -> str:
 def source_key(sources: GeneratedSources) -> str:
     """Content hash of generated sources and the library flags (the cache key)."""
     h = hashlib.sha256()
-    for path in (sources.kernels_c, sources.kernels_h, sources.tracker_c, sources.tracker_h):
+    for path in (*sources.sources, sources.kernels_h, sources.tracker_h):
         h.update(path.read_bytes())
         h.update(b"\0")
     h.update(" ".join(SHARED_FLAGS).encode())
@@ -123,13 +131,17 @@ def output_directory(directory: str | Path) -> Path:
     return out
 
 
-def generate(model, directory: str | Path, prefix: str = "scdk") -> GeneratedSources:
+def generate(
+    model, directory: str | Path, prefix: str = "scdk", split: bool = False
+) -> GeneratedSources:
     """Write the C sources and headers of the model's tracker into ``directory``.
 
     Args:
-        model: the model (:class:`~scdk_sym.model.model.Model`).
+        model: the model (:class:`~scdk_sym.robot.Model`).
         directory: output directory (created if needed).
         prefix: C prefix of every exported name and file name.
+        split: one kernel source per kernel (compiled in parallel) instead of one
+            ``<prefix>_kernels.c``; the same header and functions.
 
     Returns:
         The paths of the generated files.
@@ -141,16 +153,21 @@ def generate(model, directory: str | Path, prefix: str = "scdk") -> GeneratedSou
     prefix = check_prefix(prefix)
     out = output_directory(directory)
     try:
-        return _generate(model, out, prefix)
+        return _generate(model, out, prefix, split)
     except OSError as exc:
         name = exc.filename or out
         raise OutputError(f"cannot write: {exc.strerror or exc}", name) from exc
 
 
-def _generate(model, out: Path, prefix: str) -> GeneratedSources:
+def _generate(model, out: Path, prefix: str, split: bool = False) -> GeneratedSources:
     kern = build_tracker_kernels(model.symbolic, model.chart.rotations, prefix)
-    _quiet_unused_parameters(write_c(kern.all(), f"{prefix}_kernels", out, with_header=True))
     funcs = kern.all()
+    if split:
+        parts, _ = write_c_parts(funcs, f"{prefix}_kernels", out)
+    else:
+        parts = [write_c(funcs, f"{prefix}_kernels", out, with_header=True)]
+    for part in parts:
+        _quiet_unused_parameters(part)
     home = model.home
     y_loc, c = model.chart.to_local(home.y)
     has_ik = len(model.workspace) == model.k
@@ -190,10 +207,11 @@ def _generate(model, out: Path, prefix: str) -> GeneratedSources:
     return GeneratedSources(
         directory=out,
         prefix=prefix,
-        kernels_c=out / f"{prefix}_kernels.c",
+        kernels_c=parts[0],
         kernels_h=out / f"{prefix}_kernels.h",
         tracker_c=out / f"{prefix}_tracker.c",
         tracker_h=out / f"{prefix}_tracker.h",
+        parts=tuple(parts) if split else (),
     )
 
 
@@ -246,12 +264,13 @@ def _rule_constants() -> dict[str, str]:
 
 
 def compile_library(sources: GeneratedSources, target: str | Path) -> Path:
-    """Compile generated sources into a shared library (gcc, flags :data:`SHARED_FLAGS`).
+    """Compile generated sources into a shared library (gcc, flags :data:`SHARED_FLAGS`), the
+    sources in parallel.
 
     Raises:
         BuildError: no compiler, or the compilation failed (first error line quoted).
     """
     target = Path(target).resolve()
-    files = [str(Path(p).resolve()) for p in sources.sources]
-    run_compiler([*SHARED_FLAGS, *files, "-o", target, "-lm"], cwd=sources.directory)
-    return target
+    return compile_parallel(
+        sources.sources, target, COMPILE_FLAGS, LINK_FLAGS, cwd=sources.directory
+    )

@@ -26,6 +26,7 @@ import casadi as ca
 
 from ..follower.kernels import build_follower_kernels
 from ..kernels.functions import build_kernels
+from ..model.rotations import cayley
 from ..symbolic.system import Symbolic
 
 
@@ -53,6 +54,8 @@ class TrackerKernels:
             parameters of ``y0`` are zero), reference rotation re-orthonormalised.
         ik_step: (z[m+k], T_target[4,4], c) -> (z_new, residual): one Newton step of the
             inverse kinematics over ``z = (y, theta)`` (square workspaces only).
+        check: (y, theta, c) -> max |closure row|, the dropped redundant rows included (the
+            residual that verifies every sample, as ``model.residual``).
     """
 
     g: ca.Function
@@ -65,6 +68,7 @@ class TrackerKernels:
     polish: ca.Function
     recentre: ca.Function
     ik_step: ca.Function
+    check: ca.Function
 
     def all(self) -> list[ca.Function]:
         """Every kernel, in declaration order."""
@@ -90,12 +94,6 @@ def _dense(f: ca.Function, name: str | None = None) -> ca.Function:
     return ca.Function(name, ins, outs, f.name_in(), f.name_out())
 
 
-def _cayley(rho: ca.SX) -> ca.SX:
-    from ..symbolic.kinematics import cayley
-
-    return cayley(rho)
-
-
 def build_tracker_kernels(
     sym: Symbolic, rotations: tuple[tuple[int, int, int], ...], prefix: str
 ) -> TrackerKernels:
@@ -112,7 +110,7 @@ def build_tracker_kernels(
         is dense (the C tracker indexes them as dense column-major arrays).
     """
     base = build_kernels(sym, name=prefix)
-    curve = build_follower_kernels(sym)
+    curve = build_follower_kernels(sym, inline=False)
     y, theta, c = sym.y, sym.theta, sym.c
 
     # recentre: R_ref <- R_ref cayley(rho), rho <- 0, one Newton-Schulz orthonormalisation
@@ -120,7 +118,7 @@ def build_tracker_kernels(
     c_out = ca.SX(c)
     for i, idx in enumerate(rotations):
         R_ref = ca.reshape(c[9 * i : 9 * i + 9], 3, 3)
-        R = R_ref @ _cayley(ca.vertcat(*[y[j] for j in idx]))
+        R = R_ref @ cayley(ca.vertcat(*[y[j] for j in idx]))
         R = R @ (3 * ca.SX.eye(3) - R.T @ R) / 2
         c_out[9 * i : 9 * i + 9] = ca.reshape(R, 9, 1)
         for j in idx:
@@ -139,6 +137,13 @@ def build_tracker_kernels(
         polish=curve.polish,
         recentre=recentre,
         ik_step=base.ik_step,
+        check=ca.Function(
+            f"{prefix}_check",
+            [y, theta, c],
+            [ca.norm_inf(sym.g_check)],
+            ["y", "theta", "c"],
+            ["residual"],
+        ),
     )
     return TrackerKernels(
         **{name: _dense(fun, f"{prefix}_{name}") for name, fun in kernels.items()}

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import BuildError
 from ..kernels.cache import cache_dir
+from ..kernels.compile import announce
 from .generate import compile_library, generate, source_key
 
 PREFIX = "scdk"
@@ -37,11 +38,12 @@ STATUS = {
     -7: "the tracker state is not initialised",
     -8: "an option is out of range",
     -9: "the readings are too coarse to decide between two candidate solutions",
+    -10: "the path met a singular point before the solution (not solved in C)",
 }
 OK, OK_PATH, OK_PREDICTED = 0, 1, 2
 ERR_NULL, ERR_SIZE, ERR_NONFINITE, ERR_NOT_ASSEMBLED = -1, -2, -3, -4
 ERR_NO_SOLUTION, ERR_VERIFY, ERR_STATE, ERR_OPTIONS = -5, -6, -7, -8
-ERR_UNDECIDABLE = -9
+ERR_UNDECIDABLE, ERR_SINGULAR_PATH = -9, -10
 
 
 class Options(ctypes.Structure):
@@ -118,6 +120,8 @@ class TrackOutput:
         det: (N,) ``det J_p`` at each sample.
         codes: (N,) status of each sample (0: cheap step, 1: followed the SC curve,
             2: corrected from the predicted motion).
+        residual: (N,) max |g| of each sample, evaluated in the call by the generated closure
+            function and checked against the tolerance there (NaN from the failing sample on).
         refusal: the candidates of the failing sample when ``status`` is -9 (the readings
             are too coarse to decide between them), else None.
     """
@@ -129,6 +133,7 @@ class TrackOutput:
     x: np.ndarray
     det: np.ndarray
     codes: np.ndarray
+    residual: np.ndarray
     refusal: Refusal | None = None
 
 
@@ -147,11 +152,11 @@ class CTracker:
         self._lib = lib
         p = prefix
         self._refusal_type = refusal_type(m, k, n, nc)
-        self._track = getattr(lib, f"{p}_tracker_track_ex")
+        self._track = getattr(lib, f"{p}_tracker_track_res")
         self._track.restype = ctypes.c_int
         self._track.argtypes = [
             _dp, ctypes.c_int, _dp, ctypes.c_int, _dp, ctypes.c_int, ctypes.POINTER(Options),
-            ctypes.c_long, _dp, _dp, _dp, _dp, _dp, _ip, _lp,
+            ctypes.c_long, _dp, _dp, _dp, _dp, _dp, _dp, _ip, _lp,
             ctypes.POINTER(self._refusal_type),
         ]  # fmt: skip
         defaults = getattr(lib, f"{p}_default_options")
@@ -166,6 +171,12 @@ class CTracker:
                     f"{ctypes.sizeof(struct)}"
                 )
         self._defaults = defaults
+        self._solve = getattr(lib, f"{p}_solve_convergent")
+        self._solve.restype = ctypes.c_int
+        self._solve.argtypes = [
+            _dp, ctypes.c_int, _dp, ctypes.c_int, _dp, ctypes.c_int, _dp,
+            ctypes.POINTER(Options), _dp, _dp, _dp, _dp, _dp,
+        ]  # fmt: skip
 
     def default_options(self) -> Options:
         """The library's default options (tolerance, budgets)."""
@@ -202,6 +213,7 @@ class CTracker:
         C = np.empty((N, self.nc))
         X = np.empty((N, self.n))
         D = np.empty(N)
+        res = np.empty(N)
         codes = np.empty(N, dtype=np.intc)
         failed = ctypes.c_long(-1)
         ref = self._refusal_type()
@@ -209,7 +221,7 @@ class CTracker:
         status = self._track(
             _ptr(y0), y0.size, c_arg, c0.size, _ptr(theta0), theta0.size,
             ctypes.byref(options) if options is not None else None,
-            N, _ptr(th), _ptr(Y), _ptr(C) if self.nc else None, _ptr(X), _ptr(D),
+            N, _ptr(th), _ptr(Y), _ptr(C) if self.nc else None, _ptr(X), _ptr(D), _ptr(res),
             codes.ctypes.data_as(_ip), ctypes.byref(failed), ctypes.byref(ref),
         )  # fmt: skip
         refusal = None
@@ -224,7 +236,62 @@ class CTracker:
                 accuracy=float(ref.accuracy),
                 step=float(ref.step),
             )
-        return TrackOutput(int(status), int(failed.value), Y, C, X, D, codes, refusal)
+        return TrackOutput(int(status), int(failed.value), Y, C, X, D, codes, res, refusal)
+
+    def solve_convergent(
+        self,
+        y1: np.ndarray,
+        c1: np.ndarray,
+        theta1: np.ndarray,
+        theta0: np.ndarray,
+        options: Options | None = None,
+    ) -> SolveOutput:
+        """The convergent solution at ``theta0`` from an assembled start, in one call into C
+        (``<prefix>_solve_convergent``: the first ``s = 1`` crossing of the straight line's
+        curve, refused with status -10 where the path meets a singular point first).
+
+        Args:
+            y1: (m,) start unknowns in the chart ``c1``.
+            c1: (nc,) start chart.
+            theta1: (k,) start actuated values.
+            theta0: (k,) target actuated values.
+            options: tracker options (default: the library's).
+        """
+        y1, c1, theta1, theta0 = (
+            np.ascontiguousarray(a, dtype=float) for a in (y1, c1, theta1, theta0)
+        )
+        y = np.full(self.m, np.nan)
+        c = np.full(max(1, self.nc), np.nan)
+        x = np.full(self.n, np.nan)
+        res, det = ctypes.c_double(np.nan), ctypes.c_double(np.nan)
+        status = self._solve(
+            _ptr(y1), y1.size, _ptr(c1) if c1.size else _ptr(np.zeros(1)), c1.size,
+            _ptr(theta1), theta1.size, _ptr(theta0) if theta0.size == self.k else None,
+            ctypes.byref(options) if options is not None else None,
+            _ptr(y), _ptr(c), _ptr(x), ctypes.byref(res), ctypes.byref(det),
+        )  # fmt: skip
+        return SolveOutput(int(status), y, c[: self.nc], x, float(res.value), float(det.value))
+
+
+@dataclass(frozen=True)
+class SolveOutput:
+    """Raw output of one call of ``<prefix>_solve_convergent``.
+
+    Attributes:
+        status: 1 (solved along the curve) or an error code (see :data:`STATUS`).
+        y: (m,) unknowns in the chart ``c`` (NaN unless solved).
+        c: (nc,) chart.
+        x: (n,) workspace coordinates.
+        residual: max |closure row| at the solution [model length unit].
+        det: ``det J_p`` at the solution.
+    """
+
+    status: int
+    y: np.ndarray
+    c: np.ndarray
+    x: np.ndarray
+    residual: float
+    det: float
 
 
 def _ptr(a: np.ndarray):
@@ -241,10 +308,11 @@ def tracker_library(model) -> CTracker:
     if "_c_tracker" in store:
         return store["_c_tracker"]
     with tempfile.TemporaryDirectory() as tmp:
-        src = generate(model, Path(tmp), PREFIX)
+        src = generate(model, Path(tmp), PREFIX, split=True)
         key = source_key(src)
         target = cache_dir() / f"tracker_{key}.so"
         if not target.exists():
+            announce(model.name)
             partial = Path(tmp) / "libtracker.so"
             compile_library(src, partial)
             staged = target.with_suffix(f".{os.getpid()}.tmp")

@@ -31,7 +31,7 @@ def template(name: str) -> str:
         BuildError: the file is missing (an installation without the package data).
     """
     try:
-        return resources.files(__package__).joinpath("c", name).read_text(encoding="utf-8")
+        return resources.files(__package__).joinpath("c").joinpath(name).read_text(encoding="utf-8")
     except (FileNotFoundError, OSError) as exc:
         raise BuildError(
             f"C template {name!r} not found in the scdk_sym package: reinstall scdk_sym "

@@ -373,6 +373,7 @@ def follow(
     ell0 = min(1.0 / max(abs(t[-1]) * w, 1e-6) * w, 1e3 * scale) if w > 0 else scale
     ell0 = max(ell0, 1e-9 * scale)
     budget = 60.0 * ell0 + 20.0 * scale if max_arc is None else float(max_arc)
+    pred: _RK4 | _Cvodes
     if predictor == "rk4":
         pred = _RK4(model, kern, p, weight, scale, min_cos)
         backup = None

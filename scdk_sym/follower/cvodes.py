@@ -8,6 +8,7 @@ time with ``GRID`` output samples; :mod:`scdk_sym.follower.curve` judges each ch
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -19,7 +20,7 @@ from ..kernels.fastcall import Buffered
 GRID = 8
 #: Stabilisation gain K (g decays as exp(-K tau) over one chunk).
 GAIN = 5.0
-CVODES_OPTIONS = {
+CVODES_OPTIONS: dict[str, Any] = {
     "linear_multistep_method": "adams",
     "nonlinear_solver_iteration": "functional",
     "abstol": 1e-11,

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from ..model.chart import cayley, rot_exp, rot_log
+from ..model.rotations import cayley, rot_exp, rot_log
 
 
 def kinds(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

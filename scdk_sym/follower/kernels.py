@@ -122,19 +122,39 @@ def bordered_tangent(
     return t, t_hat, w, d
 
 
-def newton_correction(sym) -> ca.Function:
+def _options(inline: bool) -> dict:
+    """Options of an inner Function: ``never_inline`` keeps its calls as calls (one copy of
+    its code in generated C instead of one per use; the same operations either way)."""
+    return {} if inline else {"never_inline": True}
+
+
+def newton_correction(sym, inline: bool = True) -> ca.Function:
     """The Newton correction at fixed ``theta`` (``y - correction`` is one Newton step).
 
     Args:
         sym: the model's symbolic system (``model.symbolic``).
+        inline: False to keep calls of it as calls in the expressions built from it
+            (compact generated C).
 
     Returns:
         (y[m], theta[k], c) -> ``J_p^{-1} g`` [model length unit, rad].
     """
-    return ca.Function("scdk_newton1", [sym.y, sym.theta, sym.c], [ca.solve(sym.J_p, sym.g)])
+    return ca.Function(
+        "scdk_newton1", [sym.y, sym.theta, sym.c], [ca.solve(sym.J_p, sym.g)], _options(inline)
+    )
 
 
-def rk4_in_s(sym, y0: ca.SX, s0, s1, theta1: ca.SX, dtheta: ca.SX, steps: int) -> ca.SX:
+def rk4_in_s(
+    sym,
+    y0: ca.SX,
+    s0,
+    s1,
+    theta1: ca.SX,
+    dtheta: ca.SX,
+    steps: int,
+    stage_jp: list | None = None,
+    inline: bool = True,
+) -> ca.SX:
     """RK4 steps along the curve with ``s`` as the independent variable (valid off the
     singular manifold): ``dy/ds = J_p^{-1} J_s dtheta`` on ``theta = theta1 + s dtheta``.
 
@@ -146,28 +166,49 @@ def rk4_in_s(sym, y0: ca.SX, s0, s1, theta1: ca.SX, dtheta: ca.SX, steps: int) -
         theta1: (k,) actuated values at ``s = 0`` [rad or model length unit].
         dtheta: (k,) direction of the line.
         steps: number of equal RK4 steps from ``s0`` to ``s1``.
+        stage_jp: if given, ``J_p`` (m, m) at each stage is appended to it, in evaluation
+            order (the expression the slope is solved with, so a check of its determinant
+            costs no second evaluation).
+        inline: False to evaluate ``dy/ds`` by calls of one Function (compact generated C).
 
     Returns:
         (m,) the unknowns at ``s1``.
     """
     s, a, d = ca.SX.sym("s"), ca.SX.sym("theta1", sym.k), ca.SX.sym("dtheta", sym.k)
     Jp, Js = ca.substitute([sym.J_p, sym.J_s], [sym.theta], [a + s * d])
-    dyds = ca.Function("scdk_dyds", [sym.y, s, a, d, sym.c], [ca.solve(Jp, Js @ d)])
+    f = ca.Function(
+        "scdk_dyds", [sym.y, s, a, d, sym.c], [ca.solve(Jp, Js @ d), Jp], _options(inline)
+    )
     c = sym.c
+
+    def dyds(y, s_):
+        slope, jp = f(y, s_, theta1, dtheta, c)
+        if stage_jp is not None:
+            stage_jp.append(jp)
+        return slope
+
     h = (s1 - s0) / steps
     yk, sk = y0, s0
     for _ in range(steps):
-        k1 = dyds(yk, sk, theta1, dtheta, c)
-        k2 = dyds(yk + h / 2 * k1, sk + h / 2, theta1, dtheta, c)
-        k3 = dyds(yk + h / 2 * k2, sk + h / 2, theta1, dtheta, c)
-        k4 = dyds(yk + h * k3, sk + h, theta1, dtheta, c)
+        k1 = dyds(yk, sk)
+        k2 = dyds(yk + h / 2 * k1, sk + h / 2)
+        k3 = dyds(yk + h / 2 * k2, sk + h / 2)
+        k4 = dyds(yk + h * k3, sk + h)
         yk = yk + h * (k1 + 2 * k2 + 2 * k3 + k4) / 6
         sk = sk + h
     return yk
 
 
-def build_follower_kernels(sym) -> FollowerKernels:
-    """Build the follower's Functions from a model's symbolic system (``model.symbolic``)."""
+def build_follower_kernels(sym, inline: bool = True) -> FollowerKernels:
+    """Build the follower's Functions from a model's symbolic system (``model.symbolic``).
+
+    Args:
+        sym: the model's symbolic system.
+        inline: False to build the kernels from calls of their inner Functions (tangent,
+            closure and Jacobian, Newton step, ``dy/ds``) instead of inlined copies: the same
+            operations, several times less generated C to compile (the C tracker's choice).
+    """
+    opts = _options(inline)
     m, k = sym.m, sym.k
     y, c = sym.y, sym.c
     s = ca.SX.sym("s")
@@ -184,25 +225,38 @@ def build_follower_kernels(sym) -> FollowerKernels:
         "scdk_follow_tangent", [q, v, p, c], [t, ca.vec(Jp)], ["q", "v", "p", "c"], ["t", "J_p"]
     )
     Hq = ca.horzcat(Jp, -(Js @ dtheta))
-    f_gH = ca.Function("scdk_follow_gH", [q, p, c], [g, Hq])
+    f_gH = ca.Function("scdk_follow_gH", [q, p, c], [g, Hq], opts)
+    f_tan_call = (
+        f_tan
+        if inline
+        else ca.Function("scdk_follow_tangent_call", [q, v, p, c], [t, ca.vec(Jp)], opts)
+    )
 
     # one predictor-corrector step, mapped STEPS times
     x = ca.SX.sym("x", 2 * (m + 1))
     h = ca.SX.sym("h")
     q0, t1 = x[: m + 1], x[m + 1 :]
-    t2 = f_tan(q0 + h / 2 * t1, t1, p, c)[0]
-    t3 = f_tan(q0 + h / 2 * t2, t1, p, c)[0]
-    t4 = f_tan(q0 + h * t3, t1, p, c)[0]
+    t2 = f_tan_call(q0 + h / 2 * t1, t1, p, c)[0]
+    t3 = f_tan_call(q0 + h / 2 * t2, t1, p, c)[0]
+    t4 = f_tan_call(q0 + h * t3, t1, p, c)[0]
     q_pred = q0 + h / 6 * (t1 + 2 * t2 + 2 * t3 + t4)
+    # the corrector on the plane through q_pred normal to t1: one Newton step
+    qc, qp = ca.SX.sym("q", m + 1), ca.SX.sym("q_pred", m + 1)
     row = (weight * t1).T
+    gk, Hk = f_gH(qc, p, c)
+    f_corr = ca.Function(
+        "scdk_follow_correct",
+        [qc, qp, t1, p, c],
+        [-ca.solve(ca.vertcat(Hk, row), ca.vertcat(gk, row @ (qc - qp)))],
+        opts,
+    )
     qk = q_pred
     corrections = []
     for _ in range(CORRECTIONS):
-        gk, Hk = f_gH(qk, p, c)
-        dq = -ca.solve(ca.vertcat(Hk, row), ca.vertcat(gk, row @ (qk - q_pred)))
+        dq = f_corr(qk, q_pred, t1, p, c)
         corrections.append(ca.sqrt(ca.dot(weight * dq, dq)))
         qk = qk + dq
-    t_new, J_new = f_tan(qk, t1, p, c)
+    t_new, J_new = f_tan_call(qk, t1, p, c)
     info = ca.vertcat(corrections[0], corrections[-1], ca.dot(weight * t_new, t1))
     step = ca.Function(
         "scdk_follow_step",
@@ -230,7 +284,7 @@ def build_follower_kernels(sym) -> FollowerKernels:
 
     # a turning point of s: Newton on [g; t_s] (t_s vanishes exactly where det J_p does)
     F = ca.vertcat(g, t_hat[m])
-    fold1 = ca.Function("scdk_fold1", [q, v, p, c], [q - ca.solve(ca.jacobian(F, q), F)])
+    fold1 = ca.Function("scdk_fold1", [q, v, p, c], [q - ca.solve(ca.jacobian(F, q), F)], opts)
     qk = qa
     for _ in range(FOLD_STEPS):
         qk = fold1(qk, v, p, c)
@@ -238,7 +292,7 @@ def build_follower_kernels(sym) -> FollowerKernels:
 
     # Newton at fixed theta: one step, iterated by the polish and the tracker's corrector
     theta = sym.theta
-    newton1 = newton_correction(sym)
+    newton1 = newton_correction(sym, inline)
     residual = ca.Function("scdk_residual", [y, theta, c], [ca.norm_inf(sym.g)])
     yk = y
     for _ in range(POLISH_STEPS):
@@ -267,7 +321,7 @@ def build_follower_kernels(sym) -> FollowerKernels:
     f_predict = ca.Function(
         "scdk_follow_predict",
         [y, theta1, dtheta, c],
-        [rk4_in_s(sym, y, 0.0, 1.0, theta1, dtheta, 1)],
+        [rk4_in_s(sym, y, 0.0, 1.0, theta1, dtheta, 1, inline=inline)],
         ["y", "theta1", "dtheta", "c"],
         ["y1"],
     )
@@ -303,9 +357,9 @@ def follower_kernels(model, backend: str = "cvodes") -> FollowerKernels:
     if backend not in store:
         kern = build_follower_kernels(model.symbolic)
         if backend == "compiled":
-            from ..kernels.compile import cached_library
+            from ..kernels.compile import OPT, cached_library
 
-            target = cached_library(kern.all(), "scdk_follow")
+            target = cached_library(kern.all(), "scdk_follow", announce_as=model.name, opt=OPT)
             kern = FollowerKernels(*(ca.external(f.name(), str(target)) for f in kern.all()))
         store[backend] = kern
     return store[backend]

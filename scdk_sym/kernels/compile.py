@@ -1,8 +1,10 @@
-"""Code generation: kernels -> C source -> shared library (gcc), cached by content hash.
+"""Code generation: kernels -> C sources -> shared library (gcc), cached by content hash.
 
-The generated C of every kernel (``casadi.CodeGenerator``) is compiled once with
-``gcc -O3 -shared -fPIC`` into the cache directory and loaded with ``casadi.external``; the
-result is a :class:`~scdk_sym.kernels.functions.Kernels` with the same signatures.
+The generated C of every kernel (``casadi.CodeGenerator``, one source file per kernel) is
+compiled once, the files in parallel (:func:`compile_parallel`), into the cache directory and
+loaded with ``casadi.external``; the result is a
+:class:`~scdk_sym.kernels.functions.Kernels` with the same signatures. The first compilation
+for a model prints ``compiling kernels for MODEL...`` to stderr (:func:`announce`).
 """
 
 from __future__ import annotations
@@ -12,8 +14,10 @@ import os
 import shlex
 import shutil
 import subprocess
+import sys
 import tempfile
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import fields
 from pathlib import Path
 
@@ -23,7 +27,33 @@ from ..errors import BuildError
 from .cache import cache_dir
 from .functions import Kernels
 
-CFLAGS = ("-O3", "-shared", "-fPIC")
+#: Optimisation level of every compiled library (``-O1``: the generated kernels are
+#: straight-line code that ``-O2``/``-O3`` do not make measurably faster, at several times the
+#: compile time; ``benchmarks/track_hexapod.py --opt`` measures both).
+OPT = "-O1"
+#: Flags compiling one source into an object of a shared library.
+COMPILE_FLAGS = (OPT, "-fPIC")
+#: Flags linking the objects into a shared library.
+LINK_FLAGS = ("-shared",)
+CFLAGS = (*COMPILE_FLAGS, *LINK_FLAGS)
+
+_announced: set[str] = set()
+
+
+def announce(name: str) -> None:
+    """Print ``compiling kernels for NAME...`` to stderr, once per name and process (a first
+    use that compiles takes seconds)."""
+    if name not in _announced:
+        _announced.add(name)
+        print(f"compiling kernels for {name}...", file=sys.stderr, flush=True)
+
+
+def jobs() -> int:
+    """Compiler processes run at once: the CPUs this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
 
 
 def compiler_command() -> list[str]:
@@ -92,24 +122,99 @@ def write_c(
     return directory / f"{name}.c"
 
 
+def write_c_parts(
+    functions: Sequence[ca.Function], name: str, directory: Path
+) -> tuple[list[Path], Path]:
+    """Write one self-contained C source per Function (``name_00.c``, ...) and one header
+    ``name.h`` declaring them all, so that the sources compile in parallel.
+
+    Returns:
+        The source paths, in the order of ``functions``, and the header path.
+    """
+    sources, headers = [], []
+    for i, f in enumerate(functions):
+        src = write_c([f], f"{name}_{i:02d}", directory, with_header=True)
+        part_h = src.with_suffix(".h")
+        headers.append(part_h.read_text())
+        part_h.unlink()
+        sources.append(src)
+    guard = f"{name.upper()}_H"
+    header = directory / f"{name}.h"
+    header.write_text(f"#ifndef {guard}\n#define {guard}\n" + "".join(headers) + "#endif\n")
+    return sources, header
+
+
+def compile_parallel(
+    sources: Sequence[Path],
+    target: Path,
+    compile_flags: Sequence[str] = COMPILE_FLAGS,
+    link_flags: Sequence[str] = LINK_FLAGS,
+    cwd: Path | None = None,
+) -> Path:
+    """Compile C sources into objects in parallel (:func:`jobs` at once, largest first) and
+    link them into the shared library ``target``.
+
+    Raises:
+        BuildError: see :func:`run_compiler`.
+    """
+    sources = sorted((Path(s).resolve() for s in sources), key=lambda p: -p.stat().st_size)
+    with tempfile.TemporaryDirectory() as tmp:
+        objects = [Path(tmp) / f"{i:03d}_{src.stem}.o" for i, src in enumerate(sources)]
+
+        def one(pair: tuple[Path, Path]) -> None:
+            run_compiler([*compile_flags, "-c", str(pair[0]), "-o", str(pair[1])], cwd=cwd)
+
+        with ThreadPoolExecutor(max_workers=jobs()) as pool:
+            list(pool.map(one, zip(sources, objects, strict=True)))
+        link = [
+            *compile_flags,
+            *link_flags,
+            *map(str, objects),
+            "-o",
+            str(Path(target).resolve()),
+            "-lm",
+        ]
+        run_compiler(link, cwd=cwd)
+    return Path(target)
+
+
+def kernel_functions(kernels: Kernels) -> list[ca.Function]:
+    """Every Function compiled for a model: its kernels and ``jac_<field>`` (CVODES asks for
+    the Jacobian of the field it integrates)."""
+    return [*kernels.all(), kernels.field.jacobian()]
+
+
 def generate_c(kernels: Kernels, name: str, directory: Path, with_header: bool = True) -> Path:
     """Write the C source (and header) of all kernels of a model; returns the source path."""
-    # "jac_<field>": CVODES asks for the Jacobian of the field it integrates
-    return write_c([*kernels.all(), kernels.field.jacobian()], name, directory, with_header)
+    return write_c(kernel_functions(kernels), name, directory, with_header)
 
 
-def cached_library(functions: Sequence[ca.Function], name: str) -> Path:
+def cached_library(
+    functions: Sequence[ca.Function],
+    name: str,
+    announce_as: str | None = None,
+    opt: str = "-O3",
+) -> Path:
     """A shared library of some Functions, compiled once into the cache directory.
 
-    Keyed by a hash of the generated source and the compiler flags; for the kernels of a
+    Keyed by a hash of the generated sources and the compiler flags; for the kernels of a
     model prefer :func:`compiled_kernels`, which needs no code generation when cached.
+    ``announce_as``: the model name to :func:`announce` when it compiles; ``opt``: the
+    optimisation level (-O3 by default: batched loops such as the algebraic form's gain from
+    it; :data:`OPT` for straight-line kernels).
     """
+    flags = (opt, *COMPILE_FLAGS[1:])
     with tempfile.TemporaryDirectory() as tmp:
-        src = write_c(functions, name, Path(tmp), with_header=False)
-        key = hashlib.sha256(src.read_bytes() + " ".join(CFLAGS).encode()).hexdigest()[:20]
-        target = cache_dir() / f"{name}_{key}.so"
+        sources, _ = write_c_parts(functions, name, Path(tmp))
+        h = hashlib.sha256()
+        for src in sources:
+            h.update(src.read_bytes())
+        h.update(" ".join((*flags, *LINK_FLAGS)).encode())
+        target = cache_dir() / f"{name}_{h.hexdigest()[:20]}.so"
         if not target.exists():
-            _compile_into(src, target)
+            if announce_as:
+                announce(announce_as)
+            _compile_parts_into(sources, target, flags)
     return target
 
 
@@ -119,13 +224,21 @@ def _compile_into(source: Path, target: Path) -> None:
     os.replace(partial, target)  # atomic: concurrent processes never load a partial file
 
 
+def _compile_parts_into(
+    sources: Sequence[Path], target: Path, flags: Sequence[str] = COMPILE_FLAGS
+) -> None:
+    partial = target.with_suffix(f".{os.getpid()}.tmp")
+    compile_parallel(sources, partial, flags)
+    os.replace(partial, target)  # atomic: concurrent processes never load a partial file
+
+
 def compile_shared(source: Path, target: Path) -> Path:
     """Compile a C source into a shared library.
 
     Raises:
         BuildError: see :func:`run_compiler`.
     """
-    run_compiler([*CFLAGS, source, "-o", target, "-lm"])
+    run_compiler([*CFLAGS, str(source), "-o", str(target), "-lm"])
     return target
 
 
@@ -136,7 +249,7 @@ def cache_key(model) -> str:
     here = Path(__file__).resolve().parents[1]
     for part in ("kernels/functions.py", "symbolic/kinematics.py", "symbolic/system.py"):
         h.update((here / part).read_bytes())
-    h.update(ca.__version__.encode())
+    h.update(str(getattr(ca, "__version__", "")).encode())
     h.update(" ".join(CFLAGS).encode())
     return h.hexdigest()[:24]
 
@@ -150,7 +263,9 @@ def compiled_kernels(model) -> Kernels:
     kern = model.kernels
     target = cache_dir() / f"kernels_{cache_key(model)}.so"
     if not target.exists():
+        announce(model.name)
         with tempfile.TemporaryDirectory() as tmp:
-            _compile_into(generate_c(kern, "scdk_kernels", Path(tmp), with_header=False), target)
+            sources, _ = write_c_parts(kernel_functions(kern), "scdk_kernels", Path(tmp))
+            _compile_parts_into(sources, target)
     loaded = {f.name: ca.external(getattr(kern, f.name).name(), str(target)) for f in fields(kern)}
     return Kernels(**loaded)

@@ -26,9 +26,9 @@ class Buffered:
         self.args = [np.zeros(f.nnz_in(i)) for i in range(f.n_in())]
         self.res = [np.zeros(f.nnz_out(i)) for i in range(f.n_out())]
         for i, a in enumerate(self.args):
-            self._buf.set_arg(i, memoryview(a))
+            self._buf.set_arg(i, memoryview(a))  # type: ignore[call-arg, arg-type]
         for i, r in enumerate(self.res):
-            self._buf.set_res(i, memoryview(r))
+            self._buf.set_res(i, memoryview(r))  # type: ignore[call-arg, arg-type]
 
     def __call__(self, *args) -> list[np.ndarray]:
         for a, v in zip(self.args, args, strict=True):
@@ -105,7 +105,7 @@ class Dense:
             except ValueError:
                 a[:] = self._argument(v, shape)
         res = buf.run()
-        out = []
+        out: list[float | np.ndarray] = []
         for r, (kind, shape, where) in zip(res, self._outputs, strict=True):
             if kind == "scalar":
                 out.append(float(r[0]) if r.size else 0.0)

@@ -10,46 +10,11 @@ platform tilted 80 deg or turned 170 deg is as regular as one at rest.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-
-def skew3(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
-def rot_exp(w: np.ndarray) -> np.ndarray:
-    """Rotation matrix of a rotation vector [rad]."""
-    angle = float(np.linalg.norm(w))
-    if angle < 1e-12:
-        return np.eye(3) + skew3(w)
-    K = skew3(np.asarray(w) / angle)
-    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
-
-
-def rot_log(R: np.ndarray) -> np.ndarray:
-    """Rotation vector [rad] of a rotation matrix (angle in [0, pi])."""
-    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    # atan2 of (sin, cos): accurate to rounding at every angle (acos loses digits near pi)
-    angle = math.atan2(0.5 * float(np.linalg.norm(w)), (float(np.trace(R)) - 1) / 2)
-    if angle < 1e-9:
-        return 0.5 * w
-    if math.pi - angle < 1e-3:  # near a half turn: axis from the symmetric part
-        B = (R + R.T) / 2 - math.cos(angle) * np.eye(3)  # = (1 - cos a) axis axis^T
-        i = int(np.argmax(np.diag(B)))
-        axis = B[:, i] / np.linalg.norm(B[:, i])
-        if w @ axis < 0:
-            axis = -axis
-        return angle * axis
-    return angle / (2 * math.sin(angle)) * w
-
-
-def cayley(rho: np.ndarray) -> np.ndarray:
-    """Rotation of Rodrigues parameters (numeric twin of the symbolic chart)."""
-    W = skew3(rho)
-    return np.eye(3) + 2 * (W + W @ W) / (1 + float(rho @ rho))
+from .rotations import cayley, rot_exp, rot_log
 
 
 @dataclass(frozen=True)
@@ -60,11 +25,12 @@ class Chart:
 
     @classmethod
     def for_unknowns(cls, unknowns: tuple[str, ...], floating: tuple[str, ...]) -> Chart:
-        rots = []
+        rots: list[tuple[int, int, int]] = []
         for f in floating:
             names = [f"{f}.rx", f"{f}.ry", f"{f}.rz"]
             if all(n in unknowns for n in names):
-                rots.append(tuple(unknowns.index(n) for n in names))
+                i, j, k = (unknowns.index(n) for n in names)
+                rots.append((i, j, k))
         return cls(tuple(rots))
 
     @property
@@ -100,3 +66,27 @@ class Chart:
             c[9 * i : 9 * i + 9] = (u @ vt).flatten(order="F")
             y[list(idx)] = 0.0
         return y, c
+
+    def recentred(self, y, c):
+        """Symbolic twin of :meth:`recentre` on CasADi SX: ``(y, c)`` in the chart centred on
+        ``y`` (``R_ref <- R_ref cayley(rho)``, ``rho <- 0``), without the re-orthonormalisation
+        (``c`` stays orthonormal to rounding over one step).
+
+        Args:
+            y: (m,) SX local unknowns.
+            c: (9 * number of rotations,) SX chart (column-major reference rotations).
+
+        Returns:
+            (y0, c0): SX expressions of the re-centred unknowns and chart.
+        """
+        import casadi as ca
+
+        from ..symbolic.kinematics import cayley
+
+        y_out, c_out = ca.SX(y), ca.SX(c)
+        for i, idx in enumerate(self.rotations):
+            R = ca.reshape(c[9 * i : 9 * i + 9], 3, 3) @ cayley(ca.vertcat(*[y[j] for j in idx]))
+            c_out[9 * i : 9 * i + 9] = ca.reshape(R, 9, 1)
+            for j in idx:
+                y_out[j] = 0
+        return y_out, c_out

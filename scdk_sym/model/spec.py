@@ -144,9 +144,9 @@ def parse_spec(text: str, path: str | None = None) -> Spec:
         if t not in CLOSURE_TYPES:
             raise ModelError(f"unknown closure type {t!r}; types: {', '.join(CLOSURE_TYPES)}", path)
     lengths = data.get("length")
-    if any(t == "distance" for t in types) and (
-        not isinstance(lengths, list) or len(lengths) != len(loops)
-    ):
+    if not isinstance(lengths, list):
+        lengths = []
+    if any(t == "distance" for t in types) and len(lengths) != len(loops):
         raise ModelError("'distance' closures need 'length', one entry per closure", path)
     closures = []
     for i, ((a, b), t) in enumerate(zip(loops, types, strict=True)):

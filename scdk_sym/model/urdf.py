@@ -8,12 +8,13 @@ from __future__ import annotations
 
 import io
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import ModelError
+from .rotations import rpy_from_matrix, rpy_matrix
 
 #: Joint types with one coordinate.
 MOVABLE_TYPES = ("revolute", "continuous", "prismatic", "floating")
@@ -231,35 +232,8 @@ def parse_urdf(text: str, path: str | None = None) -> Tree:
 # ---------------------------------------------------------------------------- writing
 
 
-def _fmt(values: Sequence[float]) -> str:
+def _fmt(values: Iterable[float]) -> str:
     return " ".join(repr(float(v)) for v in values)
-
-
-def rpy_from_matrix(rot: np.ndarray) -> np.ndarray:
-    """URDF roll-pitch-yaw of a rotation matrix (R = Rz(yaw) Ry(pitch) Rx(roll))."""
-    pitch = math.atan2(-rot[2, 0], math.hypot(rot[0, 0], rot[1, 0]))
-    roll = math.atan2(rot[2, 1], rot[2, 2])
-    yaw = math.atan2(rot[1, 0], rot[0, 0])
-    return np.array([roll, pitch, yaw])
-
-
-def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """Rotation matrix of URDF roll-pitch-yaw angles [rad]."""
-    cr, sr, cp, sp, cy, sy = (
-        math.cos(roll),
-        math.sin(roll),
-        math.cos(pitch),
-        math.sin(pitch),
-        math.cos(yaw),
-        math.sin(yaw),
-    )
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
 
 
 def tree_to_urdf(tree: Tree) -> str:

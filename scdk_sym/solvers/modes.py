@@ -42,14 +42,16 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..backends import DEFAULTS, resolve
 from ..errors import InputError, ScdkError
 from ..follower.curve import Line, follow
 from ..follower.geometry import difference, features, kinds  # noqa: F401
 from ..follower.kernels import follower_kernels
-from ..model.model import Model, as_vector
+from ..model.rotations import quaternion_matrix
 from ..results import AssemblyModes, Configuration
+from ..robot import Model, as_vector
 from .sc import validate_start
 
 #: The search accepts explicit steps whose tangent turned by up to acos(0.7) (it collects
@@ -212,7 +214,7 @@ def _actuator_scale(model: Model) -> np.ndarray:
 
 def explore(
     model: Model,
-    theta0: Sequence[float],
+    theta0: ArrayLike,
     *,
     start: Configuration | Sequence[Configuration] | None = None,
     seed: int = 0,
@@ -332,14 +334,14 @@ def explore(
                 new = both_ways(theta0 - d, d, sols[i].y, 1.0, i)
             else:
                 known = np.vstack(feats) if feats else np.zeros((0, 0))
-                st = sampler.next(known, 0.25 * scale)
+                drawn = sampler.next(known, 0.25 * scale)
                 out.random_starts += 1
-                if st is None:
+                if drawn is None:
                     out.curves += 1  # counted, so that a failing sampler cannot loop forever
                     new = 0
                 else:
                     # the paper's two answers from this start (first crossing each way)
-                    new = both_ways(st.theta, theta0 - st.theta, st.y, 0.0, -1, max_hits=1)
+                    new = both_ways(drawn.theta, theta0 - drawn.theta, drawn.y, 0.0, -1, max_hits=1)
             if new:
                 idle = dict.fromkeys(idle, 0)
                 out.last_new = (out.lines, out.random_starts)
@@ -388,8 +390,8 @@ class RandomStarts:
         for r, idx in enumerate(model.chart.rotations):
             quat = self.rng.normal(size=(n, 4))
             quat /= np.linalg.norm(quat, axis=1)[:, None]
-            for j in range(n):  # uniform rotations, as charts (local rotation parameters 0)
-                C[j, 9 * r : 9 * r + 9] = _quat_matrix(quat[j]).flatten(order="F")
+            # uniform rotations, as charts (local rotation parameters 0), column-major
+            C[:, 9 * r : 9 * r + 9] = quaternion_matrix(quat).transpose(0, 2, 1).reshape(n, 9)
             Y[:, list(idx)] = 0.0
         G = np.array(model.kernels.g.map(n)(Y.T, np.tile(self.theta0[:, None], (1, n)), C.T))
         score = np.max(np.abs(G), axis=0)
@@ -446,17 +448,6 @@ class RandomStarts:
         return cfg if ok else None
 
 
-def _quat_matrix(q: np.ndarray) -> np.ndarray:
-    w, x, y, z = q
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-
-
 def _sort_key(cfg: Configuration) -> tuple:
     return (*(round(float(v), 8) for v in cfg.x), *(round(float(v), 8) for v in cfg.y))
 
@@ -481,7 +472,7 @@ _CURVE_DEFAULTS = {"time_budget": None, "start": None, "patience": 8, "cover": 2
 
 def assembly_modes(
     model: Model,
-    theta0: Sequence[float],
+    theta0: ArrayLike,
     *,
     method: str = "homotopy",
     seed: int = 0,
@@ -518,7 +509,8 @@ def assembly_modes(
             in a row without a new solution before stopping, 8), ``cover`` (times each known
             solution must be met again, 2), ``max_curves`` (400). Homotopy only:
             ``max_loops`` (bound on the monodromy loops), ``cache`` (disk cache of the start
-            system, True).
+            system, True), ``rebuild`` (compute the start system again even if a proven or a
+            failed one is cached, False).
 
     Returns:
         :class:`~scdk_sym.results.AssemblyModes`: a sequence of
@@ -536,11 +528,11 @@ def assembly_modes(
     if method == "homotopy":
         from .homotopy_modes import homotopy_modes
 
-        extra = set(options) - {"max_loops", "cache"}
+        extra = set(options) - {"max_loops", "cache", "rebuild"}
         if extra:
             raise InputError(
                 f"option(s) {', '.join(sorted(extra))} belong to method='curves'; "
-                "the homotopy takes seed, progress, backend, max_loops, cache"
+                "the homotopy takes seed, progress, backend, max_loops, cache, rebuild"
             )
         return homotopy_modes(
             model,

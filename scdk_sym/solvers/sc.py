@@ -14,9 +14,9 @@ tracker and the assembly-mode search); :func:`solve` returns the first one.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..backends import resolve
 from ..errors import (
@@ -30,8 +30,9 @@ from ..errors import (
 from ..follower.curve import Hit, Line, Walk, follow, null_direction  # noqa: F401
 from ..follower.cvodes import GRID, Engine, engine  # noqa: F401
 from ..kernels.fastcall import model_calls
-from ..model.model import Model, as_vector
 from ..results import Configuration, Crossing, PathSamples, SolveResult
+from ..robot import Model, as_vector
+from .solve_c import solve_c
 
 
 def validate_start(
@@ -118,7 +119,7 @@ def trace(
 
 def solve(
     model: Model,
-    theta0: Sequence[float],
+    theta0: ArrayLike,
     start: Configuration | None = None,
     branch: str = "convergent",
     b: float | None = None,
@@ -144,7 +145,9 @@ def solve(
             on the paper's straight path ``theta1 + s (theta0 - theta1)`` and overrides
             ``branch`` (the literal algorithm).
         backend: a name of :mod:`scdk_sym.backends` that solve offers
-            (``backends.offered("solve")``): "cvodes" (default), "compiled" or "auto".
+            (``backends.offered("solve")``): "cvodes" (default), "compiled", "c" (the
+            convergent solve in one call of the generated C follower,
+            :mod:`scdk_sym.solvers.solve_c`) or "auto".
         max_arc: arc-length budget of the path (see :func:`trace`).
         record_path: keep the sampled curve in ``result.path`` (for plots).
         fast: for a convergent solve without ``record_path``, first try one call of the warm
@@ -166,6 +169,8 @@ def solve(
         VerificationError: the final configuration failed its residual check.
     """
     backend = resolve(backend, "solve")
+    if backend == "c":  # one call of the generated C follower (scdk_sym.solvers.solve_c)
+        return solve_c(model, theta0, start, branch, b, max_arc=max_arc, record_path=record_path)
     theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
     if b is None and branch not in ("convergent", "divergent"):
         raise InputError(f"unknown branch {branch!r}; branches: convergent, divergent")
@@ -237,15 +242,18 @@ def _along_line(model, theta0, start, direction, name, backend, max_arc, record_
                       any_fold=not tr.hits)  # fmt: skip
         if res is not None:
             return res
+    sign0 = _det_sign_of(model, start.y, start.theta)
     if tr.hits:
         hit = tr.hits[0]
         crossings = tuple(tr.singular[: hit.crossings])
-        return _result(model, hit.y, theta0, crossings, name, direction, start, tr.path)
-    touch = _touching(model, theta0, tr)
+        res = _result(model, hit.y, theta0, crossings, name, direction, start, tr.path)
+        return _parity_checked(model, res, sign0)
+    touch = _touching(model, theta0, tr, sign0)
     if touch is not None:
         y, n = touch
         crossings = tuple(tr.singular[:n])
-        return _result(model, y, theta0, crossings, name, direction, start, tr.path)
+        res = _result(model, y, theta0, crossings, name, direction, start, tr.path)
+        return _parity_checked(model, res, sign0)
     if tr.stalled:
         why = "the curve could not be followed further"
     elif tr.closed:
@@ -322,24 +330,76 @@ def _detour(
     return None
 
 
-def _touching(model, theta0, tr) -> tuple[np.ndarray, int] | None:
+def _touching(model, theta0, tr, sign0: float) -> tuple[np.ndarray, int] | None:
     """A fold of the curve at ``s = 1`` (``theta0`` on the singular surface): the singular
-    solution there, polished at ``theta0``, and the number of crossings before it."""
+    solution there, polished at ``theta0``, and the number of crossings before it.
+
+    Where the fold lies only nearly at ``s = 1`` there are two solutions at ``theta0`` next
+    to it, one on each sheet: Newton from the fold may converge to either. The one on the
+    incoming sheet (``det J_p`` of sign ``sign0 (-1)^i`` after ``i`` crossings) is kept; from
+    a solution on the other sheet Newton is restarted at its reflections through the fold.
+    """
     from ..follower.kernels import follower_calls
 
     polish = follower_calls(model).polish
-    for i, cr in enumerate(tr.singular):
-        if cr.kind != "fold" or abs(cr.s - 1.0) > 1e-6:
-            continue
-        y, c = model.chart.to_local(cr.y)
+
+    def newton(y, c):
         for _ in range(8):  # Newton converges only linearly to a double root
             y_new, res = polish(y, theta0, c)
             y = np.array(y_new).ravel()
             if not np.all(np.isfinite(y)) or float(res) <= 1e-3 * model.tolerance:
                 break
-        if np.all(np.isfinite(y)) and model.residual(y, theta0, c) <= model.tolerance:
+        ok = np.all(np.isfinite(y)) and model.residual(y, theta0, c) <= model.tolerance
+        return y if ok else None
+
+    for i, cr in enumerate(tr.singular):
+        if cr.kind != "fold" or abs(cr.s - 1.0) > 1e-6:
+            continue
+        y_f, c = model.chart.to_local(cr.y)
+        want = sign0 * (-1.0) ** i
+        y = newton(y_f, c)
+        if y is None:
+            continue
+        if _singular_or_sign(model, y, theta0, c, want):
             return model.chart.to_canonical(y, c), i
+        for k in (1.0, 0.5, 2.0, 4.0):
+            y_r = newton(y_f - k * (y - y_f), c)
+            if y_r is not None and _singular_or_sign(model, y_r, theta0, c, want):
+                return model.chart.to_canonical(y_r, c), i
     return None
+
+
+def _singular_or_sign(model, y_loc, theta, c, want: float) -> bool:
+    """J_p singular to 1e-6 relative at a point, or its det has the sign ``want``."""
+    Jp = np.array(model_calls(model).jac(y_loc, theta, c)[0])
+    S = np.linalg.svd(Jp, compute_uv=False)
+    return not S[-1] > 1e-6 * S[0] or float(np.linalg.det(Jp)) * want > 0
+
+
+def _det_sign_of(model, y, theta) -> float:
+    y_loc, c = model.chart.to_local(y)
+    return 1.0 if np.linalg.det(np.array(model_calls(model).jac(y_loc, theta, c)[0])) > 0 else -1.0
+
+
+def _parity_checked(model, res: SolveResult, sign0: float) -> SolveResult:
+    """The answer of a path, verified against its crossings: ``det J_p`` changes sign at
+    each crossing met, so a non-singular answer has the sign ``sign0 (-1)^n`` after ``n``.
+
+    Raises:
+        PathError: it has the other sign (the answer is on a sheet the path did not reach).
+    """
+    if res.status == "singular":
+        return res
+    n = len(res.crossings)
+    got = _det_sign_of(model, res.y, res.theta)
+    if got * sign0 * (-1.0) ** n > 0:
+        return res
+    raise PathError(
+        f"{res.branch} branch at theta0={np.asarray(res.theta).tolist()}: the solution found "
+        f"has det J_p of sign {got:+.0f} after {n} singular crossing(s) from a start of sign "
+        f"{sign0:+.0f}: it is not on the path's sheet (theta0 is next to a singular surface); "
+        "every real solution: sc.assembly_modes(model, theta0)"
+    )
 
 
 def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=None) -> SolveResult:
@@ -354,7 +414,13 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
     2. the nearest singular configuration on the manifold, and the solution at ``theta0`` on
        its other side nearest to it (:func:`~scdk_sym.follower.singular.across_fold`);
     3. lines aimed at the singular surface, back on the other sheet, then convergent;
-    4. the paper's straight path in the divergent direction, however far it goes.
+    4. the paper's straight path in the divergent direction, however far it goes;
+    5. every real solution at ``theta0`` (:func:`~scdk_sym.solvers.modes.assembly_modes`,
+       certified): of those on the other side of the nearest singular configuration
+       (``det J_p`` of the sign opposite to the start's; where branches cross there, any
+       other than the convergent answer) the one nearest to it, as in way 2, which guesses
+       the candidates by Newton from points beyond the singular configuration where this
+       way has them all (e.g. the Delta's mirror assembly above its base).
     """
     from ..follower.singular import across, across_fold, nearest_singular
 
@@ -420,7 +486,7 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
         conv = convergent() if fold.kind == "bifurcation" else None
         leg = across_fold(model, start, fold, theta0, backend=backend,
                           exclude=None if conv is None else conv.configuration)  # fmt: skip
-    if leg is None:
+    if leg is None or fold is None:
         tried.append("no solution across the nearest singular configuration")
     else:
         cfg, met = leg
@@ -458,10 +524,54 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
             res = other_than_convergent(res, "along the straight path")
             if res is not None:
                 return res
+    # 5. across the nearest singular configuration, among every real solution
+    if fold is not None:
+        res = _across_by_modes(model, theta0, start, sign, fold, convergent, backend, tried)
+        if res is not None:
+            return res
     raise PathError(
         f"divergent branch at theta0={theta0.tolist()}: no solution across a singular surface "
         f"was reached ({'; '.join(tried)}); every real solution: sc.assembly_modes(model, theta0)"
     )
+
+
+def _across_by_modes(
+    model, theta0, start, sign, fold, convergent, backend, tried
+) -> SolveResult | None:
+    """Way 5 of :func:`_divergent`: the real solution at ``theta0`` on the other side of
+    ``fold`` nearest to it, chosen among every real solution (certified assembly modes)."""
+    from ..follower.geometry import features
+    from ..follower.singular import _det_sign
+    from .modes import assembly_modes
+
+    try:
+        sols = assembly_modes(model, theta0, backend=backend)
+    except ScdkError as exc:
+        tried.append(f"every real solution at theta0: {exc}")
+        return None
+    if not sols.certified:
+        tried.append("every real solution at theta0: the set is not certified complete")
+        return None
+    conv = convergent()
+    sign0 = _det_sign(model, start)
+    scale = max(1.0, float(model.length_scale))
+    f_fold = features(model, fold.y)[0]
+    best: tuple[float, Configuration] | None = None
+    for cfg in sols:
+        if conv is not None and _same_configuration(model, cfg, conv):
+            continue
+        if fold.kind == "fold" and _det_sign(model, cfg) * sign0 > 0:
+            continue
+        dist = float(np.max(np.abs(features(model, cfg.y)[0] - f_fold)))
+        if best is None or dist < best[0] - 1e-9 * scale:
+            best = (dist, cfg)
+    if best is None:
+        tried.append(
+            f"every real solution at theta0 ({len(sols)}, certified): none on the other side"
+        )
+        return None
+    crossing = _on_path(fold, start, theta0)
+    return _result(model, best[1].y, theta0, (crossing,), "divergent", -sign, start, None)
 
 
 def _same_configuration(model: Model, a, b) -> bool:

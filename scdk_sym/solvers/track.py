@@ -107,8 +107,9 @@ import numpy as np
 from ..backends import resolve
 from ..errors import InputError, PathError, TrackError
 from ..kernels.fastcall import Buffered
-from ..model.model import Model
+from ..model.rotations import gibbs, rot_exp
 from ..results import Configuration, Crossing, TrackResult
+from ..robot import Model
 from .sc import null_direction, trace, validate_start
 
 #: R2, R4: the best candidate must miss the prediction by at most this fraction of the step.
@@ -358,10 +359,7 @@ class _Tracker:
         for i, idx in enumerate(self.model.chart.rotations):
             ii = list(idx)
             R_ref = self.c[9 * i : 9 * i + 9].reshape(3, 3, order="F")
-            M = R_ref.T @ _rot_exp(y[ii])
-            y[ii] = np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]]) / (
-                1.0 + np.trace(M)
-            )
+            y[ii] = gibbs(R_ref.T @ rot_exp(y[ii]))
         return y
 
     # -- one reading
@@ -582,12 +580,6 @@ def undecidable_error(index: int, theta, xs, miss, accuracy: float, step: float)
     )  # fmt: skip
 
 
-def _rot_exp(w: np.ndarray) -> np.ndarray:
-    from ..model.chart import rot_exp
-
-    return rot_exp(w)
-
-
 # ---------------------------------------------------------------------------- crossings
 
 
@@ -651,13 +643,10 @@ def locate(model: Model, ya, yb, tha, thb, da: float, index: int) -> Crossing:
     kern = model.kernels
     ya_loc, c = model.chart.to_local(ya)
     yb_loc = np.array(yb, dtype=float)
-    for i, idx in enumerate(model.chart.rotations):
-        idx = list(idx)
+    for i, rot in enumerate(model.chart.rotations):
+        idx = list(rot)
         R_ref = c[9 * i : 9 * i + 9].reshape(3, 3, order="F")
-        M = R_ref.T @ _rot_exp(np.asarray(yb)[idx])
-        yb_loc[idx] = np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]]) / (
-            1 + np.trace(M)
-        )
+        yb_loc[idx] = gibbs(R_ref.T @ rot_exp(np.asarray(yb)[idx]))
     za = np.concatenate([ya_loc, tha])
     zb = np.concatenate([yb_loc, thb])
     tol = 1e-3 * model.tolerance

@@ -1,10 +1,11 @@
 """Direct kinematics along a trajectory with the generated C tracker, in one call into C.
 
 :func:`track_c` compiles (once, cached on disk) the standalone tracker of
-:mod:`scdk_sym.codegen`, runs the whole sequence of readings in one ``ctypes`` call, and then
-verifies every returned sample in Python with the CasADi kernels (independently of the C
-code): a sample that fails its residual check, or a failure status of the C tracker, raises
-a :class:`~scdk_sym.errors.TrackError` naming the sample (re-exported here). The C tracker
+:mod:`scdk_sym.codegen` and runs the whole sequence of readings in one ``ctypes`` call, which
+also returns the closure residual of every sample (evaluated there by the generated closure
+function, the model's ``g``); Python checks each against the model's tolerance: a sample that
+fails it, or a failure status of the C tracker, raises a
+:class:`~scdk_sym.errors.TrackError` naming the sample (re-exported here). The C tracker
 judges every reading by the rule of :mod:`scdk_sym.solvers.track` (the same as
 ``track(backend="cvodes")``), and the crossings are computed from the finished track by the
 same function, :func:`scdk_sym.solvers.track.crossings`.
@@ -12,15 +13,13 @@ same function, :func:`scdk_sym.solvers.track.crossings`.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
-import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError, TrackError
-from ..model.chart import rot_log
-from ..model.model import Model
+from ..model.rotations import cayley, rot_log
 from ..results import Configuration, TrackResult
+from ..robot import Model
 from .sc import validate_start
 from .track import crossings as track_crossings
 from .track import no_solution_error, undecidable_error, verify_samples
@@ -30,7 +29,7 @@ __all__ = ["TrackError", "track_c"]
 
 def track_c(
     model: Model,
-    thetas: Sequence[Sequence[float]],
+    thetas: ArrayLike,
     start: Configuration | None = None,
     *,
     options=None,
@@ -90,7 +89,7 @@ def track_c(
         )  # fmt: skip
     N = th.shape[0]
     y_can = _canonical(model, out.y, out.c)
-    residual = _residuals(model, y_can, th)
+    residual = out.residual
     verify_samples(model, residual, th)
     crossings = track_crossings(model, start, y_can, th, out.det)
     return TrackResult(
@@ -123,80 +122,11 @@ def _readings(thetas, k: int) -> np.ndarray:
 # ---------------------------------------------------------------------------- charts, batched
 
 
-def _skew(v: np.ndarray) -> np.ndarray:
-    S = np.zeros(v.shape[:-1] + (3, 3))
-    S[..., 0, 1], S[..., 0, 2], S[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
-    S[..., 1, 0], S[..., 2, 0], S[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
-    return S
-
-
-def _cayley(rho: np.ndarray) -> np.ndarray:
-    W = _skew(rho)
-    return np.eye(3) + 2 * (W + W @ W) / (1 + np.sum(rho * rho, axis=-1))[..., None, None]
-
-
-def _rot_log(R: np.ndarray) -> np.ndarray:
-    """Rotation vectors of (N, 3, 3) rotations (angle in [0, pi])."""
-    cosang = np.clip((np.trace(R, axis1=-2, axis2=-1) - 1) / 2, -1.0, 1.0)
-    angle = np.arccos(cosang)
-    w = np.stack([R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]], -1)
-    small = angle < 1e-9
-    near_pi = np.pi - angle < 1e-6
-    factor = np.where(small, 0.5, angle / (2 * np.sin(np.where(small | near_pi, 1.0, angle))))
-    out = factor[:, None] * w
-    for i in np.flatnonzero(near_pi):
-        out[i] = rot_log(R[i])
-    return out
-
-
-def _rot_exp(w: np.ndarray) -> np.ndarray:
-    angle = np.linalg.norm(w, axis=-1)
-    safe = np.where(angle < 1e-12, 1.0, angle)
-    K = _skew(w / safe[:, None])
-    s = np.where(angle < 1e-12, 0.0, np.sin(angle))[:, None, None]
-    c = np.where(angle < 1e-12, 0.0, 1 - np.cos(angle))[:, None, None]
-    R = np.eye(3) + s * K + c * (K @ K)
-    tiny = angle < 1e-12
-    if tiny.any():
-        R[tiny] = np.eye(3) + _skew(w[tiny])
-    return R
-
-
 def _canonical(model: Model, y: np.ndarray, c: np.ndarray) -> np.ndarray:
     """Local (y, c) rows -> canonical y rows (rotation vectors)."""
     y = np.array(y, dtype=float)
-    for i, idx in enumerate(model.chart.rotations):
-        idx = list(idx)
+    for i, rot in enumerate(model.chart.rotations):
+        idx = list(rot)
         R_ref = c[:, 9 * i : 9 * i + 9].reshape(-1, 3, 3).transpose(0, 2, 1)  # column-major
-        y[:, idx] = _rot_log(R_ref @ _cayley(y[:, idx]))
+        y[:, idx] = rot_log(R_ref @ cayley(y[:, idx]))
     return y
-
-
-def _to_local(model: Model, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Canonical y rows -> (local y rows with zero rotation parameters, chart rows)."""
-    y = np.array(y, dtype=float)
-    c = np.zeros((y.shape[0], model.chart.size))
-    for i, idx in enumerate(model.chart.rotations):
-        idx = list(idx)
-        R = _rot_exp(y[:, idx])
-        c[:, 9 * i : 9 * i + 9] = R.transpose(0, 2, 1).reshape(-1, 9)
-        y[:, idx] = 0.0
-    return y, c
-
-
-def _residuals(model: Model, y_can: np.ndarray, th: np.ndarray) -> np.ndarray:
-    """Max |closure row| of each canonical sample (CasADi SX kernels, not the C code)."""
-    N = y_can.shape[0]
-    if N == 0:
-        return np.zeros(0)
-    y_loc, c = _to_local(model, y_can)
-    maps = model.__dict__.setdefault("_check_maps", {})
-    if N not in maps:
-        if len(maps) > 8:
-            maps.clear()
-        maps[N] = model.kernels.check.map(N)
-    check = maps[N]
-    rows = np.array(check(y_loc.T, th.T, c.T if c.size else ca.DM.zeros(0, N)))
-    res = np.max(np.abs(rows), axis=0)
-    res[~np.all(np.isfinite(y_can), axis=1)] = np.nan
-    return res

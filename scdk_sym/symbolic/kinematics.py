@@ -11,37 +11,19 @@ from collections.abc import Mapping
 import casadi as ca
 import numpy as np
 
+from ..model.rotations import axis_rotation, cayley
 from ..model.spec import Closure
 from ..model.urdf import Tree
 
 
-def skew(v: ca.SX) -> ca.SX:
-    return ca.vertcat(
-        ca.horzcat(0, -v[2], v[1]),
-        ca.horzcat(v[2], 0, -v[0]),
-        ca.horzcat(-v[1], v[0], 0),
-    )
-
-
-def joint_motion(kind: str, axis: np.ndarray, q: ca.SX) -> ca.SX:
+def joint_motion(kind: str, axis: np.ndarray, q: ca.SX | float) -> ca.SX:
     """4x4 transform of a one-coordinate joint about/along ``axis`` by ``q``."""
     T = ca.SX.eye(4)
     if kind == "prismatic":
         T[:3, 3] = ca.DM(axis) * q
     else:
-        K = skew(ca.DM(axis))
-        T[:3, :3] = ca.SX.eye(3) + ca.sin(q) * K + (1 - ca.cos(q)) * (K @ K)
+        T[:3, :3] = axis_rotation(axis, ca.cos(q), ca.sin(q))
     return T
-
-
-def cayley(rho: ca.SX) -> ca.SX:
-    """Rotation of Rodrigues (Gibbs) parameters ``rho = tan(angle/2) axis``.
-
-    ``R = I + 2 (W + W^2) / (1 + |rho|^2)``, ``W = skew(rho)``: rational, regular for every
-    rotation of less than a half turn, with the identity at ``rho = 0``.
-    """
-    W = skew(rho)
-    return ca.SX.eye(3) + 2 * (W + W @ W) / (1 + ca.dot(rho, rho))
 
 
 def floating_motion(coords: ca.SX, R_ref: ca.SX) -> ca.SX:
@@ -105,7 +87,7 @@ def closure_residual(
     if closure.type == "2d":
         return d[:2]
     if closure.type == "distance":
-        L = values[closure.length_joint] if closure.length_joint else closure.length
+        L = values[closure.length_joint] if closure.length_joint and values else closure.length
         return (ca.dot(d, d) - L * L) / (2 * L)
     return ca.vertcat(d, rotation_error(T_a[:3, :3], T_b[:3, :3]))
 

@@ -12,8 +12,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..model.chart import rot_exp
-from ..model.model import Model
+from ..model.rotations import rot_exp
+from ..robot import Model
 
 
 @lru_cache(maxsize=32)
@@ -66,11 +66,18 @@ def frame_placements(model: Model, joints: Mapping[str, float]) -> dict[str, np.
     return out
 
 
-def placement_error(model: Model, y, theta) -> float:
-    """Max |symbolic - Pinocchio| over every link placement at canonical (y, theta)."""
-    import casadi as ca
+def placement_errors(model: Model, y, theta) -> dict[str, float]:
+    """Max |symbolic - Pinocchio| entry of each link's 4x4 placement at canonical (y, theta).
 
-    from ..symbolic.kinematics import link_placements
+    Args:
+        model: the model.
+        y: (m,) canonical unknowns.
+        theta: (k,) actuated values [rad or model length unit].
+
+    Returns:
+        Link name -> error [model length unit for the translations; rotations unitless].
+    """
+    import casadi as ca
 
     cfg = model.configuration(y, theta)
     pin_T = frame_placements(model, cfg.joints)
@@ -78,8 +85,12 @@ def placement_error(model: Model, y, theta) -> float:
     sym = model.symbolic
     f = ca.Function("placements", [sym.y, sym.theta, sym.c], [ca.vertcat(*sym.placements.values())])
     ours = np.array(f(y_loc, cfg.theta, c)).reshape(len(sym.placements), 4, 4)
-    del link_placements
-    return float(max(np.abs(ours[i] - pin_T[n]).max() for i, n in enumerate(sym.placements)))
+    return {n: float(np.abs(ours[i] - pin_T[n]).max()) for i, n in enumerate(sym.placements)}
+
+
+def placement_error(model: Model, y, theta) -> float:
+    """Max |symbolic - Pinocchio| over every link placement at canonical (y, theta)."""
+    return max(placement_errors(model, y, theta).values())
 
 
 def constraint_models(model: Model) -> list:

@@ -2,19 +2,20 @@
 
 Loading validates every name, assembles the home configuration, and reduces a closure system
 that is not square as written (redundant rows, idle freedoms) to an independent square one.
+The description (URDF tree, closure YAML, charts) comes from :mod:`scdk_sym.model`; the
+closure system is built by :mod:`scdk_sym.symbolic` and evaluated by :mod:`scdk_sym.kernels`.
 """
 
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Sequence
 from dataclasses import replace
 from functools import cached_property
-from os import PathLike
 from pathlib import Path
 
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import (
     InputError,
@@ -26,10 +27,15 @@ from ..errors import (
     UnreachableError,
 )
 from ..kernels.fastcall import model_calls
+from ..kernels.functions import build_kernels
+from ..model.chart import Chart
+from ..model.files import read_description
+from ..model.rotations import rot_exp, rot_log, rpy_matrix
+from ..model.spec import Spec
+from ..model.urdf import Tree, tree_to_urdf
 from ..results import Configuration
-from .chart import Chart, rot_exp, rot_log
-from .spec import Spec, parse_spec
-from .urdf import Tree, parse_urdf, rpy_matrix, tree_to_urdf
+from ..symbolic.kinematics import link_placements
+from ..symbolic.system import build_symbolic
 
 #: Workspace coordinates that are angles [rad].
 ANGLE_COORDINATES = ("phi", "roll", "pitch", "yaw")
@@ -164,15 +170,11 @@ class Model:
 
     def _size(self) -> float:
         # a numeric forward pass with every joint at zero
-        from ..symbolic.kinematics import link_placements
-
         T = link_placements(self.tree, dict.fromkeys(self.tree.coordinates, 0.0))
         pos = np.array([np.array(ca.DM(t[:3, 3])).ravel() for t in T.values()])
         return float(np.max(np.linalg.norm(pos - pos[0], axis=1)))
 
     def _reduce(self, candidates: tuple[str, ...]) -> None:
-        from ..symbolic.system import build_symbolic
-
         full = build_symbolic(
             self.tree,
             self.closures,
@@ -319,7 +321,7 @@ class Model:
         )
 
     def _row_labels(self) -> list[str]:
-        labels = []
+        labels: list[str] = []
         for c in self.spec.closures:
             comps = {
                 "3d": "xyz",
@@ -375,8 +377,6 @@ class Model:
     @cached_property
     def symbolic(self):
         """The symbolic system (:class:`~scdk_sym.symbolic.system.Symbolic`)."""
-        from ..symbolic.system import build_symbolic
-
         return build_symbolic(
             self.tree,
             self.closures,
@@ -391,8 +391,6 @@ class Model:
     @cached_property
     def kernels(self):
         """CasADi Functions of this model (:class:`~scdk_sym.kernels.functions.Kernels`)."""
-        from ..kernels.functions import build_kernels
-
         return build_kernels(self.symbolic)
 
     @cached_property
@@ -453,7 +451,7 @@ class Model:
         return float(np.abs(model_calls(self).check(y, theta, c)).max())
 
     def configuration(
-        self, y: Sequence[float], theta: Sequence[float], c: np.ndarray | None = None
+        self, y: ArrayLike, theta: ArrayLike, c: np.ndarray | None = None
     ) -> Configuration:
         """Assemble a :class:`Configuration` from unknowns ``y`` (m,) and actuated ``theta`` (k,).
 
@@ -480,7 +478,7 @@ class Model:
         joints.update(zip(self.actuated, theta.tolist(), strict=True))
         return {j: joints[j] for j in self._coordinates}
 
-    def target_pose(self, x: Sequence[float]) -> np.ndarray:
+    def target_pose(self, x: ArrayLike) -> np.ndarray:
         """The 4x4 placement with workspace coordinates ``x`` (other components from home)."""
         x = as_vector(x, len(self.workspace), f"x ({', '.join(self.workspace)})")
         T = np.array(self.home.platform_pose)
@@ -493,7 +491,7 @@ class Model:
             T[:3, :3] = rpy_matrix(vals.get("roll", 0.0), vals.get("pitch", 0.0), yaw)
         return T
 
-    def inverse_kinematics(self, x: Sequence[float]) -> Configuration:
+    def inverse_kinematics(self, x: ArrayLike) -> Configuration:
         """An assembled configuration whose platform has workspace coordinates ``x``.
 
         Continuation from the home configuration along a straight line in position and a
@@ -594,42 +592,8 @@ def load_model(path: str | Path, frame: str | None = None) -> Model:
     Raises:
         ModelError: missing files, malformed URDF/YAML, unknown names, non-square systems.
     """
-    if not isinstance(path, (str, PathLike)):
-        raise InputError(
-            f"load_model: path must be a model directory or its YAML file (str or path), got "
-            f"{path!r} of type {type(path).__name__}"
-        )
-    p = Path(path)
-    if p.is_dir():
-        yaml_path, urdf_path = p / "robot.yaml", p / "robot.urdf"
-    elif p.suffix in (".yaml", ".yml"):
-        yaml_path = p
-        urdf_path = p.with_suffix(".urdf")
-        if not urdf_path.exists():
-            urdf_path = p.parent / "robot.urdf"
-    elif not p.exists():
-        raise ModelError("not found: expected a model directory or a .yaml file", str(p))
-    else:
-        raise ModelError("expected a model directory or a .yaml file", str(p))
-    for f in (yaml_path, urdf_path):
-        if not f.exists():
-            raise ModelError("file not found", str(f))
-    urdf_text = _read(urdf_path)
-    tree = parse_urdf(urdf_text, str(urdf_path))
-    spec = parse_spec(_read(yaml_path), str(yaml_path))
-    return Model(tree, spec, str(yaml_path), frame, urdf_text)
-
-
-def _read(path: Path) -> str:
-    """The text of a model file (UTF-8), or a :class:`ModelError` saying why not."""
-    try:
-        return path.read_text(encoding="utf-8")
-    except UnicodeDecodeError as exc:
-        raise ModelError(
-            f"not a UTF-8 text file ({exc.reason} at byte {exc.start})", str(path)
-        ) from exc
-    except OSError as exc:
-        raise ModelError(f"cannot read: {exc.strerror or exc}", str(path)) from exc
+    tree, spec, yaml_path, urdf_text = read_description(path)
+    return Model(tree, spec, yaml_path, frame, urdf_text)
 
 
 def model_from_tree(tree: Tree, spec: Spec, frame: str | None = None) -> Model:

@@ -1,0 +1,231 @@
+"""The path tracker of :mod:`scdk_sym.algebraic.tracker` in C, for parameter homotopies of a
+model's algebraic form.
+
+``c/ptrack.c`` tracks every path of a :class:`~scdk_sym.algebraic.homotopy.ParameterHomotopy`
+in one call, with the predictor, corrector and step rules of the numpy tracker (which stays
+the reference) and the real-pair evaluation of ``G`` generated as C by CasADi
+(:func:`~scdk_sym.algebraic.pairs.complexify`). Both libraries are compiled once and cached
+on disk (:mod:`scdk_sym.kernels.compile`); the evaluation library is the one the
+``"compiled"`` algebraic form loads, and the tracker calls its generated function through a
+pointer. Only straight segments in ``t`` are tracked here; the endgame's circles stay in
+numpy.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+from collections.abc import Callable
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import BuildError, HomotopyError, InputError
+from .tracker import TrackerOptions, TrackOutcome
+
+#: Tracker choices of :func:`~scdk_sym.algebraic.solve_homotopy`.
+TRACKERS = ("auto", "c", "python")
+#: Flags of the tracker library (warnings are errors: the source must stay clean; complex
+#: products without the C99 NaN recovery: the tracker checks finiteness itself).
+TRACKER_CFLAGS = (
+    "-std=c99", "-O3", "-fcx-limited-range", "-shared", "-fPIC", "-Wall", "-Wextra", "-Werror",
+)  # fmt: skip
+_EVAL_NAME = "algebraic_G"
+_ATTR = "_c_tracker"
+_ERRORS = {1: "out of memory", 2: "the generated evaluation failed", 3: "bad sizes"}
+
+
+class _Options(ctypes.Structure):
+    """``scdk_options`` of ``ptrack.h``: the fields of :class:`TrackerOptions`."""
+
+    _fields_ = [
+        ("h0", ctypes.c_double),
+        ("h_min", ctypes.c_double),
+        ("h_max", ctypes.c_double),
+        ("eta", ctypes.c_double),
+        ("trust", ctypes.c_double),
+        ("theta", ctypes.c_double),
+        ("tol", ctypes.c_double),
+        ("floor", ctypes.c_double),
+        ("noise", ctypes.c_double),
+        ("max_steps", ctypes.c_int64),
+        ("max_norm", ctypes.c_double),
+    ]
+
+
+def source_dir() -> Path:
+    """The directory of ``ptrack.c`` and ``ptrack.h`` (package data)."""
+    return Path(str(resources.files("scdk_sym.algebraic") / "c"))
+
+
+def tracker_library() -> Path:
+    """The compiled tracker library (cached under the hash of its sources and flags).
+
+    Raises:
+        BuildError: no C compiler, or the compilation failed.
+    """
+    from ..kernels.cache import cache_dir
+    from ..kernels.compile import run_compiler
+
+    src = source_dir()
+    h = hashlib.sha256()
+    for name in ("ptrack.h", "ptrack.c"):
+        h.update((src / name).read_bytes())
+    h.update(" ".join(TRACKER_CFLAGS).encode())
+    target = cache_dir() / f"ptrack_{h.hexdigest()[:20]}.so"
+    if not target.exists():
+        partial = target.with_suffix(f".{os.getpid()}.tmp")
+        run_compiler([*TRACKER_CFLAGS, str(src / "ptrack.c"), "-o", str(partial), "-lm"])
+        os.replace(partial, target)  # atomic: concurrent processes never load a partial file
+    return target
+
+
+def _form_and_weights(system) -> tuple[object, np.ndarray] | None:
+    """``(AlgebraicForm, row weights)`` of a form or a scaled form; ``None`` otherwise."""
+    from .form import AlgebraicForm
+    from .scaled import ScaledForm
+
+    if isinstance(system, ScaledForm):
+        return system.form, np.asarray(system.weights, dtype=float)
+    if isinstance(system, AlgebraicForm):
+        return system, np.ones(system.n)
+    return None
+
+
+class CTracker:
+    """The C tracker bound to one algebraic form's generated ``G`` (see the module docs).
+
+    Args:
+        form: an :class:`~scdk_sym.algebraic.form.AlgebraicForm`.
+
+    Raises:
+        BuildError: no C compiler, or a compilation failed.
+    """
+
+    def __init__(self, form) -> None:
+        from ..kernels.compile import cached_library
+        from .pairs import complexify
+
+        self.n, self.k = form.n, form.n_params
+        ev = ctypes.CDLL(str(cached_library([complexify(form.G_real, _EVAL_NAME)], _EVAL_NAME)))
+        work = getattr(ev, f"{_EVAL_NAME}_work")
+        sizes = [ctypes.c_longlong() for _ in range(4)]
+        work.argtypes = [ctypes.POINTER(ctypes.c_longlong)] * 4
+        if work(*(ctypes.byref(s) for s in sizes)):
+            raise BuildError(f"{_EVAL_NAME}_work failed in the generated library; clear the cache")
+        self._sz_iw, self._sz_w = sizes[2].value, sizes[3].value
+        self._eval_lib = ev  # kept alive: the tracker calls into it
+        self._eval = ctypes.cast(getattr(ev, _EVAL_NAME), ctypes.c_void_p)
+        lib = ctypes.CDLL(str(tracker_library()))
+        f = lib.scdk_ptrack
+        dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
+        cdbl = np.ctypeslib.ndpointer(dtype=np.complex128, flags="C_CONTIGUOUS")
+        i64 = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
+        I = ctypes.c_int64  # noqa: E741
+        f.argtypes = [ctypes.c_void_p, I, I, I, I, dbl, cdbl, cdbl, cdbl, cdbl, cdbl, I, i64,
+                      cdbl, dbl, dbl, dbl, ctypes.POINTER(_Options), i64, i64, i64]  # fmt: skip
+        f.restype = ctypes.c_int
+        self._lib, self._track = lib, f
+
+    def track(
+        self,
+        homotopy,
+        z0: np.ndarray,
+        idx: np.ndarray,
+        tau0: np.ndarray,
+        tau1: np.ndarray,
+        weights: np.ndarray,
+        options: TrackerOptions | None = None,
+        h0: np.ndarray | None = None,
+    ) -> TrackOutcome:
+        """Track every path along ``t = tau`` from ``tau0`` to ``tau1`` (one C call).
+
+        Args:
+            homotopy: a :class:`~scdk_sym.algebraic.homotopy.ParameterHomotopy` of the form
+                whose rows are scaled by ``weights``.
+            z0: (M, n) complex start points.
+            idx: (M,) int, each path's datum in the homotopy.
+            tau0: (M,) start times.
+            tau1: (M,) end times.
+            weights: (n,) row weights of the system (ones for the plain form).
+            options: step control (defaults to :class:`TrackerOptions`).
+            h0: (M,) initial steps (default ``options.h0``).
+
+        Returns:
+            A :class:`~scdk_sym.algebraic.tracker.TrackOutcome`, as
+            :func:`~scdk_sym.algebraic.tracker.track` with the identity time map returns it.
+
+        Raises:
+            HomotopyError: the C tracker reported a failure.
+        """
+        o = options or TrackerOptions()
+        M = len(z0)
+        z = np.array(z0, dtype=np.complex128, order="C").reshape(M, self.n)
+        tau = np.array(np.broadcast_to(tau0, (M,)), dtype=np.float64)
+        t1 = np.ascontiguousarray(np.broadcast_to(tau1, (M,)), dtype=np.float64)
+        h = np.full(M, o.h0) if h0 is None else np.array(h0, dtype=np.float64)
+        ix = np.ascontiguousarray(idx, dtype=np.int64)
+        status, steps, accepted = (np.zeros(M, dtype=np.int64) for _ in range(3))
+        cd = np.ascontiguousarray
+        opt = _Options(o.h0, o.h_min, o.h_max, o.eta, o.trust, o.theta, o.tol, o.floor,
+                       o.noise, int(o.max_steps), o.max_norm)  # fmt: skip
+        rc = self._track(
+            self._eval, self._sz_iw, self._sz_w, self.n, self.k,
+            cd(weights, dtype=np.float64), cd(homotopy.p_from, dtype=np.complex128),
+            cd(homotopy.dp, dtype=np.complex128), cd(homotopy.b_from, dtype=np.complex128),
+            cd(homotopy.db, dtype=np.complex128), cd(homotopy.gamma, dtype=np.complex128),
+            M, ix, z, tau, t1, h, ctypes.byref(opt), status, steps, accepted,
+        )  # fmt: skip
+        if rc:
+            raise HomotopyError(
+                f"C path tracker failed ({_ERRORS.get(rc, rc)}) on {M} paths of an "
+                f"{self.n}-unknown system; rerun with tracker='python'"
+            )
+        return TrackOutcome(z=z, tau=tau, status=status, steps=steps, accepted=accepted, h=h)
+
+
+def c_tracker(system, tracker: str = "auto") -> Callable[..., TrackOutcome] | None:
+    """The C tracking function of a system, or ``None`` for the numpy tracker.
+
+    Args:
+        system: a polynomial system; the C tracker needs an algebraic form (scaled or not).
+        tracker: ``"auto"`` (C when the system is a form and a C compiler is present),
+            ``"c"`` (C, or an error) or ``"python"`` (``None``).
+
+    Returns:
+        ``track(homotopy, z0, idx, tau0, tau1, options, h0) -> TrackOutcome`` or ``None``.
+
+    Raises:
+        InputError: an unknown ``tracker``, or ``"c"`` for a system that is no form.
+        BuildError: ``"c"`` without a working C compiler.
+    """
+    if tracker not in TRACKERS:
+        raise InputError(f"unknown tracker {tracker!r}; trackers: {', '.join(TRACKERS)}")
+    if tracker == "python":
+        return None
+    fw = _form_and_weights(system)
+    if fw is None:
+        if tracker == "c":
+            raise InputError(
+                f"tracker='c' needs a model's algebraic form, got {type(system).__name__}; "
+                "use tracker='python' for other systems"
+            )
+        return None
+    form, weights = fw
+    memo = form.model.__dict__  # type: ignore[attr-defined]
+    ct = memo.get(_ATTR)
+    if ct is None:
+        try:
+            ct = CTracker(form)
+        except BuildError:
+            if tracker == "c":
+                raise
+            return None
+        memo[_ATTR] = ct
+
+    def run(homotopy, z0, idx, tau0, tau1, options=None, h0=None) -> TrackOutcome:
+        return ct.track(homotopy, z0, idx, tau0, tau1, weights, options, h0)
+
+    return run

@@ -1,0 +1,151 @@
+"""The 3-RPR singularity-locus atlas (examples/atlas_3rpr_singularity.py) against the
+3-RPR's univariate polynomial (tests/test_modes.py: ``rpr_reference``, written from first
+principles and sharing no code with the package).
+
+The figure's claims, checked on a coarse grid of the example's slice:
+
+* the certified mode count at every grid point equals the number of real solutions of the
+  polynomial, and the slice holds regions of 2, 4 and 6 modes;
+* every convergent solution is one of the polynomial's solutions, with the start's sign of
+  ``det J_p``;
+* the start's region ends at singular curves: every point the convergent branch cannot
+  reach has a change of the real count on the straight segment from the start (the segment
+  crosses a singular curve), and every solved point next to such a point lies next to a
+  change of the count;
+* where the count changes between two neighbours, the package's ``det J_p`` vanishes: at
+  the change located by bisection on the polynomial (to 1e-6 of the grid step), the two
+  merging solutions have ``|det J_p|`` below 5e-3 of the largest one at the two neighbours
+  (it falls like the square root of the distance to the singular curve).
+
+CI time (``pytest tests/test_atlas_3rpr.py``): 32-38 s of CPU in one process (2 to 6 min
+wall on the two shared cores at load average 13 to 24, compiling the model's kernels in a
+fresh cache and computing its start system).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+
+import numpy as np
+import pytest
+from factories import ROOT
+from test_modes import pose_distance, rpr_reference
+
+from scdk_sym.atlas import open_atlas
+
+pytest.importorskip("zarr")
+
+#: Grid points per axis of the slice (the example's range).
+N = 7
+#: Largest distance of a convergent solution from a solution of the polynomial [m, rad].
+POSE_TOL = 1e-8
+
+
+def load_example():
+    path = ROOT / "examples" / "atlas_3rpr_singularity.py"
+    spec = importlib.util.spec_from_file_location("atlas_3rpr_singularity", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def atlas_run(tmp_path_factory):
+    """(example module, model, start, thetas (N, N, 3), store) of the example's slice."""
+    import scdk_sym as sc
+
+    ex = load_example()
+    model = ex.build_model()
+    start = model.home
+    out = tmp_path_factory.mktemp("rpr") / "rpr.zarr"
+    sc.atlas(model, ex.grid(N), out, start=start, modes=True, chunk=16, progress=False)
+    store = open_atlas(out)
+    thetas = store["theta"][:].reshape(N, N, 3)
+    return ex, model, start, thetas, store
+
+
+def reference_counts(ex, thetas: np.ndarray) -> np.ndarray:
+    C = ex.platform_points()
+    return np.array([len(rpr_reference(ex.BASE, C, th)) for th in thetas.reshape(-1, 3)])
+
+
+def det_jp(model, y: np.ndarray, theta: np.ndarray) -> float:
+    y_loc, c = model.chart.to_local(y)
+    return float(np.linalg.det(np.array(model.kernels.jac(y_loc, theta, c)[0])))
+
+
+def test_mode_counts_equal_real_roots_of_the_polynomial(atlas_run):
+    ex, model, start, thetas, store = atlas_run
+    counts = store["n_modes"][:]
+    ref = reference_counts(ex, thetas)
+    np.testing.assert_array_equal(counts, ref)
+    assert {2, 4, 6} <= set(ref.tolist())  # the regions the figure shows
+    np.testing.assert_array_equal(thetas[..., 0], ex.RHO1)  # the slice (actuated order)
+    np.testing.assert_allclose(start.theta, ex.START_RHO, rtol=0, atol=1e-12)
+    # the start is the mode of largest |det J_p| among the polynomial's solutions there
+    sols = rpr_reference(ex.BASE, ex.platform_points(), start.theta)
+    best = max(sols, key=lambda s: abs(det_jp(model, s, start.theta)))
+    assert pose_distance(best, start.x) < POSE_TOL
+
+
+def test_convergent_solutions_are_real_roots_with_the_start_sign(atlas_run):
+    ex, model, start, thetas, store = atlas_run
+    C = ex.platform_points()
+    status, x, det = store["status"][:], store["x"][:], store["det_jp"][:]
+    solved = np.flatnonzero(status == 0)
+    assert 0 < solved.size < status.size  # the start's region and beyond it
+    assert set(status.tolist()) <= {0, 1}
+    sign = np.sign(det_jp(model, start.y, start.theta))
+    for i in solved:
+        th = thetas.reshape(-1, 3)[i]
+        assert min(pose_distance(x[i], s) for s in rpr_reference(ex.BASE, C, th)) < POSE_TOL
+        assert np.sign(det[i]) == sign
+
+
+def test_the_start_region_ends_at_singular_curves(atlas_run):
+    ex, model, start, thetas, store = atlas_run
+    C = ex.platform_points()
+    unsolved = (store["status"][:] != 0).reshape(N, N)
+    counts = store["n_modes"][:].reshape(N, N)
+    # the straight segment from the start to an unreachable point crosses a singular curve
+    for i, j in zip(*np.nonzero(unsolved), strict=True):
+        line = start.theta + np.linspace(0, 1, 61)[:, None] * (thetas[i, j] - start.theta)
+        along = {len(rpr_reference(ex.BASE, C, th)) for th in line}
+        assert len(along) > 1, (i, j)
+    # a solved point next to an unreachable one lies next to a change of the count
+    border = 0
+    for i in range(N):
+        for j in range(N):
+            near = [(a, b) for a, b in ((i - 1, j), (i + 1, j), (i, j - 1), (i, j + 1))
+                    if 0 <= a < N and 0 <= b < N]  # fmt: skip
+            if unsolved[i, j] or not any(unsolved[a, b] for a, b in near):
+                continue
+            border += 1
+            block = counts[max(i - 1, 0) : i + 2, max(j - 1, 0) : j + 2]
+            assert block.min() != block.max(), (i, j)
+    assert border > 0
+
+
+def test_det_jp_vanishes_where_the_count_changes(atlas_run):
+    ex, model, start, thetas, store = atlas_run
+    C = ex.platform_points()
+    counts = store["n_modes"][:].reshape(N, N)
+    pairs = [((i, j), (i + 1, j)) for i in range(N - 1) for j in range(N)
+             if counts[i, j] != counts[i + 1, j]]  # fmt: skip
+    assert pairs
+    for p, q in pairs:
+        a, b = thetas[p], thetas[q]
+        scale = max(
+            abs(det_jp(model, s, th)) for th in (a, b) for s in rpr_reference(ex.BASE, C, th)
+        )
+        na = len(rpr_reference(ex.BASE, C, a))
+        for _ in range(20):  # bisection on the polynomial's real count
+            mid = (a + b) / 2
+            if len(rpr_reference(ex.BASE, C, mid)) == na:
+                a = mid
+            else:
+                b = mid
+        side = a if len(rpr_reference(ex.BASE, C, a)) > len(rpr_reference(ex.BASE, C, b)) else b
+        dets = np.abs([det_jp(model, s, side) for s in rpr_reference(ex.BASE, C, side)])
+        # the two solutions that merge there are nearly singular (the scale: the neighbours)
+        assert len(dets) >= 2 and np.sort(dets)[1] < 5e-3 * scale, (p, q, dets, scale)

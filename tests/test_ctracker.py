@@ -1,0 +1,163 @@
+"""The C path tracker against the numpy tracker, LM references and certificates (6-6).
+
+The start system of Dietmaier's platform (40 real postures, all of its complex solutions) is
+made here without monodromy: the 40 LM postures are tracked from the real leg lengths to a
+random complex parameter point with offsets, and the set passes the trace test of the frames'
+placements. Queries are seeded leg lengths of random reachable poses.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from stewart import (
+    DIETMAIER_BASE,
+    DIETMAIER_LENGTHS,
+    DIETMAIER_PLATFORM,
+    stewart_reference,
+)
+from test_modes import assert_same_stewart_poses
+
+import scdk_sym as sc
+from scdk_sym.algebraic import algebraic_form, homotopy, trace_test
+from scdk_sym.algebraic.ctracker import c_tracker, source_dir, tracker_library
+from scdk_sym.algebraic.homotopy import ParameterHomotopy, track_parameter_homotopy
+from scdk_sym.algebraic.monodromy import StartSystem
+from scdk_sym.algebraic.scaled import scaled_form
+from scdk_sym.algebraic.tracker import TrackerOptions, track
+from scdk_sym.errors import InputError
+from scdk_sym.kernels.compile import run_compiler
+from scdk_sym.model.chart import rot_exp, rot_log
+from scdk_sym.solvers import homotopy_modes as hm
+
+#: Largest relative difference of a C endpoint from the numpy one.
+ENDPOINT_TOL = 1e-9
+
+
+def query_lengths(seed: int) -> np.ndarray:
+    """Leg lengths of a random pose near Dietmaier's first LM posture (seeded)."""
+    rng = np.random.default_rng(seed)
+    p = np.array([0.2, -0.1, 0.9]) + 0.1 * rng.normal(size=3)
+    R = rot_exp(0.3 * rng.normal(size=3))
+    return np.linalg.norm(p + DIETMAIER_PLATFORM @ R.T - DIETMAIER_BASE, axis=1)
+
+
+@pytest.fixture(scope="module")
+def dietmaier():
+    """(model, scaled form, certified start system) of Dietmaier's platform."""
+    model = sc.builders.stewart_gough(DIETMAIER_BASE, DIETMAIER_PLATFORM)
+    form = scaled_form(algebraic_form(model, "compiled"))
+    ref = stewart_reference(DIETMAIER_BASE, DIETMAIER_PLATFORM, DIETMAIER_LENGTHS, 4000, 0)
+    assert len(ref) == 40
+    z = np.array([form.form.from_model(np.r_[p, rot_log(R)]) for p, R in ref], dtype=complex)
+    G, _, _ = form.evaluate(z, form.params(DIETMAIER_LENGTHS))
+    assert np.abs(G).max() < 1e-9  # the postures are solutions of the form
+    rng = np.random.default_rng(21)
+    p_real = form.params(DIETMAIER_LENGTHS)
+    p_star = p_real + 0.2 * (rng.normal(size=6) + 1j * rng.normal(size=6))
+    b_star = np.where(form.offset_rows, 0.3 * (rng.normal(size=8) + 1j * rng.normal(size=8)), 0)
+    hom = ParameterHomotopy(form, p_real[None], p_star[None], np.zeros((1, 8)), b_star[None], [1])
+    ends = track_parameter_homotopy(form, z, hom, np.zeros(40, dtype=int), endgame=False)
+    assert (ends.status == "success").all()
+    residual = trace_test(
+        form, ends.z, p_star, b_star, rng, trace_map=hm.frame_trace_map(form, p_star)
+    )
+    start = StartSystem(p_star, b_star, ends.z, 40, residual, residual <= hm.TRACE_TOL, 0, 21)
+    assert start.trace_passed, residual
+    return model, form, start
+
+
+def test_sources_compile_with_every_warning_as_error(tmp_path):
+    src = source_dir()
+    run_compiler(
+        [
+            "-std=c99",
+            "-pedantic",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-c",
+            src / "ptrack.c",
+            "-o",
+            tmp_path / "ptrack.o",
+        ]  # fmt: skip
+    )
+    assert (tmp_path / "ptrack.o").stat().st_size > 0
+    assert tracker_library().exists()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_c_tracker_steps_like_the_numpy_tracker(dietmaier, seed):
+    """Raw tracker on t in [0, 0.99]: same statuses, same end points, same step counts."""
+    _, form, start = dietmaier
+    rng = np.random.default_rng(seed)
+    gamma = np.exp(2j * np.pi * rng.uniform())
+    p0 = form.params(query_lengths(seed))
+    hom = ParameterHomotopy(form, start.p[None], p0[None], start.b[None], np.zeros((1, 8)), [gamma])
+    M = len(start.solutions)
+    idx, tau0, tau1 = np.zeros(M, dtype=int), np.zeros(M), np.full(M, 0.99)
+    options = TrackerOptions()
+    py = track(hom, lambda tau, i: (tau + 0j, np.ones_like(tau, dtype=complex)),
+               start.solutions, idx, tau0, tau1, options)  # fmt: skip
+    c = c_tracker(form, "c")(hom, start.solutions, idx, tau0, tau1, options)
+    np.testing.assert_array_equal(c.status, py.status)
+    scale = 1.0 + np.abs(py.z).max(axis=1)
+    assert (np.abs(c.z - py.z).max(axis=1) / scale).max() <= ENDPOINT_TOL
+    np.testing.assert_allclose(c.tau, py.tau, rtol=0, atol=1e-12)
+    # the step sequences only part on a rounding-level tie of an acceptance test
+    assert np.mean(c.steps == py.steps) >= 0.9
+    assert abs(int(c.steps.sum()) - int(py.steps.sum())) <= 0.02 * py.steps.sum()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_c_and_numpy_queries_reach_the_same_roots(dietmaier, seed):
+    from scdk_sym.algebraic import solve_homotopy
+
+    _, form, start = dietmaier
+    p0 = form.params(query_lengths(seed))
+    res = {t: solve_homotopy(form, start, p0, seed=seed, tracker=t) for t in ("c", "python")}
+    c, py = res["c"], res["python"]
+    np.testing.assert_array_equal(c.status, py.status)
+    ok = py.status == "success"
+    assert ok.sum() >= 38
+    scale = 1.0 + np.abs(py.endpoints[ok]).max(axis=1)
+    assert (np.abs(c.endpoints[ok] - py.endpoints[ok]).max(axis=1) / scale).max() <= ENDPOINT_TOL
+    assert c.real_solutions.shape == py.real_solutions.shape
+    np.testing.assert_allclose(c.real_solutions, py.real_solutions, rtol=0, atol=ENDPOINT_TOL)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_c_tracked_modes_equal_lm_and_stay_certified(dietmaier, seed, monkeypatch):
+    """assembly_modes with the C tracker (default) and with numpy: the same certified set,
+    equal to the random-start LM reference."""
+    model, form, start = dietmaier
+    memo = model.__dict__.setdefault(hm._START_ATTR, {})
+    memo[(form.backend, 0, hm.MAX_LOOPS)] = start
+    L = query_lengths(seed)
+    ref = stewart_reference(DIETMAIER_BASE, DIETMAIER_PLATFORM, L, 3000, seed)
+    assert len(ref) >= 1
+    calls = []
+
+    def counted(system, tracker="auto"):
+        calls.append(tracker)
+        return c_tracker(system, tracker)
+
+    monkeypatch.setattr(homotopy, "c_tracker", counted)
+    with_c = sc.assembly_modes(model, L)
+    assert calls == ["auto"] and c_tracker(form, "auto") is not None  # C did track
+    monkeypatch.setattr(homotopy, "c_tracker", lambda system, tracker="auto": None)
+    with_numpy = sc.assembly_modes(model, L)
+    assert with_c.certified and with_numpy.certified, (with_c.report, with_numpy.report)
+    assert_same_stewart_poses(list(with_c), ref)
+    assert_same_stewart_poses(list(with_numpy), ref)
+    assert len(with_c) == len(with_numpy)
+
+
+def test_tracker_choice_errors(dietmaier):
+    from polynomial_systems import Quadrics  # a hand-written system, no algebraic form
+
+    with pytest.raises(InputError, match="unknown tracker"):
+        c_tracker(dietmaier[1], "fortran")
+    with pytest.raises(InputError, match="algebraic form"):
+        c_tracker(Quadrics(3, 0), "c")
+    assert c_tracker(Quadrics(3, 0), "auto") is None

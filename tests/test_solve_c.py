@@ -1,0 +1,76 @@
+"""The convergent solve in one call of the generated C follower (scdk_sym.solvers.solve_c)."""
+
+import numpy as np
+import pytest
+from factories import SEED_THETA0, SEED_X1, needs_compiler, shipped
+
+import scdk_sym as sc
+from scdk_sym.codegen import library as clib
+from scdk_sym.errors import PathError
+
+pytestmark = needs_compiler()
+
+
+def compare(model, start, targets):
+    """solve(backend="c") against the CVODES solve (fast=False) at each target; returns the
+    raw C statuses."""
+    lib = clib.tracker_library(model)
+    y1, c1 = model.chart.to_local(start.y)
+    statuses = []
+    for theta0 in targets:
+        statuses.append(lib.solve_convergent(y1, c1, start.theta, theta0).status)
+        try:
+            ref = sc.solve(model, theta0, start=start, fast=False, record_path=False)
+        except sc.ScdkError as exc:
+            with pytest.raises(type(exc)):
+                sc.solve(model, theta0, start=start, backend="c")
+            continue
+        res = sc.solve(model, theta0, start=start, backend="c")
+        np.testing.assert_allclose(res.x, ref.x, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(res.y, ref.y, rtol=0, atol=1e-9)
+        assert res.residual <= model.tolerance and res.status == ref.status
+        assert res.b == ref.b and res.branch == "convergent"
+        assert [c.kind for c in res.crossings] == [c.kind for c in ref.crossings]
+        for a, b in zip(res.crossings, ref.crossings, strict=True):
+            assert a.s == pytest.approx(b.s, abs=1e-6)
+    return statuses
+
+
+def test_seed_robot_equals_the_cvodes_solve():
+    model = shipped("planar_hexa")
+    start = model.inverse_kinematics(SEED_X1)
+    rng = np.random.default_rng(21)
+    targets = [SEED_THETA0, *(SEED_THETA0 + rng.normal(scale=0.05, size=(15, 3)))]
+    statuses = compare(model, start, targets)
+    assert statuses[0] == clib.OK_PATH  # the paper's example is solved in C
+    assert statuses.count(clib.OK_PATH) >= 10, statuses
+
+
+def test_hexapod_equals_the_cvodes_solve():
+    model = shipped("stewart_gough")
+    rng = np.random.default_rng(22)
+    targets = model.home.theta + rng.normal(scale=0.01, size=(10, 6))  # m
+    statuses = compare(model, model.home, targets)
+    assert statuses.count(clib.OK_PATH) >= 8, statuses
+
+
+def test_other_branches_and_refusals_fall_back():
+    model = shipped("planar_hexa")
+    start = model.inverse_kinematics(SEED_X1)
+    res = sc.solve(model, SEED_THETA0, start=start, branch="divergent", backend="c")
+    ref = sc.solve(model, SEED_THETA0, start=start, branch="divergent", backend="compiled")
+    np.testing.assert_allclose(res.x, ref.x, rtol=0, atol=1e-12)
+    assert res.x[2] == pytest.approx(0.9999, abs=1e-4) and len(res.crossings) == 1
+    # behind the start on the line: the convergent curve turns at a fold before any s = 1
+    # crossing, so the C call refuses and the fallback says what the reference says
+    lib = clib.tracker_library(model)
+    y1, c1 = model.chart.to_local(start.y)
+    behind = start.theta - (SEED_THETA0 - start.theta)
+    out = lib.solve_convergent(y1, c1, start.theta, behind)
+    assert out.status == clib.ERR_SINGULAR_PATH and np.all(np.isnan(out.x))
+    with pytest.raises(PathError):
+        sc.solve(model, behind, start=start, fast=False)
+    with pytest.raises(PathError):
+        sc.solve(model, behind, start=start, backend="c")
+    moved = lib.solve_convergent(y1 + 0.01, c1, start.theta, SEED_THETA0)
+    assert moved.status == clib.ERR_NOT_ASSEMBLED and np.all(np.isnan(moved.y))
