@@ -210,6 +210,13 @@ DIVERGENT_CASES = [
         ),
     ),
     ("5bar_linkage_iso3d", "near_singular", [2.352439619767056, 0.6010503765557498], None),
+    # no singular point found by descent from the start: located between the two answers
+    (
+        "delta",
+        "large",
+        [0.7495199989419495, 1.2204410238051715, -0.6046490816562436],
+        [0.022852615620816856, -0.023782880885495076, -0.15947167968993983],
+    ),
 ]
 
 
@@ -219,17 +226,27 @@ def test_divergent_cases_found_refused_by_the_fuzz(name: str, kind: str, theta0,
     from scdk_sym.errors import PathError
 
     ref, model = reference(name), load(name)
-    yt = None if start is None else (np.array(start[0]), np.array(start[1]))
-    cfg = model.home if yt is None else model.configuration(*yt)
+    x0 = yt = None
+    if start is not None and isinstance(start, tuple):
+        yt = (np.array(start[0]), np.array(start[1]))
+    elif start is not None:
+        x0 = np.array(start)
+    cfg = (
+        model.home
+        if start is None
+        else model.configuration(*yt)
+        if yt is not None
+        else model.inverse_kinematics(x0)
+    )
     # target: only compared to tell the generating solution; the start's coordinates here
-    scen = Scenario(name, kind, np.array(theta0), ref.coords(cfg), start_yt=yt)
-    res = sc.solve(model, scen.theta0, start=None if yt is None else cfg, branch="divergent")
+    scen = Scenario(name, kind, np.array(theta0), ref.coords(cfg), start_x=x0, start_yt=yt)
+    res = sc.solve(model, scen.theta0, start=None if start is None else cfg, branch="divergent")
     out = classify(ref, scen, cfg, res)
     assert out.status == "ok", out.detail
     assert out.residual <= 1e-7
     assert len(res.crossings) >= 1
     try:
-        conv = sc.solve(model, scen.theta0, start=None if yt is None else cfg)
+        conv = sc.solve(model, scen.theta0, start=None if start is None else cfg)
     except PathError:  # the straight path from the start closes on itself (iso3d)
         return
     assert ref.distance(ref.coords(res), ref.coords(conv)) > 1e-6

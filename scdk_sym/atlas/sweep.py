@@ -98,10 +98,11 @@ def build_sweep(model, steps: int) -> ca.Function:
     y_end = end[:m]
     for _ in range(POLISH):
         y_end = y_end - newton(y_end, t0, cm)
-    ratio = ca.fmin(end[m + 1], det(y_end, t0, cm) / det(y1, t1, cm))
+    ratio_min = ca.fmin(end[m + 1], det(y_end, t0, cm) / det(y1, t1, cm))
     y_sol, c_sol = recentre(y_end, cm)
-    outs = [y_end, ratio, end[m + 2], check(y_end, t0, cm), ca.vec(jp(y_sol, t0, c_sol)),
-            pose(y_end, t0, cm)]  # fmt: skip
+    jp_sol = ca.vec(jp(y_sol, t0, c_sol))
+    outs: list[ca.MX] = [y_end, ratio_min, end[m + 2], check(y_end, t0, cm), jp_sol,
+                         pose(y_end, t0, cm)]  # fmt: skip
     return ca.Function(
         f"scdk_atlas_sweep_{steps}",
         [y1, t1, t0, cm],

@@ -525,10 +525,9 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
             if res is not None:
                 return res
     # 5. across the nearest singular configuration, among every real solution
-    if fold is not None:
-        res = _across_by_modes(model, theta0, start, sign, fold, convergent, backend, tried)
-        if res is not None:
-            return res
+    res = _across_by_modes(model, theta0, start, sign, fold, convergent, backend, tried)
+    if res is not None:
+        return res
     raise PathError(
         f"divergent branch at theta0={theta0.tolist()}: no solution across a singular surface "
         f"was reached ({'; '.join(tried)}); every real solution: sc.assembly_modes(model, theta0)"
@@ -539,9 +538,16 @@ def _across_by_modes(
     model, theta0, start, sign, fold, convergent, backend, tried
 ) -> SolveResult | None:
     """Way 5 of :func:`_divergent`: the real solution at ``theta0`` on the other side of
-    ``fold`` nearest to it, chosen among every real solution (certified assembly modes)."""
+    ``fold`` nearest to it, chosen among every real solution (certified assembly modes).
+
+    Where no singular configuration was found near the start (``fold`` None: the descent
+    stopped at a local minimum of ``sigma_min``), the candidate is the solution with
+    ``det J_p`` of the other sign nearest to the start, and the singular surface crossed is
+    located from the configuration midway between it and the convergent answer (or the
+    start): near a fold the two sheets are mirror images, so the midpoint lies next to it.
+    """
     from ..follower.geometry import features
-    from ..follower.singular import _det_sign
+    from ..follower.singular import _det_sign, nearest_singular
     from .modes import assembly_modes
 
     try:
@@ -555,14 +561,15 @@ def _across_by_modes(
     conv = convergent()
     sign0 = _det_sign(model, start)
     scale = max(1.0, float(model.length_scale))
-    f_fold = features(model, fold.y)[0]
+    anchor = start if fold is None else fold
+    f_anchor = features(model, anchor.y)[0]
     best: tuple[float, Configuration] | None = None
     for cfg in sols:
         if conv is not None and _same_configuration(model, cfg, conv):
             continue
-        if fold.kind == "fold" and _det_sign(model, cfg) * sign0 > 0:
+        if (fold is None or fold.kind == "fold") and _det_sign(model, cfg) * sign0 > 0:
             continue
-        dist = float(np.max(np.abs(features(model, cfg.y)[0] - f_fold)))
+        dist = float(np.max(np.abs(features(model, cfg.y)[0] - f_anchor)))
         if best is None or dist < best[0] - 1e-9 * scale:
             best = (dist, cfg)
     if best is None:
@@ -570,6 +577,16 @@ def _across_by_modes(
             f"every real solution at theta0 ({len(sols)}, certified): none on the other side"
         )
         return None
+    if fold is None:
+        near = conv if conv is not None else start
+        mid = model.configuration(0.5 * (near.y + best[1].y), 0.5 * (near.theta + theta0))
+        for seed in (mid, best[1]):
+            fold = nearest_singular(model, seed, backend)
+            if fold is not None:
+                break
+        if fold is None:
+            tried.append("every real solution at theta0: no singular surface located between")
+            return None
     crossing = _on_path(fold, start, theta0)
     return _result(model, best[1].y, theta0, (crossing,), "divergent", -sign, start, None)
 
