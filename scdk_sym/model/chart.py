@@ -81,7 +81,7 @@ class Chart:
         """
         import casadi as ca
 
-        from ..symbolic.kinematics import cayley
+        from .rotations import cayley
 
         y_out, c_out = ca.SX(y), ca.SX(c)
         for i, idx in enumerate(self.rotations):
