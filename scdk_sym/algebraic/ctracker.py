@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import BuildError, HomotopyError, InputError
+from ..products import HOMOTOPY_TRACKER
 from .tracker import TrackerOptions, TrackOutcome
 
 #: Tracker choices of :func:`~scdk_sym.algebraic.solve_homotopy`.
@@ -33,7 +34,6 @@ TRACKER_CFLAGS = (
     "-std=c99", "-O3", "-fcx-limited-range", "-shared", "-fPIC", "-Wall", "-Wextra", "-Werror",
 )  # fmt: skip
 _EVAL_NAME = "algebraic_G"
-_ATTR = "_c_tracker"
 _ERRORS = {1: "out of memory", 2: "the generated evaluation failed", 3: "bad sizes"}
 
 
@@ -214,16 +214,13 @@ def c_tracker(system, tracker: str = "auto") -> Callable[..., TrackOutcome] | No
             )
         return None
     form, weights = fw
-    memo = form.model.__dict__  # type: ignore[attr-defined]
-    ct = memo.get(_ATTR)
-    if ct is None:
-        try:
-            ct = CTracker(form)
-        except BuildError:
-            if tracker == "c":
-                raise
-            return None
-        memo[_ATTR] = ct
+    try:
+        products = form.model.products  # type: ignore[attr-defined]
+        ct = products.get(HOMOTOPY_TRACKER, lambda: CTracker(form))
+    except BuildError:
+        if tracker == "c":
+            raise
+        return None
 
     def run(homotopy, z0, idx, tau0, tau1, options=None, h0=None) -> TrackOutcome:
         return ct.track(homotopy, z0, idx, tau0, tau1, weights, options, h0)
