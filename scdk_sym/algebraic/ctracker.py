@@ -61,19 +61,20 @@ def source_dir() -> Path:
 
 
 def tracker_library() -> Path:
-    """The compiled tracker library (cached under the hash of its sources and flags).
+    """The compiled tracker library (cached under the hash of its sources, flags and compiler).
 
     Raises:
         BuildError: no C compiler, or the compilation failed.
     """
     from ..kernels.cache import cache_dir
-    from ..kernels.compile import run_compiler
+    from ..kernels.compile import compiler_tag, run_compiler
 
     src = source_dir()
     h = hashlib.sha256()
     for name in ("ptrack.h", "ptrack.c"):
         h.update((src / name).read_bytes())
     h.update(" ".join(TRACKER_CFLAGS).encode())
+    h.update(compiler_tag().encode())
     target = cache_dir() / f"ptrack_{h.hexdigest()[:20]}.so"
     if not target.exists():
         partial = target.with_suffix(f".{os.getpid()}.tmp")
