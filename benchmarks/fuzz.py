@@ -70,6 +70,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--limit", type=float, default=60.0, help="time limit per solve [s]")
     parser.add_argument("--every", type=int, default=2000, help="progress every N solves")
     parser.add_argument("--out", type=Path, help="directory keeping finished units (resume)")
+    parser.add_argument(
+        "--report",
+        action="store_true",
+        help="with --out: report on the units finished so far, solve nothing",
+    )
     args = parser.parse_args(argv)
 
     per_model = max(1, math.ceil(args.count / (2 * len(args.models))))
@@ -87,7 +92,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     # compiled kernels and start systems built once here (cached on disk), not in every
     # worker at once nor within a solve's time limit
-    for name in args.models:
+    if args.report and args.out is None:
+        parser.error("--report needs --out")
+    if args.report:
+        args.tracks = 0  # tracks are not kept on disk
+    for name in [] if args.report else args.models:
         warm_up(name, args.backend, modes=True)
     report = Report()
     t0 = time.perf_counter()
@@ -108,6 +117,8 @@ def main(argv: list[str] | None = None) -> int:
                 outs = pickle.loads(path.read_bytes())
                 report.solves += outs
                 done += len(outs)
+                continue
+            if args.report:
                 continue
             fut = pool.submit(solve_chunk, *unit, args.seed, args.backend, args.limit)
             futures[fut] = unit
