@@ -205,3 +205,20 @@ def test_readme_quick_start_prints_what_the_readme_says(capsys):
     argv[1] = str(ROOT / argv[1])
     assert main(argv) == 0
     assert capsys.readouterr().out == shown
+
+
+def test_importing_the_cli_loads_no_heavy_dependency():
+    import subprocess
+    import sys
+
+    script = (
+        "import json, sys, scdk_sym.cli\n"
+        "assert len(scdk_sym.cli.COMMANDS) >= 10, list(scdk_sym.cli.COMMANDS)\n"
+        "print(json.dumps(sorted(sys.modules)))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120, check=True
+    ).stdout
+    loaded = {m.split(".")[0] for m in json.loads(out.strip().splitlines()[-1])}
+    heavy = {"casadi", "matplotlib", "dask", "viser", "pinocchio", "zarr", "scipy"}
+    assert not heavy & loaded, sorted(heavy & loaded)
