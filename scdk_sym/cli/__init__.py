@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import textwrap
 from collections.abc import Sequence
 from importlib import import_module
 
@@ -18,6 +19,8 @@ from .common import (
     COMMANDS,
     FROM_X_HELP,
     THETA_HELP,
+    Command,
+    HelpFormatter,
     add_backend_arg,
     add_model_args,
     backend_of,
@@ -42,8 +45,10 @@ for _module in COMMAND_MODULES:
 
 __all__ = [
     "COMMANDS",
+    "Command",
     "EXIT_BROKEN_PIPE",
     "FROM_X_HELP",
+    "HelpFormatter",
     "THETA_HELP",
     "add_backend_arg",
     "add_model_args",
@@ -76,21 +81,41 @@ def version() -> str:
         return "unknown (not installed)"
 
 
+#: The ``scdk --help`` epilog: a first session.
+EPILOG = """examples:
+  scdk verify models/planar_hexa            # check a model against Pinocchio
+  scdk solve models/planar_hexa --theta 1.292,-0.802,-2.896 --from-x 0,0,0.4 --branch both
+  scdk modes models/planar_hexa --theta 1.292,-0.802,-2.896
+
+'scdk COMMAND --help' describes a command; 'scdk COMMAND MODEL --help' states --theta and
+--from-x in that model's joints, coordinates and units."""
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``scdk`` parser with one subparser per registered command."""
     parser = argparse.ArgumentParser(
-        prog="scdk", description="Singularity-consistent direct kinematics of parallel robots."
+        prog="scdk",
+        description="Singularity-consistent direct kinematics of parallel robots: the pose of a\n"
+        "closed-chain mechanism from its actuated joint values, also through singularities.",
+        epilog=EPILOG,
+        formatter_class=HelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"scdk_sym {version()}")
-    sub = parser.add_subparsers(dest="command", required=True)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    def group(item: tuple[str, tuple]) -> int:  # the commands in their modules' order
-        return COMMAND_MODULES.index(item[1][2].__module__.rsplit(".", 1)[-1])
+    def group(item: tuple[str, Command]) -> int:  # the commands in their modules' order
+        return COMMAND_MODULES.index(item[1].run.__module__.rsplit(".", 1)[-1])
 
-    for name, (help_text, arguments, run) in sorted(COMMANDS.items(), key=group):
-        p = sub.add_parser(name, help=help_text, description=help_text)
-        arguments(p)
-        p.set_defaults(run=run)
+    for name, cmd in sorted(COMMANDS.items(), key=group):
+        p = sub.add_parser(
+            name,
+            help=cmd.help,
+            description=textwrap.fill(cmd.help[0].upper() + cmd.help[1:] + ".", width=80),
+            epilog=f"example:\n  {cmd.example}",
+            formatter_class=HelpFormatter,
+        )
+        cmd.arguments(p)
+        p.set_defaults(run=cmd.run)
     return parser
 
 

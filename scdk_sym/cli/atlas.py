@@ -6,7 +6,16 @@ import argparse
 import sys
 
 from ..errors import InputError
-from .common import add_model_args, command, dump, floats, load, start_configuration
+from .common import (
+    FROM_X_HELP,
+    FROM_X_METAVAR,
+    add_model_args,
+    command,
+    dump,
+    floats,
+    load,
+    start_configuration,
+)
 
 
 def _atlas_args(p: argparse.ArgumentParser) -> None:
@@ -14,21 +23,57 @@ def _atlas_args(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--grid",
         required=True,
-        help="NAME=lo:hi:n[,NAME=lo:hi:n...] over actuated joints; point i is the C-order "
-        "flattening in the order given; joints not named stay at the start's value",
+        metavar="NAME=LO:HI:N,...",
+        help="the grid: for each actuated joint NAME, n values from lo to hi (the model's "
+        "units); point i is the C-order flattening in the order given; joints not named stay "
+        "at the start's value",
     )
-    p.add_argument("--out", required=True, help="Zarr store directory (DIR.zarr); resumes")
+    p.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR.zarr",
+        help="Zarr store directory (created; an interrupted run of the same command resumes it)",
+    )
     where = p.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=int, help="local worker processes (Dask LocalCluster)")
-    where.add_argument("--scheduler", help="address of a running Dask scheduler (tcp://host:8786)")
-    p.add_argument("--modes", action="store_true", help="also count the real assembly modes")
-    p.add_argument("--from-x", help="start pose in workspace coordinates (default: home)")
-    p.add_argument("--chunk", type=int, default=4096, help="points per chunk (default: 4096)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--json", action="store_true", help="print the run's summary as one JSON object")
+    where.add_argument(
+        "--workers",
+        type=int,
+        metavar="N",
+        help="local worker processes (a Dask LocalCluster; default: solve in this process)",
+    )
+    where.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="address of a running Dask scheduler, e.g. tcp://host:8786 (default: none)",
+    )
+    p.add_argument(
+        "--modes",
+        action="store_true",
+        help="also count the real assembly modes at each point (slow: about 1 s per point; "
+        "default: off)",
+    )
+    p.add_argument("--from-x", metavar=FROM_X_METAVAR, help=FROM_X_HELP)
+    p.add_argument("--chunk", type=int, default=4096, metavar="N", help="points per chunk")
+    p.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="progress bar on stderr (default: on)",
+    )
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print the run's summary as one JSON object instead of the text",
+    )
 
 
-@command("atlas", "convergent direct kinematics over a joint grid into a Zarr store", _atlas_args)
+@command(
+    "atlas",
+    "convergent direct kinematics over a grid of joint values, written to a Zarr store",
+    _atlas_args,
+    "scdk atlas models/planar_hexa --grid theta_1=1.0:1.6:50,theta_2=-1.1:-0.5:50 "
+    "--from-x 0,0,0.4 --out seed.zarr",
+)
 def _atlas(args: argparse.Namespace) -> int:
     from ..atlas import STATUS, atlas
 
@@ -44,7 +89,7 @@ def _atlas(args: argparse.Namespace) -> int:
             modes=args.modes,
             start=start,
             chunk=args.chunk,
-            progress=not args.no_progress,
+            progress=args.progress,
         )
     except KeyboardInterrupt:
         print(
@@ -85,15 +130,25 @@ def _atlas(args: argparse.Namespace) -> int:
 
 def _plot_atlas_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("store", help="atlas store written by scdk atlas (DIR.zarr)")
-    p.add_argument("--out", required=True, help="PNG file")
-    p.add_argument("--axes", help="the two grid axes drawn, NAME,NAME (default: the first two)")
+    p.add_argument("--out", required=True, metavar="FILE.png", help="PNG file written")
     p.add_argument(
-        "--at", help="values of the other grid axes, NAME=value,... (default: their middle)"
+        "--axes",
+        metavar="NAME,NAME",
+        help="the two grid axes drawn, horizontal then vertical (default: the first two)",
+    )
+    p.add_argument(
+        "--at",
+        metavar="NAME=VALUE,...",
+        help="values of the other grid axes, in the model's units; the nearest grid value is "
+        "drawn (default: their middle)",
     )
 
 
 @command(
-    "plot-atlas", "2-D slices of an atlas store (status, det J_p sign, modes)", _plot_atlas_args
+    "plot-atlas",
+    "a PNG of a 2-D slice of an atlas store (status, sign of det J_p, modes)",
+    _plot_atlas_args,
+    "scdk plot-atlas seed.zarr --out seed.png --axes theta_1,theta_2 --at theta_3=-2.9",
 )
 def _plot_atlas(args: argparse.Namespace) -> int:
     from ..atlas.plot import plot_atlas

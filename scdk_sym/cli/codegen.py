@@ -8,10 +8,18 @@ from .common import add_model_args, command, dump, label, load, theta_line
 
 
 def _cache_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--clear", action="store_true", help="delete every cached product")
+    p.add_argument(
+        "--clear", action="store_true", help="delete every cached product (default: only show)"
+    )
 
 
-@command("cache", "show or clear the on-disk cache of compiled kernels", _cache_args)
+@command(
+    "cache",
+    "show or clear the on-disk cache of compiled kernels ($SCDK_CACHE_DIR, "
+    "default ~/.cache/scdk_sym)",
+    _cache_args,
+    "scdk cache --clear",
+)
 def _cache(args: argparse.Namespace) -> int:
     from ..kernels.cache import cache_dir, clear_cache
 
@@ -27,16 +35,26 @@ def _cache(args: argparse.Namespace) -> int:
 def _codegen_args(p: argparse.ArgumentParser) -> None:
     add_model_args(p)
     p.add_argument(
-        "--out", required=True, help="output directory (created if needed; its parent must exist)"
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="output directory (created if needed; its parent must exist)",
     )
     p.add_argument("--prefix", default="scdk", help="C prefix of every name (default: scdk)")
     p.add_argument(
-        "--no-shared", action="store_true", help="write the sources only (no shared library)"
+        "--no-shared",
+        action="store_true",
+        help="write the sources only (default: also compile a shared library with $CC or gcc)",
     )
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of the text")
 
 
-@command("codegen", "standalone C sources of the tracker (+ a shared library)", _codegen_args)
+@command(
+    "codegen",
+    "write standalone C sources of the model's tracker (and compile a shared library)",
+    _codegen_args,
+    "scdk codegen models/planar_hexa --out planar_hexa_c",
+)
 def _codegen(args: argparse.Namespace) -> int:
     from ..codegen.generate import compile_library, generate
     from ..kernels.compile import compiler_command

@@ -7,24 +7,63 @@ import argparse
 import json
 import sys
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
 from .. import backends
 from ..errors import InputError
 
-#: Subcommand name -> (help, add-arguments function, run function); filled by the command modules.
-COMMANDS: dict[str, tuple[str, Callable, Callable]] = {}
+
+@dataclass(frozen=True)
+class Command:
+    """One subcommand of ``scdk``.
+
+    Attributes:
+        help: one line saying what the command does (``scdk --help`` and the command's help).
+        arguments: adds the command's options to its parser.
+        run: runs the command on the parsed namespace; returns the exit code.
+        example: one command line a newcomer can run (the help's epilog).
+    """
+
+    help: str
+    arguments: Callable[[argparse.ArgumentParser], None]
+    run: Callable[[argparse.Namespace], int]
+    example: str
 
 
-def command(name: str, help: str, arguments: Callable[[argparse.ArgumentParser], None]):
+#: Subcommand name -> its :class:`Command`; filled by the command modules.
+COMMANDS: dict[str, Command] = {}
+
+
+def command(
+    name: str, help: str, arguments: Callable[[argparse.ArgumentParser], None], example: str
+):
     """Register a subcommand: the decorated function takes the parsed namespace, returns 0."""
 
     def deco(run: Callable[[argparse.Namespace], int]):
-        COMMANDS[name] = (help, arguments, run)
+        COMMANDS[name] = Command(help, arguments, run, example)
         return run
 
     return deco
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Help with the epilog's example kept as written and every option's default stated
+    (appended when its help does not state it already)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        default = action.default
+        if (
+            action.option_strings
+            and "default" not in text
+            and default is not None
+            and default is not False
+            and default is not argparse.SUPPRESS
+        ):
+            text += " (default: %(default)s)"
+        return text
 
 
 def floats(text: str, what: str = "value") -> np.ndarray:
@@ -56,15 +95,24 @@ def fmt(values, digits: int = 6) -> str:
 
 #: Help of ``--theta``: the units come from the model (``length_unit`` of its YAML).
 THETA_HELP = (
-    "actuated joint values a,b,c in the model's units: rad for revolute joints, the model's "
-    "length unit (robot.yaml length_unit, default m; planar_hexa: cm) for prismatic ones; "
-    "the text output states each unit"
+    "actuated joint values, one per actuated joint in the model's order, in the model's units: "
+    "rad for revolute joints, the model's length unit (robot.yaml length_unit, default m; "
+    "planar_hexa: cm) for prismatic ones; the text output states each unit (write "
+    "--theta=-1,2,3 when the first value is negative)"
 )
 #: Help of ``--from-x``.
 FROM_X_HELP = (
     "start pose in workspace coordinates (default: home), lengths in the model's length unit, "
     "angles in rad"
 )
+#: Help of ``--thetas``.
+THETAS_HELP = (
+    "CSV file of joint readings: one row per sample, one comma-separated value per actuated "
+    "joint (the model's units, as --theta); an optional first line names the joints"
+)
+#: How the help shows the values of ``--theta`` and ``--from-x``.
+THETA_METAVAR = "T1,T2,..."
+FROM_X_METAVAR = "X1,X2,..."
 
 
 def add_backend_arg(p: argparse.ArgumentParser, function: str, default: str | None = None) -> None:
@@ -99,8 +147,13 @@ def backend_of(name: str, function: str) -> str:
 
 
 def add_model_args(p: argparse.ArgumentParser) -> None:
+    """The model argument and the options every model command takes (``--frame``, ``-v``)."""
     p.add_argument("model", help="model directory (robot.urdf + robot.yaml) or its YAML file")
-    p.add_argument("--frame", help="link whose pose is reported (default: the YAML's platform)")
+    p.add_argument(
+        "--frame",
+        metavar="LINK",
+        help="link whose pose is reported (default: the YAML's platform)",
+    )
     p.add_argument(
         "-v",
         "--verbose",
@@ -110,6 +163,7 @@ def add_model_args(p: argparse.ArgumentParser) -> None:
 
 
 def load(args: argparse.Namespace):
+    """The model named on the command line (a note on its reduction with ``--verbose``)."""
     from ..robot import load_model
 
     model = load_model(args.model, frame=args.frame)
@@ -143,12 +197,14 @@ def theta_line(model) -> str:
 
 
 def start_configuration(model, args: argparse.Namespace):
+    """The start of the path: ``--from-x`` assembled by inverse kinematics, else home."""
     if getattr(args, "from_x", None):
         return model.inverse_kinematics(floats(args.from_x, "--from-x"))
     return model.home
 
 
 def dump(obj) -> None:
+    """Print ``obj`` as one line of JSON."""
     print(json.dumps(obj, default=float))
 
 

@@ -8,7 +8,10 @@ from typing import TYPE_CHECKING
 
 from .common import (
     FROM_X_HELP,
+    FROM_X_METAVAR,
     THETA_HELP,
+    THETA_METAVAR,
+    THETAS_HELP,
     add_model_args,
     command,
     floats,
@@ -26,16 +29,27 @@ def _plot_args(p: argparse.ArgumentParser) -> None:
     what = p.add_mutually_exclusive_group(required=True)
     what.add_argument(
         "--theta",
-        help="solve at a,b,c on both branches: the paper's Figs. 4-6 (rad for revolute joints, "
-        "the model's length unit for prismatic ones)",
+        metavar=THETA_METAVAR,
+        help="solve on both branches and draw the paper's Figs. 4-6; " + THETA_HELP,
     )
-    what.add_argument("--thetas", help="track the CSV joint readings: pose against time")
-    p.add_argument("--from-x", help=FROM_X_HELP)
-    p.add_argument("--out", default=".", help="output directory (default: .)")
+    what.add_argument(
+        "--thetas",
+        metavar="CSV",
+        help="track the readings and draw the pose against time; " + THETAS_HELP,
+    )
+    p.add_argument("--from-x", metavar=FROM_X_METAVAR, help=FROM_X_HELP)
+    p.add_argument(
+        "--out", default=".", metavar="DIR", help="output directory, created if needed (default: .)"
+    )
     p.add_argument("--prefix", help="file name prefix (default: the model name)")
 
 
-@command("plot", "PNG figures of a solve (configurations, det J_p, phase) or a track", _plot_args)
+@command(
+    "plot",
+    "PNG figures of a solve (configurations, det J_p, phase) or of a track",
+    _plot_args,
+    "scdk plot models/planar_hexa --theta 1.292,-0.802,-2.896 --from-x 0,0,0.4 --out figures",
+)
 def _plot(args: argparse.Namespace) -> int:
     from pathlib import Path
 
@@ -60,25 +74,41 @@ def _plot(args: argparse.Namespace) -> int:
 def _view_args(p: argparse.ArgumentParser) -> None:
     add_model_args(p)
     what = p.add_mutually_exclusive_group()
-    what.add_argument("--theta", help="solve at a,b,c and animate the path; " + THETA_HELP)
-    what.add_argument("--thetas", help="track the CSV joint readings and animate the samples")
-    p.add_argument("--from-x", help=FROM_X_HELP)
+    what.add_argument(
+        "--theta", metavar=THETA_METAVAR, help="solve and animate the path; " + THETA_HELP
+    )
+    what.add_argument(
+        "--thetas", metavar="CSV", help="track and animate the samples; " + THETAS_HELP
+    )
+    p.add_argument("--from-x", metavar=FROM_X_METAVAR, help=FROM_X_HELP)
     p.add_argument(
         "--branch",
         default="convergent",
         choices=["convergent", "divergent"],
         help="branch of the --theta solve (default: convergent)",
     )
-    p.add_argument("--html", help="write a self-contained HTML page to this file (no server)")
-    p.add_argument("--host", default="127.0.0.1", help="viewer address (0.0.0.0: every one)")
-    p.add_argument("--port", type=int, default=8080, help="viewer port (default: 8080)")
+    p.add_argument(
+        "--html",
+        metavar="FILE",
+        help="write a self-contained HTML page to this file instead of serving (default: serve)",
+    )
+    p.add_argument(
+        "--host",
+        default="127.0.0.1",
+        metavar="ADDRESS",
+        help="address the viewer listens on; 0.0.0.0 for every interface (default: 127.0.0.1)",
+    )
+    p.add_argument("--port", type=int, default=8080, help="port the viewer listens on")
     p.add_argument(
         "--seconds", type=float, default=4.0, help="duration of one pass of the animation [s]"
     )
 
 
 @command(
-    "view", "the mechanism in 3-D in a browser (viser), or a self-contained HTML page", _view_args
+    "view",
+    "the mechanism in 3-D in a browser (viser), or a self-contained HTML page",
+    _view_args,
+    "scdk view models/planar_hexa --theta 1.292,-0.802,-2.896 --from-x 0,0,0.4 --html seed.html",
 )
 def _view(args: argparse.Namespace) -> int:
     from .. import view

@@ -8,7 +8,9 @@ from .. import backends
 from ..errors import InputError
 from .common import (
     FROM_X_HELP,
+    FROM_X_METAVAR,
     THETA_HELP,
+    THETA_METAVAR,
     add_backend_arg,
     add_model_args,
     backend_of,
@@ -24,27 +26,48 @@ from .common import (
 
 def _modes_args(p: argparse.ArgumentParser) -> None:
     add_model_args(p)
-    p.add_argument("--theta", required=True, help=THETA_HELP)
+    p.add_argument("--theta", required=True, metavar=THETA_METAVAR, help=THETA_HELP)
     p.add_argument(
         "--method",
         default="homotopy",
         choices=["homotopy", "curves"],
         help="homotopy: every real solution, certified (default); curves: real-curve search",
     )
-    p.add_argument("--from-x", help="curves: " + FROM_X_HELP)
-    p.add_argument("--seed", type=int, default=0, help="seed of the random choices")
-    p.add_argument("--time-budget", type=float, help="curves: wall-time limit [s] (default: none)")
+    p.add_argument("--from-x", metavar=FROM_X_METAVAR, help="curves: " + FROM_X_HELP)
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        metavar="N",
+        help="seed of the random choices: start system, search directions",
+    )
+    p.add_argument(
+        "--time-budget",
+        type=float,
+        metavar="SECONDS",
+        help="curves: wall-time limit [s] (default: none)",
+    )
     add_backend_arg(
         p,
         "modes",
         default=f"{backends.DEFAULTS['modes']} for --method homotopy, "
         f"{backends.DEFAULTS['curves']} for --method curves",
     )
-    p.add_argument("--progress", action="store_true", help="progress bar on stderr")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=False,
+        help="progress bar on stderr (default: off)",
+    )
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of the text")
 
 
-@command("modes", "all assembly modes (real direct-kinematics solutions)", _modes_args)
+@command(
+    "modes",
+    "all assembly modes (the real direct-kinematics solutions) at one joint reading",
+    _modes_args,
+    "scdk modes models/planar_hexa --theta 1.292,-0.802,-2.896",
+)
 def _modes(args: argparse.Namespace) -> int:
     import time
 

@@ -9,7 +9,9 @@ from typing import TYPE_CHECKING
 from ..errors import SolveError
 from .common import (
     FROM_X_HELP,
+    FROM_X_METAVAR,
     THETA_HELP,
+    THETA_METAVAR,
     add_backend_arg,
     add_model_args,
     backend_of,
@@ -29,17 +31,23 @@ if TYPE_CHECKING:
 
 def _solve_args(p: argparse.ArgumentParser) -> None:
     add_model_args(p)
-    p.add_argument("--theta", required=True, help=THETA_HELP)
-    p.add_argument("--from-x", help=FROM_X_HELP)
+    p.add_argument("--theta", required=True, metavar=THETA_METAVAR, help=THETA_HELP)
+    p.add_argument("--from-x", metavar=FROM_X_METAVAR, help=FROM_X_HELP)
     p.add_argument(
         "--branch",
         default="convergent",
         choices=["convergent", "divergent", "both"],
-        help="convergent: stay in the start's compartment; divergent: cross the singular manifold",
+        help="convergent: the solution on the start's side of the singular surface; divergent: "
+        "the one across the nearest singular surface; both: the two, side by side",
     )
-    p.add_argument("--b", type=float, help="the paper's signed scalar b (overrides --branch)")
+    p.add_argument(
+        "--b",
+        type=float,
+        help="the paper's signed scalar b: its sign picks the direction along the paper's "
+        "straight path (overrides --branch; default: none)",
+    )
     add_backend_arg(p, "solve")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of the text")
 
 
 def _failed_record(branch: str, exc: Exception, backend: str) -> dict:
@@ -53,7 +61,12 @@ def _failed_record(branch: str, exc: Exception, backend: str) -> dict:
     }
 
 
-@command("solve", "direct kinematics by the singularity-consistent method", _solve_args)
+@command(
+    "solve",
+    "direct kinematics at one joint reading by the singularity-consistent method",
+    _solve_args,
+    "scdk solve models/planar_hexa --theta 1.292,-0.802,-2.896 --from-x 0,0,0.4 --branch both",
+)
 def _solve(args: argparse.Namespace) -> int:
     """Solve one branch, or both (``--branch both``).
 

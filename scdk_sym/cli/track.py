@@ -9,6 +9,8 @@ import numpy as np
 from ..errors import InputError
 from .common import (
     FROM_X_HELP,
+    FROM_X_METAVAR,
+    THETAS_HELP,
     add_backend_arg,
     add_model_args,
     backend_of,
@@ -82,13 +84,18 @@ def _is_number(text: str) -> bool:
 
 def _track_args(p: argparse.ArgumentParser) -> None:
     add_model_args(p)
-    p.add_argument("--thetas", required=True, help="CSV file of joint readings (N rows, k columns)")
-    p.add_argument("--from-x", help=FROM_X_HELP)
+    p.add_argument("--thetas", required=True, metavar="CSV", help=THETAS_HELP)
+    p.add_argument("--from-x", metavar=FROM_X_METAVAR, help=FROM_X_HELP)
     add_backend_arg(p, "track")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of the text")
 
 
-@command("track", "direct kinematics along joint readings, through singularities", _track_args)
+@command(
+    "track",
+    "direct kinematics along a file of joint readings, through singularities",
+    _track_args,
+    "scdk track models/planar_hexa --thetas readings.csv --from-x 0,0,0.4",
+)
 def _track(args: argparse.Namespace) -> int:
     from ..solvers.track import track
 

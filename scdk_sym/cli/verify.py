@@ -13,10 +13,13 @@ def _verify_args(p: argparse.ArgumentParser) -> None:
         "--samples",
         type=int,
         default=3,
-        help="random configurations and random solutions checked besides home (default 3)",
+        metavar="N",
+        help="random configurations and random solutions checked besides home",
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the random configurations")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument(
+        "--seed", type=int, default=0, metavar="N", help="seed of the random configurations"
+    )
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of the text")
 
 
 @command(
@@ -24,6 +27,7 @@ def _verify_args(p: argparse.ArgumentParser) -> None:
     "cross-check the model: frame placements and closures against Pinocchio, Jacobians "
     "against finite differences (exit 1 when a check fails)",
     _verify_args,
+    "scdk verify models/planar_hexa --samples 5",
 )
 def _verify(args: argparse.Namespace) -> int:
     from ..verify.report import verify_model
