@@ -85,9 +85,10 @@ def main(argv: list[str] | None = None) -> int:
         f"limit {args.limit:g} s per solve",
         flush=True,
     )
-    if args.backend == "compiled":  # compile once here, not in every worker at once
-        for name in args.models:
-            warm_up(name, args.backend)
+    # compiled kernels and start systems built once here (cached on disk), not in every
+    # worker at once nor within a solve's time limit
+    for name in args.models:
+        warm_up(name, args.backend, modes=True)
     report = Report()
     t0 = time.perf_counter()
     done, shown = 0, 0

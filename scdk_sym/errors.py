@@ -179,3 +179,8 @@ class AlgebraicFormError(ModelError):
 class ViewError(ScdkError):
     """The 3-D viewer could not show or write a scene (viser missing, nothing to show, an
     unwritable page, a port in use)."""
+
+
+class DependencyError(ScdkError):
+    """An optional dependency that a command needs is not installed (the message gives the
+    install command)."""

@@ -1127,23 +1127,27 @@ def _template(message: str) -> str:
 
 
 @cache
-def warm_up(name: str, backend: str) -> None:
-    """Build (or load from the cache) what a backend compiles, outside any time limit."""
+def warm_up(name: str, backend: str, modes: bool = False) -> None:
+    """Build (or load from the cache) what a backend compiles, outside any time limit; with
+    ``modes``, also the start system of the model's assembly modes (disk-cached: the solves'
+    last divergent way reads it)."""
     import scdk_sym as sc
 
     model = load(name)
     theta = np.array(model.home.theta, dtype=float)
     step = theta + 1e-3
     try:
-        if backend in ("c", "cvodes"):
+        if backend == "c":
             sc.track(model, np.array([theta, step]), backend=backend)
-        else:
-            sc.solve(model, step, backend=backend, record_path=False)
-            # the follower's own kernels (fold location, nearest singular point, detours)
-            # are built on first use, which a plain convergent solve may not reach
-            from scdk_sym.follower.kernels import follower_kernels
+            return
+        sc.solve(model, step, backend=backend, record_path=False)
+        # the follower's own kernels (fold location, nearest singular point, detours) are
+        # built on first use, which a plain convergent solve may not reach
+        from scdk_sym.follower.kernels import follower_kernels
 
-            follower_kernels(model, backend)
+        follower_kernels(model, backend)
+        if modes:
+            sc.assembly_modes(model, theta, backend=backend)
     except sc.ScdkError:
         pass
 

@@ -32,7 +32,7 @@ def test_compiled_kernels_equal_the_sx_functions(make):
                 size = np.abs(a[np.isfinite(a)]).max(initial=0.0)
                 np.testing.assert_allclose(b, a, rtol=1e-10, atol=1e-10 * (1 + size))
     # cached: the library exists under the model's key and is reused
-    assert (cache_dir() / f"kernels_{comp.cache_key(model)}.so").exists()
+    assert (cache_dir() / f"kernels_{comp.cache_key(model)}_{comp.compiler_tag()}.so").exists()
 
 
 def test_missing_compiler_is_a_build_error(monkeypatch):
@@ -57,3 +57,92 @@ def test_first_compilation_is_announced_once_and_split_sources_compile(
     args = [rng.normal(scale=0.3, size=model.kernels.g.size_in(i)) for i in range(3)]
     expected = np.array(model.kernels.g(*args))
     np.testing.assert_allclose(np.array(c_k.g(*args)), expected, rtol=1e-12, atol=1e-12)
+
+
+# ---------------------------------------------------------------- on-disk keys cover their inputs
+
+
+@pytest.fixture
+def package_copy(tmp_path, monkeypatch):
+    """A copy of the package sources the keys hash, with :data:`comp.PACKAGE_ROOT` on it."""
+    import shutil
+
+    root = tmp_path / "scdk_sym"
+    shutil.copytree(comp.PACKAGE_ROOT, root, ignore=shutil.ignore_patterns("__pycache__"))
+    monkeypatch.setattr(comp, "PACKAGE_ROOT", root)
+    return root
+
+
+SOURCES = [
+    "model/rotations.py", "model/chart.py", "model/urdf.py", "symbolic/system.py",
+    "symbolic/kinematics.py", "kernels/functions.py", "follower/kernels.py",
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("part", SOURCES)
+def test_kernel_and_sweep_keys_change_with_each_source_they_are_built_from(package_copy, part):
+    from scdk_sym.atlas.sweep import sweep_key
+
+    model = shipped("planar_hexa")
+    before = comp.cache_key(model), sweep_key(model)
+    assert before == (comp.cache_key(model), sweep_key(model))  # deterministic
+    with open(package_copy / part, "a") as f:
+        f.write("\n# changed\n")
+    after = comp.cache_key(model), sweep_key(model)
+    assert after[0] != before[0] and after[1] != before[1]
+
+
+def test_sweep_key_changes_with_its_own_module_only(package_copy):
+    from scdk_sym.atlas.sweep import sweep_key
+
+    model = shipped("planar_hexa")
+    key, sweep = comp.cache_key(model), sweep_key(model)
+    with open(package_copy / "atlas" / "sweep.py", "a") as f:
+        f.write("\n# changed\n")
+    assert comp.cache_key(model) == key and sweep_key(model) != sweep
+
+
+def test_kernel_key_changes_with_flags_casadi_model_and_reduction(monkeypatch):
+    from scdk_sym.atlas.sweep import sweep_key
+
+    model = shipped("planar_hexa")
+    key, sweep = comp.cache_key(model), sweep_key(model)
+    other = shipped("planar_hexa_reduced")
+    assert comp.cache_key(other) != key
+    with monkeypatch.context() as mp:
+        mp.setattr(comp, "CFLAGS", (*comp.CFLAGS, "-ffast-math"))
+        assert comp.cache_key(model) != key
+    with monkeypatch.context() as mp:
+        mp.setattr(comp.ca, "__version__", "0.0.0", raising=False)
+        assert comp.cache_key(model) != key
+    with monkeypatch.context() as mp:  # the same files reduced to other rows
+        mp.setattr(model, "rows", tuple(reversed(model.rows)))
+        assert comp.cache_key(model) != key
+    assert comp.cache_key(model) == key
+    # the compiler enters the library names (not the kernel hash)
+    tag = comp.compiler_tag()
+    monkeypatch.setenv("CC", "clang")
+    assert comp.compiler_tag() != tag and sweep_key(model) != sweep
+    assert comp.cache_key(model) == key
+
+
+def test_generated_library_keys_change_with_flags_and_compiler(tmp_path, monkeypatch):
+    import importlib
+
+    gen = importlib.import_module("scdk_sym.codegen.generate")  # the module, not the function
+
+    parts = [tmp_path / n for n in ("k.c", "k.h", "t.c", "t.h")]
+    for i, p in enumerate(parts):
+        p.write_text(f"/* {i} */\n")
+    src = gen.GeneratedSources(
+        tmp_path, "p", parts[0], parts[1], parts[2], parts[3], ()
+    )  # fmt: skip
+    key = gen.source_key(src)
+    parts[2].write_text("/* template changed */\n")
+    changed = gen.source_key(src)
+    assert changed != key
+    monkeypatch.setattr(gen, "SHARED_FLAGS", (*gen.SHARED_FLAGS, "-O3"))
+    flagged = gen.source_key(src)
+    assert flagged != changed
+    monkeypatch.setenv("CC", "clang")
+    assert gen.source_key(src) != flagged

@@ -28,6 +28,7 @@ from scdk_sym.algebraic.tracker import TrackerOptions, track
 from scdk_sym.errors import InputError
 from scdk_sym.kernels.compile import run_compiler
 from scdk_sym.model.chart import rot_exp, rot_log
+from scdk_sym.products import START_SYSTEM
 from scdk_sym.solvers import homotopy_modes as hm
 
 #: Largest relative difference of a C endpoint from the numpy one.
@@ -131,8 +132,7 @@ def test_c_tracked_modes_equal_lm_and_stay_certified(dietmaier, seed, monkeypatc
     """assembly_modes with the C tracker (default) and with numpy: the same certified set,
     equal to the random-start LM reference."""
     model, form, start = dietmaier
-    memo = model.__dict__.setdefault(hm._START_ATTR, {})
-    memo[(form.backend, 0, hm.MAX_LOOPS)] = start
+    model.products.put(START_SYSTEM, start, (form.backend, 0, hm.MAX_LOOPS))
     L = query_lengths(seed)
     ref = stewart_reference(DIETMAIER_BASE, DIETMAIER_PLATFORM, L, 3000, seed)
     assert len(ref) >= 1

@@ -267,3 +267,27 @@ def test_convergent_next_to_a_fold_at_s_1_keeps_the_incoming_sheet() -> None:
     assert out.status == "ok", out.detail
     assert out.parity == "agree"
     assert ref.det_sign(ref.coords(res), theta0) == ref.det_sign(ref.home_x, model.home.theta)
+
+
+def test_divergent_that_looped_at_a_tight_fold_returns() -> None:
+    """A Delta start from which the follower's step-over kept failing while the step stayed
+    below its minimum: the loop never advanced nor stopped (found by the fuzz, as a 20 s
+    timeout). It must answer within a few seconds with the known solution (closed form)."""
+    import time
+
+    import scdk_sym as sc
+
+    ref, model = reference("delta"), load("delta")
+    start = model.configuration(
+        np.array([0.02058123449026212, -0.03263814965704978, -0.15954757199069936]),
+        np.array([-2.459550352066793, 0.43109303747141814, -2.4936438921561606]),
+    )
+    theta0 = np.array([-2.9055037496696925, 0.9286860037660971, -2.9707886194472635])
+    known = np.array([-0.06271830096338599, 0.056443306992711356, -0.19229973661005284])
+    t0 = time.process_time()
+    res = sc.solve(model, theta0, start=start, branch="divergent")
+    assert time.process_time() - t0 < 30.0
+    scen = Scenario("delta", "across", theta0, known)
+    out = classify(ref, scen, start, res)
+    assert out.status == "ok", out.detail
+    assert ref.distance(ref.coords(res), known) <= 1e-9

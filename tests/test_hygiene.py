@@ -95,3 +95,45 @@ def test_ruff_is_clean(args):
         [*_tool("ruff"), *args], cwd=ROOT, capture_output=True, text=True, timeout=300
     )
     assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]
+
+
+# ---------------------------------------------------------------- the one cache of products
+
+PACKAGE = ROOT / "scdk_sym"
+
+
+def _dict_writers(root: Path) -> list[str]:
+    """``file:line`` of every ``__dict__`` use in the sources under ``root``."""
+    return [
+        f"{f.relative_to(root)}:{n}"
+        for f in sorted(root.rglob("*.py"))
+        for n, line in enumerate(f.read_text().splitlines(), 1)
+        if "__dict__" in line
+    ]
+
+
+def test_products_are_stored_only_through_the_declared_cache(tmp_path):
+    # the scan finds a writer in a file written for it ...
+    probe = tmp_path / "pkg" / "probe.py"
+    probe.parent.mkdir()
+    probe.write_text("def f(form):\n    form.model.__dict__['_x'] = 1\n")
+    assert _dict_writers(tmp_path) == [str(Path("pkg") / "probe.py") + ":2"]
+    # ... and none in the package: every product goes through model.products
+    assert _dict_writers(PACKAGE) == [], "use model.products.get(KEY, build) (scdk_sym.products)"
+
+
+def test_every_declared_product_key_is_used():
+    import ast
+
+    from scdk_sym import products
+
+    declared = {n for n, v in vars(products).items() if isinstance(v, products.Key)}
+    assert {getattr(products, n).name for n in declared} == set(products.KEYS)
+    used: set[str] = set()
+    for f in PACKAGE.rglob("*.py"):
+        for node in ast.walk(ast.parse(f.read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").endswith("products"):
+                used.update(a.name for a in node.names)
+    assert declared - used == set(), "declared product keys that no module uses"
+    for key in products.KEYS.values():
+        assert key.holds and key.depends, key

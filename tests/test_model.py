@@ -194,3 +194,39 @@ def test_reduction_names_the_2d_row_it_drops(tmp_path, axis, same, moving):
     model = sc.load_model(d)
     assert model.unknowns == ("q",) and model.rows == ({"x": 0, "y": 1}[moving],)
     assert f"dropped 1 redundant row(s) ['2d(a,b).{same}']" in model.reduction
+
+
+def test_a_product_is_built_once_per_model_and_not_shared(monkeypatch):
+    from scdk_sym.errors import InputError
+    from scdk_sym.follower.geometry import kinds
+    from scdk_sym.kernels import fastcall
+    from scdk_sym.products import MODEL_CALLS, UNKNOWN_KINDS, Key
+
+    made = []
+    real = fastcall.Dense
+    monkeypatch.setattr(fastcall, "Dense", lambda f, **kw: made.append(f) or real(f, **kw))
+    a = sc.load_model(MODELS / "planar_hexa")
+    b = sc.load_model(MODELS / "planar_hexa")
+    first = fastcall.model_calls(a)
+    assert fastcall.model_calls(a) is first and len(made) == 4  # g, check, jac, pose once
+    assert fastcall.model_calls(b) is not first and len(made) == 8  # b builds its own
+    assert a.products.peek(MODEL_CALLS) is first and b.products.peek(MODEL_CALLS) is not first
+    # the stored product has the value of its reference: revolute unknowns from the tree
+    types = {j.name: j.type for j in a.tree.joints}
+    revolute = [i for i, u in enumerate(a.unknowns) if types[u] in ("revolute", "continuous")]
+    per, rot, plain = kinds(a)
+    assert per.tolist() == revolute and len(per) + len(rot) + len(plain) == a.m
+    assert kinds(a)[0] is per and a.products.peek(UNKNOWN_KINDS)[0] is per
+    # a failed build stores nothing; an undeclared key is refused
+    calls = []
+
+    def failing():
+        calls.append(1)
+        raise RuntimeError("no")
+
+    for _ in range(2):
+        with pytest.raises(RuntimeError):
+            a.products.get(MODEL_CALLS, failing, "other")
+    assert len(calls) == 2 and a.products.peek(MODEL_CALLS, "other") is None
+    with pytest.raises(InputError, match="undeclared product key"):
+        a.products.get(Key("model_calls", "a copy", "nothing"), lambda: 1)

@@ -156,3 +156,29 @@ def test_cli_verify_exit_codes_and_json(capsys, monkeypatch):
 def test_bad_arguments_are_input_errors(kwargs, match):
     with pytest.raises(InputError, match=match):
         sc.verify_model(shipped("five_bar"), **kwargs)
+
+
+def test_without_pinocchio_verify_names_the_install_and_solve_still_works(monkeypatch, capsys):
+    import subprocess
+    import sys
+
+    from scdk_sym.errors import DependencyError
+
+    monkeypatch.setitem(sys.modules, "pinocchio", None)  # import pinocchio -> ImportError
+    with pytest.raises(DependencyError, match=r'pip install "scdk_sym\[verify\]"'):
+        sc.verify_model(shipped("planar_hexa"))
+    assert main(["verify", str(MODELS / "planar_hexa")]) != 0
+    assert "scdk_sym[verify]" in capsys.readouterr().err
+    # the solvers never import Pinocchio: the paper's example in a process without it
+    code = (
+        "import sys; sys.modules['pinocchio'] = None\n"
+        "import numpy as np, scdk_sym as sc\n"
+        f"m = sc.load_model({str(MODELS / 'planar_hexa')!r})\n"
+        "start = m.inverse_kinematics([0.0, 0.0, 0.4])\n"
+        "r = sc.solve(m, [1.292, -0.802, -2.896], start=start)\n"
+        "print(r.x[2])"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=True
+    )
+    assert abs(float(out.stdout.split()[-1]) - 0.2074) < 1e-3  # the paper's phi (convergent)

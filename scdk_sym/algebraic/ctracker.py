@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import BuildError, HomotopyError, InputError
+from ..products import HOMOTOPY_TRACKER
 from .tracker import TrackerOptions, TrackOutcome
 
 #: Tracker choices of :func:`~scdk_sym.algebraic.solve_homotopy`.
@@ -33,7 +34,6 @@ TRACKER_CFLAGS = (
     "-std=c99", "-O3", "-fcx-limited-range", "-shared", "-fPIC", "-Wall", "-Wextra", "-Werror",
 )  # fmt: skip
 _EVAL_NAME = "algebraic_G"
-_ATTR = "_c_tracker"
 _ERRORS = {1: "out of memory", 2: "the generated evaluation failed", 3: "bad sizes"}
 
 
@@ -61,19 +61,20 @@ def source_dir() -> Path:
 
 
 def tracker_library() -> Path:
-    """The compiled tracker library (cached under the hash of its sources and flags).
+    """The compiled tracker library (cached under the hash of its sources, flags and compiler).
 
     Raises:
         BuildError: no C compiler, or the compilation failed.
     """
     from ..kernels.cache import cache_dir
-    from ..kernels.compile import run_compiler
+    from ..kernels.compile import compiler_tag, run_compiler
 
     src = source_dir()
     h = hashlib.sha256()
     for name in ("ptrack.h", "ptrack.c"):
         h.update((src / name).read_bytes())
     h.update(" ".join(TRACKER_CFLAGS).encode())
+    h.update(compiler_tag().encode())
     target = cache_dir() / f"ptrack_{h.hexdigest()[:20]}.so"
     if not target.exists():
         partial = target.with_suffix(f".{os.getpid()}.tmp")
@@ -214,16 +215,13 @@ def c_tracker(system, tracker: str = "auto") -> Callable[..., TrackOutcome] | No
             )
         return None
     form, weights = fw
-    memo = form.model.__dict__  # type: ignore[attr-defined]
-    ct = memo.get(_ATTR)
-    if ct is None:
-        try:
-            ct = CTracker(form)
-        except BuildError:
-            if tracker == "c":
-                raise
-            return None
-        memo[_ATTR] = ct
+    try:
+        products = form.model.products  # type: ignore[attr-defined]
+        ct = products.get(HOMOTOPY_TRACKER, lambda: CTracker(form))
+    except BuildError:
+        if tracker == "c":
+            raise
+        return None
 
     def run(homotopy, z0, idx, tau0, tau1, options=None, h0=None) -> TrackOutcome:
         return ct.track(homotopy, z0, idx, tau0, tau1, weights, options, h0)

@@ -62,6 +62,7 @@ from ..backends import resolve
 from ..errors import AlgebraicFormError, InputError
 from ..kernels.fastcall import Buffered
 from ..model.rotations import cayley, quaternion_matrix, quaternion_of, rot_exp
+from ..products import ALGEBRAIC_FORM
 from .pairs import complexify
 from .polynomial import PolynomialRows, polynomial_rows
 
@@ -70,7 +71,6 @@ if TYPE_CHECKING:
 
 #: Version of the algebraic form (part of :meth:`AlgebraicForm.content_hash`).
 FORM_VERSION = "1"
-_CACHE_ATTR = "_algebraic_forms"
 #: Scale of the imaginary parts of random complex angles (start points and angle parameters).
 ANGLE_IMAG = 0.1
 #: Batch sizes whose mapped Functions are kept per form.
@@ -377,7 +377,4 @@ def algebraic_form(model: Model, backend: str = "cvodes") -> AlgebraicForm:
         BuildError: the compiled backend cannot compile (no C compiler).
     """
     backend = resolve(backend, "kernels")
-    cache = model.__dict__.setdefault(_CACHE_ATTR, {})
-    if backend not in cache:
-        cache[backend] = _build(model, backend)
-    return cache[backend]
+    return model.products.get(ALGEBRAIC_FORM, lambda: _build(model, backend), backend)

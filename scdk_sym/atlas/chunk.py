@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError, PathError, ScdkError, SolveError, VerificationError
+from ..products import ATLAS_SWEEPS
 
 #: Status codes of an atlas point (stored in the store's attributes as well).
 STATUS = {
@@ -88,12 +89,9 @@ def worker_model(source: ModelSource):
 
 
 def _sweeps(model):
-    cached = model.__dict__.get("_atlas_sweeps")
-    if cached is None:
-        from .sweep import load_sweeps
+    from .sweep import load_sweeps
 
-        cached = model.__dict__["_atlas_sweeps"] = load_sweeps(model)
-    return cached
+    return model.products.get(ATLAS_SWEEPS, lambda: load_sweeps(model))
 
 
 def _det_local(model, y: np.ndarray, theta: np.ndarray) -> float:

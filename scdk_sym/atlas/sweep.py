@@ -113,14 +113,13 @@ def build_sweep(model, steps: int) -> ca.Function:
 
 
 def sweep_key(model) -> str:
-    """Cache key of a model's sweep library: its kernel hash and the sources the sweep is
-    built from (this module, the follower's kernels, the chart)."""
-    from ..kernels.compile import cache_key
+    """Cache key of a model's sweep library: its kernel hash (which covers the kernel sources,
+    the follower's kernels, the chart and rotations), this module and the compiler."""
+    from ..kernels.compile import cache_key, compiler_tag, source_digest
 
     h = hashlib.sha256(cache_key(model).encode())
-    package = Path(__file__).resolve().parents[1]
-    for part in ("atlas/sweep.py", "follower/kernels.py", "model/chart.py"):
-        h.update((package / part).read_bytes())
+    h.update(source_digest(("atlas/sweep.py",)))
+    h.update(compiler_tag().encode())
     return h.hexdigest()[:24]
 
 

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, OutputError
-from ..kernels.compile import OPT, compile_parallel, write_c, write_c_parts
+from ..kernels.compile import OPT, compile_parallel, compiler_tag, write_c, write_c_parts
 from . import templates
 from .kernels import build_tracker_kernels
 
@@ -96,12 +96,14 @@ def _floats(values) -> str:
 
 
 def source_key(sources: GeneratedSources) -> str:
-    """Content hash of generated sources and the library flags (the cache key)."""
+    """Content hash of generated sources (templates filled), the library flags and the
+    compiler (the cache key)."""
     h = hashlib.sha256()
     for path in (*sources.sources, sources.kernels_h, sources.tracker_h):
         h.update(path.read_bytes())
         h.update(b"\0")
     h.update(" ".join(SHARED_FLAGS).encode())
+    h.update(compiler_tag().encode())
     return h.hexdigest()[:24]
 
 

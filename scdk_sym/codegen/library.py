@@ -20,6 +20,7 @@ import numpy as np
 from ..errors import BuildError
 from ..kernels.cache import cache_dir
 from ..kernels.compile import announce
+from ..products import C_TRACKER
 from .generate import compile_library, generate, source_key
 
 PREFIX = "scdk"
@@ -304,9 +305,11 @@ def tracker_library(model) -> CTracker:
     Raises:
         BuildError: no C compiler or the compilation failed.
     """
-    store = model.__dict__
-    if "_c_tracker" in store:
-        return store["_c_tracker"]
+    return model.products.get(C_TRACKER, lambda: _build_tracker(model))
+
+
+def _build_tracker(model) -> CTracker:
+    """Generate, compile (or find on disk) and load the model's C tracker."""
     with tempfile.TemporaryDirectory() as tmp:
         src = generate(model, Path(tmp), PREFIX, split=True)
         key = source_key(src)
@@ -318,6 +321,4 @@ def tracker_library(model) -> CTracker:
             staged = target.with_suffix(f".{os.getpid()}.tmp")
             shutil.copyfile(partial, staged)
             os.replace(staged, target)
-    lib = CTracker(target, model.m, model.k, model.chart.size, len(model.workspace))
-    store["_c_tracker"] = lib
-    return lib
+    return CTracker(target, model.m, model.k, model.chart.size, len(model.workspace))

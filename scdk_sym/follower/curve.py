@@ -63,6 +63,9 @@ FINE = 64
 CHUNK_COS = 0.8
 #: Rejections in a row (each halving the step) before stepping over.
 STALL_HALVINGS = 6
+#: Bound on the follower's loop iterations, in accepted-step budgets (a guard: each iteration
+#: advances, shrinks the step or stops, so it is never reached on a curve it can follow).
+LOOP_FACTOR = 10
 #: A stepped-over point must continue the incoming tangent within acos(STEP_OVER_COS).
 STEP_OVER_COS = 0.9
 #: det J_p changing sign without a turn of s is a bifurcation where H' = [J_p, -j_s] has
@@ -409,7 +412,12 @@ def follow(
     backup_left = 0
     hist = [q.copy()]  # the last accepted points (same chart), for extrapolation
     advancing = False  # the last call accepted some steps
+    turns = 0  # loop iterations: every one either advances, shrinks h or stops
     while out.arc < budget and out.steps < max_steps:
+        turns += 1
+        if turns > LOOP_FACTOR * max_steps:
+            out.stalled = True
+            break
         if halvings >= STALL_HALVINGS or h < h_min:
             # the step keeps shrinking (next to crossing branches no tangent field is smooth
             # and the predictors creep towards the point): step over it
@@ -419,8 +427,10 @@ def follow(
                 cr = stepped[4]
             else:
                 stepped = _step_over(model, kern, p, weight, q, t, c, det, h_good, tol)
-                if stepped is None and advancing:
-                    halvings = 0  # calls still advance (e.g. at a tight fold): keep going
+                if stepped is None and advancing and h >= h_min:
+                    # calls still advance (e.g. at a tight fold): keep going, until the next
+                    # call that advances (a step below h_min or no advance: stalled)
+                    halvings, advancing = 0, False
                     continue
                 if stepped is None:
                     out.stalled = True

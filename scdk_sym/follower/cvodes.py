@@ -15,6 +15,7 @@ import numpy as np
 
 from ..backends import resolve
 from ..kernels.fastcall import Buffered
+from ..products import CVODES_ENGINES
 
 #: Output samples per integrated chunk.
 GRID = 8
@@ -82,9 +83,11 @@ def engine(model, backend: str = "cvodes") -> Engine:
         InputError: a backend the kernel builders do not offer.
     """
     backend = resolve(backend, "kernels")
-    store = model.__dict__.setdefault("_engines", {})
-    if backend in store:
-        return store[backend]
+    return model.products.get(CVODES_ENGINES, lambda: _build_engine(model, backend), backend)
+
+
+def _build_engine(model, backend: str) -> Engine:
+    """Build the SC engine of ``model`` with the kernels of ``backend`` (resolved)."""
     if backend == "cvodes":
         kern = model.kernels
     else:
@@ -98,8 +101,6 @@ def engine(model, backend: str = "cvodes") -> Engine:
     dae = {"x": q, "p": ca.vertcat(p, c), "ode": kern.field(q, p, c)}
     grid = np.linspace(0.0, 1.0, GRID + 1)[1:]
     integ = ca.integrator("sc_chunk", "cvodes", dae, 0.0, grid, CVODES_OPTIONS)
-    eng = Engine(
+    return Engine(
         model, kern, Buffered(integ), Buffered(kern.probe.map(GRID + 1)), m, k, Buffered(kern.warm)
     )
-    store[backend] = eng
-    return eng

@@ -11,21 +11,23 @@ import math
 import numpy as np
 
 from ..model.rotations import cayley, rot_exp, rot_log
+from ..products import UNKNOWN_KINDS
 
 
 def kinds(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Indices of the unknowns: (revolute angles, floating rotations, the others); cached."""
-    cached = model.__dict__.get("_unknown_kinds")
-    if cached is None:
+
+    def build() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         types = {j.name: j.type for j in model.tree.joints}
         per = [
             i for i, n in enumerate(model.unknowns) if types.get(n) in ("revolute", "continuous")
         ]
         rot = [i for idx in model.chart.rotations for i in idx]
         plain = [i for i in range(model.m) if i not in set(per) | set(rot)]
-        cached = tuple(np.array(v, dtype=int) for v in (per, rot, plain))
-        model.__dict__["_unknown_kinds"] = cached
-    return cached
+        a, b, c = (np.array(v, dtype=int) for v in (per, rot, plain))
+        return a, b, c
+
+    return model.products.get(UNKNOWN_KINDS, build)
 
 
 def periodic(model) -> np.ndarray:

@@ -25,6 +25,7 @@ import casadi as ca
 
 from ..backends import resolve
 from ..kernels.fastcall import Dense
+from ..products import FOLLOWER_CALLS, FOLLOWER_KERNELS
 
 #: Predictor-corrector steps evaluated per call of the step function.
 STEPS = 16
@@ -353,16 +354,17 @@ def follower_kernels(model, backend: str = "cvodes") -> FollowerKernels:
         BuildError: no C compiler (compiled backend).
     """
     backend = resolve(backend, "kernels")
-    store = model.__dict__.setdefault("_follower_kernels", {})
-    if backend not in store:
+
+    def build() -> FollowerKernels:
         kern = build_follower_kernels(model.symbolic)
         if backend == "compiled":
             from ..kernels.compile import OPT, cached_library
 
             target = cached_library(kern.all(), "scdk_follow", announce_as=model.name, opt=OPT)
             kern = FollowerKernels(*(ca.external(f.name(), str(target)) for f in kern.all()))
-        store[backend] = kern
-    return store[backend]
+        return kern
+
+    return model.products.get(FOLLOWER_KERNELS, build, backend)
 
 
 @dataclass(frozen=True)
@@ -382,10 +384,10 @@ class FollowerCalls:
 def follower_calls(model, backend: str = "cvodes") -> FollowerCalls:
     """The (cached) zero-copy callers of :func:`follower_kernels` (same arguments)."""
     backend = resolve(backend, "kernels")
-    store = model.__dict__.setdefault("_follower_calls", {})
-    if backend not in store:
+
+    def build() -> FollowerCalls:
         kern = follower_kernels(model, backend)
-        store[backend] = FollowerCalls(
+        return FollowerCalls(
             Dense(kern.steps),
             Dense(kern.tangent),
             Dense(kern.plane, scalars=(1,)),
@@ -393,4 +395,5 @@ def follower_calls(model, backend: str = "cvodes") -> FollowerCalls:
             Dense(kern.polish, scalars=(1,)),
             Dense(kern.singular),
         )
-    return store[backend]
+
+    return model.products.get(FOLLOWER_CALLS, build, backend)

@@ -36,6 +36,12 @@ COMPILE_FLAGS = (OPT, "-fPIC")
 #: Flags linking the objects into a shared library.
 LINK_FLAGS = ("-shared",)
 CFLAGS = (*COMPILE_FLAGS, *LINK_FLAGS)
+#: Package sources a model's kernels are built from (a folder: every module in it): the
+#: description layer (URDF and spec parsing, chart, rotations), the symbolic layer, the kernel
+#: definitions and the follower's SC field they inline.
+KERNEL_SOURCES = ("model", "symbolic", "kernels/functions.py", "follower/kernels.py")
+#: Root of the package, the folder the source lists are relative to.
+PACKAGE_ROOT = Path(__file__).resolve().parents[1]
 
 _announced: set[str] = set()
 
@@ -197,7 +203,8 @@ def cached_library(
 ) -> Path:
     """A shared library of some Functions, compiled once into the cache directory.
 
-    Keyed by a hash of the generated sources and the compiler flags; for the kernels of a
+    Keyed by a hash of the generated sources, the compiler flags, the compiler
+    (:func:`compiler_tag`) and the CasADi version; for the kernels of a
     model prefer :func:`compiled_kernels`, which needs no code generation when cached.
     ``announce_as``: the model name to :func:`announce` when it compiles; ``opt``: the
     optimisation level (-O3 by default: batched loops such as the algebraic form's gain from
@@ -210,6 +217,7 @@ def cached_library(
         for src in sources:
             h.update(src.read_bytes())
         h.update(" ".join((*flags, *LINK_FLAGS)).encode())
+        h.update(f"{compiler_tag()} casadi {getattr(ca, '__version__', '')}".encode())
         target = cache_dir() / f"{name}_{h.hexdigest()[:20]}.so"
         if not target.exists():
             if announce_as:
@@ -242,13 +250,34 @@ def compile_shared(source: Path, target: Path) -> Path:
     return target
 
 
+def source_digest(parts: Sequence[str]) -> bytes:
+    """SHA-256 of package sources: ``parts`` are paths relative to :data:`PACKAGE_ROOT`, a
+    folder standing for every ``*.py`` in it (each file hashed with its relative path)."""
+    h = hashlib.sha256()
+    for part in parts:
+        path = PACKAGE_ROOT / part
+        files = sorted(path.rglob("*.py")) if path.is_dir() else [path]
+        for f in files:
+            h.update(f.relative_to(PACKAGE_ROOT).as_posix().encode() + b"\0")
+            h.update(f.read_bytes() + b"\0")
+    return h.digest()
+
+
+def compiler_tag() -> str:
+    """Short hash of the compiler command ``$CC`` (empty: gcc or cc on the PATH); part of the
+    key of every compiled library, so that a change of compiler compiles again."""
+    return hashlib.sha256(os.environ.get("CC", "").strip().encode()).hexdigest()[:8]
+
+
 def cache_key(model) -> str:
-    """Content hash of a model's compiled kernels: the model files, the code that turns them
-    into kernels, the CasADi version and the compiler flags."""
+    """Content hash of a model's kernels: the model files, its square reduction, the package
+    sources that turn them into kernels (:data:`KERNEL_SOURCES`), the CasADi version and the
+    compiler flags (the compiler itself: :func:`compiler_tag`, in the library names)."""
     h = hashlib.sha256(model.content_hash.encode())
-    here = Path(__file__).resolve().parents[1]
-    for part in ("kernels/functions.py", "symbolic/kinematics.py", "symbolic/system.py"):
-        h.update((here / part).read_bytes())
+    locked = sorted((name, float(v)) for name, v in model.locked.items())
+    structure = (model.actuated, model.unknowns, [int(r) for r in model.rows], locked)
+    h.update(repr(structure).encode())
+    h.update(source_digest(KERNEL_SOURCES))
     h.update(str(getattr(ca, "__version__", "")).encode())
     h.update(" ".join(CFLAGS).encode())
     return h.hexdigest()[:24]
@@ -261,7 +290,7 @@ def compiled_kernels(model) -> Kernels:
     :func:`cache_key`; only the first call for a model generates and compiles (seconds).
     """
     kern = model.kernels
-    target = cache_dir() / f"kernels_{cache_key(model)}.so"
+    target = cache_dir() / f"kernels_{cache_key(model)}_{compiler_tag()}.so"
     if not target.exists():
         announce(model.name)
         with tempfile.TemporaryDirectory() as tmp:

@@ -15,6 +15,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from ..products import MODEL_CALLS
+
 
 class Buffered:
     """A CasADi Function called through preallocated numpy buffers (dense, column-major)."""
@@ -131,9 +133,9 @@ class ModelCalls:
 def model_calls(model) -> ModelCalls:
     """The (cached) zero-copy callers of ``model.kernels``: same signatures and values as the
     plain calls, outputs as numpy arrays."""
-    calls = model.__dict__.get("_model_calls")
-    if calls is None:
+
+    def build() -> ModelCalls:
         kern = model.kernels
-        calls = ModelCalls(Dense(kern.g), Dense(kern.check), Dense(kern.jac), Dense(kern.pose))
-        model.__dict__["_model_calls"] = calls
-    return calls
+        return ModelCalls(Dense(kern.g), Dense(kern.check), Dense(kern.jac), Dense(kern.pose))
+
+    return model.products.get(MODEL_CALLS, build)

@@ -33,6 +33,7 @@ from ..model.files import read_description
 from ..model.rotations import rot_exp, rot_log, rpy_matrix
 from ..model.spec import Spec
 from ..model.urdf import Tree, tree_to_urdf
+from ..products import Products
 from ..results import Configuration
 from ..symbolic.kinematics import link_placements
 from ..symbolic.system import build_symbolic
@@ -373,6 +374,12 @@ class Model:
         return y
 
     # ------------------------------------------------------------------ products
+
+    @cached_property
+    def products(self) -> Products:
+        """The solver products built for this model (:class:`~scdk_sym.products.Products`:
+        kernels, compiled libraries, algebraic forms...; declared in :mod:`scdk_sym.products`)."""
+        return Products()
 
     @cached_property
     def symbolic(self):

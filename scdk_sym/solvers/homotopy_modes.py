@@ -36,6 +36,7 @@ from ..backends import resolve
 from ..errors import ScdkError
 from ..follower.geometry import features
 from ..model.rotations import rot_exp
+from ..products import START_SYSTEM
 from ..results import AssemblyModes, Configuration
 from ..robot import Model, as_vector
 
@@ -65,7 +66,6 @@ TRACE_TOL = 1e-9
 RATIONAL_TESTS = ((0.5, 8, 32),)
 #: Version of the start-system test (part of the cache file name).
 MODES_CACHE_VERSION = "3"
-_START_ATTR = "_start_systems"
 
 
 def frame_trace_map(form, p: np.ndarray):
@@ -151,10 +151,11 @@ def model_start_system(
     from ..algebraic import monodromy_solve, trace_test
     from ..algebraic.rational_trace import rational_trace_test
 
-    memo = form.model.__dict__.setdefault(_START_ATTR, {})
+    products = form.model.products
     key = (form.backend, seed, max_loops)
-    if key in memo and not rebuild:
-        return memo[key]
+    stored = products.peek(START_SYSTEM, key)
+    if stored is not None and not rebuild:
+        return stored
     path = _cache_path(form, seed) if cache else None
     start = None
     if path is not None and path.exists() and not rebuild:
@@ -185,8 +186,7 @@ def model_start_system(
         )  # fmt: skip
         if path is not None:
             _save(start, path)
-    memo[key] = start
-    return start
+    return products.put(START_SYSTEM, start, key)
 
 
 def _cache_path(form, seed: int):

@@ -108,6 +108,7 @@ from ..backends import resolve
 from ..errors import InputError, PathError, TrackError
 from ..kernels.fastcall import Buffered
 from ..model.rotations import gibbs, rot_exp
+from ..products import TRACK_KERNELS
 from ..results import Configuration, Crossing, TrackResult
 from ..robot import Model
 from .sc import null_direction, trace, validate_start
@@ -235,16 +236,16 @@ class _Kernels:
 
 
 def _kernels(model: Model) -> _Kernels:
-    store = model.__dict__
-    if "_track_kernels" not in store:
+    def build() -> _Kernels:
         from ..codegen.kernels import build_tracker_kernels
 
         kern = build_tracker_kernels(model.symbolic, model.chart.rotations, "scdk")
-        store["_track_kernels"] = _Kernels(
+        return _Kernels(
             Buffered(kern.predict), Buffered(kern.newton), Buffered(kern.jac),
             Buffered(kern.recentre),
         )  # fmt: skip
-    return store["_track_kernels"]
+
+    return model.products.get(TRACK_KERNELS, build)
 
 
 TWO_PI = 2.0 * math.pi

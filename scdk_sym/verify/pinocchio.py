@@ -12,13 +12,33 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..errors import DependencyError
 from ..model.rotations import rot_exp
 from ..robot import Model
+
+#: Install command of the optional Pinocchio cross-check.
+INSTALL_HINT = 'pip install "scdk_sym[verify]"'
+
+
+def pinocchio():
+    """The ``pinocchio`` module (package ``pin``), imported on first use.
+
+    Raises:
+        DependencyError: Pinocchio is not installed (the message gives the install command).
+    """
+    try:
+        import pinocchio as pin
+    except ImportError as exc:
+        raise DependencyError(
+            f"the Pinocchio cross-check needs pinocchio, which is not installed: {INSTALL_HINT} "
+            "(or pip install pin)"
+        ) from exc
+    return pin
 
 
 @lru_cache(maxsize=32)
 def _pin_model(urdf_text: str):
-    import pinocchio as pin
+    pin = pinocchio()
 
     return pin.buildModelFromXML(urdf_text)
 
@@ -30,7 +50,7 @@ def pinocchio_model(model: Model):
 
 def pin_configuration(model: Model, joints: Mapping[str, float]) -> np.ndarray:
     """Pinocchio ``q`` of a joint-coordinate mapping (``Configuration.joints``)."""
-    import pinocchio as pin
+    pin = pinocchio()
 
     pm = pinocchio_model(model)
     q = pin.neutral(pm)
@@ -54,7 +74,7 @@ def pin_configuration(model: Model, joints: Mapping[str, float]) -> np.ndarray:
 
 def frame_placements(model: Model, joints: Mapping[str, float]) -> dict[str, np.ndarray]:
     """World placements (4x4) of every link, computed by Pinocchio."""
-    import pinocchio as pin
+    pin = pinocchio()
 
     pm = pinocchio_model(model)
     data = pm.createData()
@@ -95,7 +115,7 @@ def placement_error(model: Model, y, theta) -> float:
 
 def constraint_models(model: Model) -> list:
     """One ``pin.RigidConstraintModel`` per closure of the YAML."""
-    import pinocchio as pin
+    pin = pinocchio()
 
     pm = pinocchio_model(model)
     out = []
@@ -116,7 +136,7 @@ def closure_residuals(model: Model, joints: Mapping[str, float]) -> np.ndarray:
     3d: |p_a - p_b|; 2d: |(p_a - p_b)_xy|; distance: ||p_a - p_b| - length|;
     6d: |log6(M_a^-1 M_b)|.
     """
-    import pinocchio as pin
+    pin = pinocchio()
 
     pm = pinocchio_model(model)
     data = pm.createData()
