@@ -205,3 +205,69 @@ def test_readme_quick_start_prints_what_the_readme_says(capsys):
     argv[1] = str(ROOT / argv[1])
     assert main(argv) == 0
     assert capsys.readouterr().out == shown
+
+
+def test_importing_the_cli_loads_no_heavy_dependency():
+    import subprocess
+    import sys
+
+    script = (
+        "import json, sys, scdk_sym.cli\n"
+        "assert len(scdk_sym.cli.COMMANDS) >= 10, list(scdk_sym.cli.COMMANDS)\n"
+        "print(json.dumps(sorted(sys.modules)))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120, check=True
+    ).stdout
+    loaded = {m.split(".")[0] for m in json.loads(out.strip().splitlines()[-1])}
+    heavy = {"casadi", "matplotlib", "dask", "viser", "pinocchio", "zarr", "scipy"}
+    assert not heavy & loaded, sorted(heavy & loaded)
+
+
+def _subparsers():
+    import argparse
+
+    from scdk_sym.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return parser, sub.choices
+
+
+def test_every_option_has_help_and_states_its_default():
+    import argparse
+
+    parser, commands = _subparsers()
+    assert len(commands) >= 10
+    missing, no_default = [], []
+    for name, p in commands.items():
+        formatter = p._get_formatter()
+        for action in p._actions:
+            if isinstance(action, argparse._HelpAction):
+                continue
+            text = formatter._expand_help(action) if action.help else ""
+            if not text.strip():
+                missing.append((name, action.dest))
+            stated = action.default is None or action.default is False or "default" in text
+            if action.option_strings and not stated:  # 0 is a default to state
+                no_default.append((name, action.dest))
+    assert not missing, missing
+    assert not no_default, no_default
+
+
+def test_every_command_shows_an_example_that_parses():
+    import shlex
+
+    from scdk_sym.cli import COMMANDS
+
+    parser, commands = _subparsers()
+    assert set(commands) == set(COMMANDS)
+    for name, p in commands.items():
+        help_text = p.format_help()
+        assert "\nexample:\n  scdk " + name + " " in help_text, name
+        words = shlex.split(COMMANDS[name].example)
+        args = parser.parse_args(words[1:])  # argparse exits (SystemExit) on a bad example
+        assert args.command == name and args.run is COMMANDS[name].run
+        for word in words:  # the models it names are shipped
+            if word.startswith("models/"):
+                assert (MODELS / word.split("/", 1)[1]).is_dir(), word

@@ -1,0 +1,481 @@
+"""Assembly modes by the real-curve search: every real solution met by following SC curves.
+
+For a target ``theta0`` and a line ``theta(s) = theta1 + s (theta0 - theta1)`` in joint space,
+the solutions of ``g(y, theta(s)) = 0`` form curves in ``q = (y, s)``; every point of them with
+``s = 1`` is a direct-kinematics solution at ``theta0``. The curve through an assembled start
+usually meets ``s = 1`` many times (the paper's convergent and divergent answers are only the
+first meeting in each direction). For the platforms of this package the curves are closed
+loops: following one all the way round collects every solution on it.
+
+:func:`explore` (``assembly_modes(method="curves")``) follows such curves from a set of
+starts:
+
+1. the start configuration (default ``model.home``), on the line from its ``theta`` to
+   ``theta0``: the whole curve;
+2. alternately,
+
+   a. a known solution (the least used one) on a line through ``theta0`` in a random
+      direction (the solution is the point ``s = 1`` of that curve): the whole curve;
+   b. a random assembled configuration on the line from its ``theta`` to ``theta0`` (the
+      paper's kind of start, ``theta1 = IK(y1)``): random unknowns ranked by their closure
+      residual at ``theta0`` and taken away from the known solutions; the first crossing of
+      ``s = 1`` each way (the paper's convergent and divergent answers). These reach the
+      solutions that no curve through a known one connects to (e.g. the mirror images
+      below the base of a nearly planar 6-6 platform);
+
+until the last ``patience`` curves of each kind found nothing new and every known solution
+was met again ``cover`` times since the last new one (or the time budget or the curve limit
+runs out). A curve ends when it comes back to its start, when it meets a solution or a
+turning point of ``s`` a second time (the follower went round a loop it jumped onto near
+two nearly touching branches), or at its arc-length or step budget.
+
+The curves are followed by the one curve follower (:mod:`scdk_sym.follower.curve`, explicit
+predictor-corrector on the SC tangent, folds and bifurcations handled there), with kernels as
+SX Functions or generated C; each ``s = 1``
+crossing is polished by Newton at ``theta0``, verified and deduplicated.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..backends import resolve
+from ..errors import InputError, ScdkError
+from ..follower.curve import Line, follow
+from ..follower.geometry import difference, features, kinds  # noqa: F401
+from ..follower.kernels import follower_kernels
+from ..model.rotations import quaternion_matrix
+from ..results import AssemblyModes, Configuration
+from ..robot import Model, as_vector
+from .sc import validate_start
+
+#: The search accepts explicit steps whose tangent turned by up to acos(0.7) (it collects
+#: solutions; a jump between nearby branches only changes the curve it explores).
+SEARCH_MIN_COS = 0.7
+#: Random starts: coordinates other than angles within this many model sizes of home.
+RANDOM_SPREAD = 1.5
+
+
+def curve_kernels(model: Model, backend: str = "cvodes"):
+    """The curve follower's kernels (:func:`scdk_sym.follower.kernels.follower_kernels`)."""
+    return follower_kernels(model, backend)
+
+
+def _scale(model: Model) -> float:
+    return max(1.0, model.length_scale)
+
+
+# ---------------------------------------------------------------------------- one curve
+
+
+@dataclass
+class Curve:
+    """What following one solution curve met.
+
+    Attributes:
+        hits: canonical unknowns (m,) of the verified solutions met at ``s = 1``, in order.
+        hit_arcs: arc length at which each hit was met (to half a step).
+        turns: the singular-manifold crossings (turning points of ``s``) as (arc, canonical
+            unknowns, s), interpolated between two samples (accurate to the step squared).
+        arc: arc length followed (metric ``|dy|^2 + (|dtheta| ds)^2``).
+        steps: accepted predictor-corrector steps.
+        rejected: rejected steps.
+        closed: the curve came back to its start.
+        reversed: ... but backwards (the follower jumped between nearly touching branches).
+        repeated: a solution or a turning point of s was met twice (the follower went round
+            a loop again: it jumped onto a loop that does not pass through its start).
+        crossings: singular-manifold crossings (``det J_p`` changed sign).
+        timed_out: stopped by the deadline.
+        path: (when recorded) accepted samples ``(y canonical, s)`` (m + 1,).
+    """
+
+    hits: list[np.ndarray] = field(default_factory=list)
+    hit_arcs: list[float] = field(default_factory=list)
+    turns: list[tuple[float, np.ndarray, float]] = field(default_factory=list)
+    arc: float = 0.0
+    steps: int = 0
+    rejected: int = 0
+    closed: bool = False
+    reversed: bool = False
+    repeated: bool = False
+    crossings: int = 0
+    timed_out: bool = False
+    path: list[np.ndarray] = field(default_factory=list, repr=False)
+
+
+def follow_curve(
+    model: Model,
+    theta1: np.ndarray,
+    dtheta: np.ndarray,
+    y_start: np.ndarray,
+    s_start: float,
+    direction: float,
+    *,
+    max_arc: float,
+    deadline: float = math.inf,
+    backend: str = "cvodes",
+    record: bool = False,
+    max_hits: int | float = math.inf,
+    max_steps: int = 20000,
+    step: float | None = None,
+) -> Curve:
+    """Follow the curve ``g(y, theta1 + s dtheta) = 0`` from ``(y_start, s_start)`` with the
+    curve follower (:func:`scdk_sym.follower.curve.follow`, explicit predictor-corrector) and
+    collect its ``s = 1`` crossings.
+
+    Args:
+        model: the model.
+        theta1: (k,) actuated values at ``s = 0``.
+        dtheta: (k,) direction of the line (``theta0 = theta1 + dtheta`` at ``s = 1``).
+        y_start: (m,) canonical unknowns of an assembled point of the curve.
+        s_start: its path parameter.
+        direction: +1 follows ``nu`` (``s' = det J_p``), -1 follows ``-nu``.
+        max_arc: arc-length budget, in the metric ``|dy|^2 + (|dtheta| ds)^2``.
+        deadline: ``time.perf_counter()`` value at which to stop.
+        backend: "cvodes" or "compiled" kernels (see :mod:`scdk_sym.backends`).
+        record: keep the accepted samples in ``curve.path``.
+        max_hits: stop after this many solutions.
+        max_steps: stop after this many accepted steps.
+        step: initial arc-length step (default 0.02 model sizes).
+
+    Returns:
+        A :class:`Curve`.
+    """
+    line = Line(np.asarray(theta1, float), np.asarray(dtheta, float))
+    h = 0.02 * _scale(model) if step is None else float(step)
+    walk = follow(model, line, y_start, s_start, direction, predictor="rk4", backend=backend,
+                  max_hits=max_hits, max_arc=max_arc, max_steps=max_steps, deadline=deadline,
+                  step=h, record=record, locate=False,
+                  min_cos=SEARCH_MIN_COS)  # fmt: skip
+    out = Curve(
+        hits=[hit.y for hit in walk.hits],
+        hit_arcs=[hit.arc for hit in walk.hits],
+        turns=[
+            (a, cr.y, cr.s)
+            for cr, a in zip(walk.singular, walk.singular_arcs, strict=True)
+            if cr.kind == "fold"
+        ],
+        arc=walk.arc,
+        steps=walk.steps,
+        rejected=walk.rejected,
+        closed=walk.closed,
+        reversed=walk.reversed,
+        repeated=walk.repeated,
+        crossings=len(walk.singular),
+        timed_out=walk.timed_out,
+    )
+    if record and walk.path is not None:
+        out.path = [np.append(y, s) for y, s in zip(walk.path.y, walk.path.s, strict=True)]
+    return out
+
+
+# ---------------------------------------------------------------------------- search
+
+
+@dataclass
+class ModeSearch:
+    """Outcome of :func:`explore`.
+
+    Attributes:
+        solutions: the verified solutions, deduplicated and sorted (see :func:`assembly_modes`).
+        curves: solution curves followed.
+        steps: predictor-corrector steps taken (accepted + rejected chunks' accepted steps).
+        arc: total arc length followed.
+        elapsed: wall time [s].
+        complete: the stopping rule was met (``False``: stopped by the time budget or the
+            curve limit).
+        met: for each solution, how many curves met it.
+        lines: curves followed from a known solution on a random line through ``theta0``.
+        random_starts: random start configurations drawn.
+        last_new: (lines, random_starts) when the last new solution was found.
+    """
+
+    solutions: list[Configuration]
+    curves: int = 0
+    steps: int = 0
+    arc: float = 0.0
+    elapsed: float = 0.0
+    complete: bool = False
+    met: list[int] = field(default_factory=list)
+    lines: int = 0
+    random_starts: int = 0
+    last_new: tuple[int, int] = (0, 0)
+
+
+def _actuator_scale(model: Model) -> np.ndarray:
+    types = {j.name: j.type for j in model.tree.joints}
+    return np.array([_scale(model) if types[a] == "prismatic" else 1.0 for a in model.actuated])
+
+
+def explore(
+    model: Model,
+    theta0: ArrayLike,
+    *,
+    start: Configuration | Sequence[Configuration] | None = None,
+    seed: int = 0,
+    time_budget: float | None = None,
+    progress: bool = False,
+    patience: int = 8,
+    cover: int = 2,
+    max_curves: int = 400,
+    max_arc: float | None = None,
+    backend: str = "cvodes",
+) -> ModeSearch:
+    """Search the real direct-kinematics solutions at ``theta0`` (see :func:`assembly_modes`).
+
+    Args:
+        model, theta0, start, seed, time_budget, progress, patience, cover, max_curves,
+            backend: as :func:`assembly_modes`.
+        max_arc: arc-length budget of one curve (default 200 model sizes).
+
+    Returns:
+        A :class:`ModeSearch` with the solutions and statistics of the search.
+    """
+    t_begin = time.perf_counter()
+    theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
+    backend = resolve(backend, "curves")
+    if time_budget is not None and not (time_budget > 0):
+        raise InputError(f"time_budget must be a positive number of seconds, got {time_budget!r}")
+    for name, value in (("patience", patience), ("cover", cover), ("max_curves", max_curves)):
+        if int(value) != value or value < 0:
+            raise InputError(f"{name} must be a non-negative integer, got {value!r}")
+    starts = [start] if start is None or isinstance(start, Configuration) else list(start)
+    starts = [validate_start(model, st) for st in starts]
+    deadline = math.inf if time_budget is None else t_begin + float(time_budget)
+    scale = _scale(model)
+    arc_budget = 200.0 * scale if max_arc is None else float(max_arc)
+    tol_same = 1e-6 * scale
+    rng = np.random.default_rng(seed)
+    act = _actuator_scale(model)
+    sols: list[Configuration] = []
+    feats: list[np.ndarray] = []
+    met: list[int] = []
+    since: list[int] = []  # times met since the last new solution
+    used: list[int] = []  # times used as a start
+    out = ModeSearch(solutions=[])
+    bar = _progress_bar(progress)
+    sampler = RandomStarts(model, rng, theta0)
+
+    def record(curve: Curve, origin: int) -> int:
+        new = 0
+        seen: set[int] = set()
+        for y in curve.hits:
+            f = features(model, y)
+            if feats:
+                dist = np.max(np.abs(np.vstack(feats) - f), axis=1)
+                i = int(np.argmin(dist))
+                if dist[i] <= tol_same:
+                    seen.add(i)
+                    continue
+            cfg = model.configuration(y, theta0)
+            if not cfg.residual <= model.tolerance:
+                continue
+            sols.append(cfg)
+            feats.append(f[0])
+            met.append(0)
+            since.append(0)
+            used.append(0)
+            seen.add(len(sols) - 1)
+            new += 1
+        for i in seen - {origin}:
+            met[i] += 1
+            since[i] += 1
+        out.curves += 1
+        if new:
+            since[:] = [0] * len(since)
+        out.steps += curve.steps
+        out.arc += curve.arc
+        if bar is not None:
+            bar.update(1)
+            bar.set_postfix(solutions=len(sols), refresh=False)
+        return new
+
+    def both_ways(theta1, dtheta, y, s, origin, max_hits=math.inf) -> int:
+        new = 0
+        for direction in (1.0, -1.0):
+            curve = follow_curve(model, theta1, dtheta, y, s, direction, max_arc=arc_budget,
+                                 deadline=deadline, backend=backend, max_hits=max_hits)  # fmt: skip
+            new += record(curve, origin)
+            if (curve.closed and not curve.reversed) or curve.timed_out:
+                break
+        return new
+
+    try:
+        # 1. from the start configurations, on the line to theta0
+        for st in starts:
+            dtheta = theta0 - st.theta
+            if float(np.linalg.norm(dtheta)) <= 1e-12 * max(1.0, float(np.linalg.norm(theta0))):
+                record(Curve(hits=[np.array(st.y)]), -1)
+                continue
+            both_ways(st.theta, dtheta, st.y, 0.0, -1)
+        # 2. alternately from a known solution on a random line through theta0, and from a
+        #    random assembled configuration on the line to theta0, until neither kind has
+        #    found anything new for `patience` curves (and every solution was met again)
+        idle = {"line": 0, "random": 0}
+        while out.curves < max_curves and time.perf_counter() < deadline:
+            if sols and min(idle.values()) >= patience and min(since) >= cover:
+                out.complete = True
+                break
+            if not sols and out.random_starts >= max(8, 4 * patience):
+                out.complete = True  # nothing reaches theta0 from anywhere tried
+                break
+            kind = "line" if sols and idle["line"] <= idle["random"] else "random"
+            if kind == "line":
+                i = int(np.argmin(used))
+                used[i] += 1
+                d = rng.normal(size=model.k) * act
+                d *= 0.5 * scale / float(np.linalg.norm(d))
+                out.lines += 1
+                new = both_ways(theta0 - d, d, sols[i].y, 1.0, i)
+            else:
+                known = np.vstack(feats) if feats else np.zeros((0, 0))
+                drawn = sampler.next(known, 0.25 * scale)
+                out.random_starts += 1
+                if drawn is None:
+                    out.curves += 1  # counted, so that a failing sampler cannot loop forever
+                    new = 0
+                else:
+                    # the paper's two answers from this start (first crossing each way)
+                    new = both_ways(drawn.theta, theta0 - drawn.theta, drawn.y, 0.0, -1, max_hits=1)
+            if new:
+                idle = dict.fromkeys(idle, 0)
+                out.last_new = (out.lines, out.random_starts)
+            else:
+                idle[kind] += 1
+    finally:
+        if bar is not None:
+            bar.close()
+    order = sorted(range(len(sols)), key=lambda i: _sort_key(sols[i]))
+    out.solutions = [sols[i] for i in order]
+    out.met = [met[i] for i in order]
+    out.elapsed = time.perf_counter() - t_begin
+    return out
+
+
+class RandomStarts:
+    """Random assembled starts (the paper's kind: ``theta1 = IK(y1)``) for the search.
+
+    With as many unknowns as actuators, batches of random unknowns (revolute angles and
+    rotations uniform, other coordinates within ``RANDOM_SPREAD`` model sizes of home) are
+    ranked by their closure residual at ``theta0`` (the nearer the fibre over ``theta0``, the
+    likelier the curve from there reaches ``s = 1``); a candidate near a known solution is
+    skipped, the others get ``theta`` by Newton on ``g(y, theta) = 0``. Otherwise the inverse
+    kinematics of random poses near home.
+
+    Args:
+        model: the model.
+        rng: random generator.
+        theta0: (k,) target actuated values.
+        batch: candidates drawn at a time.
+    """
+
+    def __init__(self, model: Model, rng: np.random.Generator, theta0: np.ndarray, batch=256):
+        self.model, self.rng, self.theta0, self.batch = model, rng, theta0, batch
+        self.queue: list[np.ndarray] = []
+        self.drawn = 0
+
+    def _refill(self) -> None:
+        model, n = self.model, self.batch
+        Y = np.tile(np.array(model.home.y, dtype=float), (n, 1))
+        per, _, plain = kinds(model)
+        Y[:, per] = self.rng.uniform(-math.pi, math.pi, (n, per.size))
+        spread = RANDOM_SPREAD * model.length_scale
+        Y[:, plain] += self.rng.uniform(-spread, spread, (n, len(plain)))
+        C = np.zeros((n, model.chart.size))
+        for r, idx in enumerate(model.chart.rotations):
+            quat = self.rng.normal(size=(n, 4))
+            quat /= np.linalg.norm(quat, axis=1)[:, None]
+            # uniform rotations, as charts (local rotation parameters 0), column-major
+            C[:, 9 * r : 9 * r + 9] = quaternion_matrix(quat).transpose(0, 2, 1).reshape(n, 9)
+            Y[:, list(idx)] = 0.0
+        G = np.array(model.kernels.g.map(n)(Y.T, np.tile(self.theta0[:, None], (1, n)), C.T))
+        score = np.max(np.abs(G), axis=0)
+        score[~np.isfinite(score)] = np.inf
+        order = np.argsort(score, kind="stable")
+        self.queue = [model.chart.to_canonical(Y[j], C[j]) for j in order if np.isfinite(score[j])]
+        self.queue.reverse()  # pop() takes the best
+
+    def next(self, known: np.ndarray, radius: float) -> Configuration | None:
+        """The next start away from the known solutions' features (None if it fails)."""
+        model = self.model
+        self.drawn += 1
+        if model.m != model.k:
+            return self._by_inverse_kinematics()
+        while True:
+            if not self.queue:
+                self._refill()
+            y = self.queue.pop()
+            if (
+                not known.size
+                or np.min(np.max(np.abs(known - features(model, y)), axis=1)) > radius
+            ):
+                break
+        y_loc, c = model.chart.to_local(y)
+        theta = np.array(self.theta0, dtype=float)
+        for _ in range(30):
+            g = np.array(model.kernels.g(y_loc, theta, c)).ravel()
+            if not np.all(np.isfinite(g)):
+                return None
+            if np.max(np.abs(g)) <= 0.1 * model.tolerance:
+                break
+            Js = np.array(model.kernels.jac(y_loc, theta, c)[1])
+            try:
+                theta = theta + np.linalg.solve(Js, g)
+            except np.linalg.LinAlgError:
+                return None
+        return self._checked(model.configuration(y, theta))
+
+    def _by_inverse_kinematics(self) -> Configuration | None:
+        model = self.model
+        x = np.array(model.home.x, dtype=float)
+        for i, name in enumerate(model.workspace):
+            if name in ("phi", "roll", "pitch", "yaw"):
+                x[i] += self.rng.uniform(-math.pi, math.pi) * (0.5 if name == "pitch" else 1.0)
+            else:
+                x[i] += self.rng.uniform(-0.3, 0.3) * model.length_scale
+        try:
+            return self._checked(model.inverse_kinematics(x))
+        except ScdkError:
+            return None
+
+    def _checked(self, cfg: Configuration) -> Configuration | None:
+        ok = cfg.residual <= self.model.tolerance and np.all(np.isfinite(cfg.theta))
+        return cfg if ok else None
+
+
+def _sort_key(cfg: Configuration) -> tuple:
+    return (*(round(float(v), 8) for v in cfg.x), *(round(float(v), 8) for v in cfg.y))
+
+
+def _progress_bar(enabled: bool):
+    if not enabled:
+        return None
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:  # pragma: no cover - tqdm is optional
+        import warnings
+
+        warnings.warn("progress=True needs tqdm: pip install tqdm", stacklevel=3)
+        return None
+    return tqdm(desc="assembly modes", unit="curve", leave=False)
+
+
+def curves_result(search: ModeSearch) -> AssemblyModes:
+    """The :class:`~scdk_sym.results.AssemblyModes` of a curve search (never certified)."""
+    why = "the stopping rule held" if search.complete else "stopped by the budget"
+    return AssemblyModes(
+        solutions=tuple(search.solutions),
+        certified=False,
+        root_count=0,
+        report=(
+            f"not certified: real-curve search ({search.curves} curves, {why}); it cannot "
+            "prove that no solution lies on a curve it never entered"
+        ),
+        method="curves",
+    )
