@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from ..model.rotations import cayley, rot_exp, rot_log
+from ..model.rotations import cayley, gibbs, rot_exp, rot_log
 from ..products import UNKNOWN_KINDS
 
 
@@ -106,11 +106,7 @@ def in_chart(q_first, c_first, c, rots) -> np.ndarray | None:
         ii = list(idx)
         R0 = c_first[9 * i : 9 * i + 9].reshape(3, 3, order="F") @ cayley(q_first[ii])
         Rrel = c[9 * i : 9 * i + 9].reshape(3, 3, order="F").T @ R0
-        tr = 1.0 + float(np.trace(Rrel))
-        if tr < 0.5:  # more than ~140 deg away: not close
+        if 1.0 + float(np.trace(Rrel)) < 0.5:  # more than ~140 deg away: not close
             return None
-        q[ii] = np.array(
-            [Rrel[2, 1] - Rrel[1, 2], Rrel[0, 2] - Rrel[2, 0], Rrel[1, 0] - Rrel[0, 1]]
-        )
-        q[ii] /= tr
+        q[ii] = gibbs(Rrel)
     return q
