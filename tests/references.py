@@ -1146,8 +1146,8 @@ def warm_up(name: str, backend: str, modes: bool = False) -> None:
         from scdk_sym.follower.kernels import follower_kernels
 
         follower_kernels(model, backend)
-        if modes:
-            sc.assembly_modes(model, theta, backend=backend)
+        if modes:  # the start system the divergent branch's last way reads
+            sc.assembly_modes(model, theta)
     except sc.ScdkError:
         pass
 

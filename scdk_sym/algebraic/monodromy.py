@@ -210,6 +210,7 @@ def monodromy_solve(
     sols = z0[None].copy()
     pscale, bscale = 1.0 + np.abs(p).max(), 1.0 + np.abs(b).max()
     residual, passed, stable, loops = float("inf"), False, 0, 0
+    failed_count = -1  # solution count at the last failed completeness test
     if test is None:
 
         def test(sols, p, b):
@@ -248,6 +249,11 @@ def monodromy_solve(
                 bar.set_postfix(solutions=len(sols), trace=f"{residual:.0e}")
                 if passed:
                     break
+                # the same count failed its test before, 2 x stable_loops loops without a
+                # new solution: more loops of this kind are not finding any
+                if failed_count == len(sols):
+                    break
+                failed_count = len(sols)
                 stable = 0
     finally:
         bar.close()

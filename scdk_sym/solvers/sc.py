@@ -551,7 +551,10 @@ def _across_by_modes(
     from .modes import assembly_modes
 
     try:
-        sols = assembly_modes(model, theta0, backend=backend)
+        # the default (generated C where a compiler is found) whatever the solve's kernels:
+        # the first call per model computes its start system (seconds; about 2.5 min for
+        # Gepetto's robot_delta), cached on disk, proven or not
+        sols = assembly_modes(model, theta0)
     except ScdkError as exc:
         tried.append(f"every real solution at theta0: {exc}")
         return None
