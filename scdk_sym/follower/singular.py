@@ -21,7 +21,7 @@ from functools import cache
 import numpy as np
 
 from ..kernels.fastcall import model_calls
-from ..results import Configuration, Crossing, PathSamples
+from ..results import Configuration, Crossing, PathSamples, SolveResult
 from .curve import Line, follow
 from .kernels import follower_calls
 
@@ -178,7 +178,8 @@ def across(
     return None
 
 
-def _det_sign(model, cfg: Configuration) -> float:
+def _det_sign(model, cfg: Configuration | SolveResult) -> float:
+    """Sign of det J_p at a configuration (or a solve result)."""
     y, c = model.chart.to_local(cfg.y)
     return 1.0 if np.linalg.det(np.array(model_calls(model).jac(y, cfg.theta, c)[0])) > 0 else -1.0
 

@@ -29,6 +29,7 @@ from ..errors import (
 )
 from ..follower.curve import Hit, Line, Walk, follow, null_direction  # noqa: F401
 from ..follower.cvodes import GRID, Engine, engine  # noqa: F401
+from ..follower.singular import _det_sign
 from ..kernels.fastcall import model_calls
 from ..results import Configuration, Crossing, PathSamples, SolveResult
 from ..robot import Model, as_vector
@@ -242,7 +243,7 @@ def _along_line(model, theta0, start, direction, name, backend, max_arc, record_
                       any_fold=not tr.hits)  # fmt: skip
         if res is not None:
             return res
-    sign0 = _det_sign_of(model, start.y, start.theta)
+    sign0 = _det_sign(model, start)
     if tr.hits:
         hit = tr.hits[0]
         crossings = tuple(tr.singular[: hit.crossings])
@@ -376,11 +377,6 @@ def _singular_or_sign(model, y_loc, theta, c, want: float) -> bool:
     return not S[-1] > 1e-6 * S[0] or float(np.linalg.det(Jp)) * want > 0
 
 
-def _det_sign_of(model, y, theta) -> float:
-    y_loc, c = model.chart.to_local(y)
-    return 1.0 if np.linalg.det(np.array(model_calls(model).jac(y_loc, theta, c)[0])) > 0 else -1.0
-
-
 def _parity_checked(model, res: SolveResult, sign0: float) -> SolveResult:
     """The answer of a path, verified against its crossings: ``det J_p`` changes sign at
     each crossing met, so a non-singular answer has the sign ``sign0 (-1)^n`` after ``n``.
@@ -391,7 +387,7 @@ def _parity_checked(model, res: SolveResult, sign0: float) -> SolveResult:
     if res.status == "singular":
         return res
     n = len(res.crossings)
-    got = _det_sign_of(model, res.y, res.theta)
+    got = _det_sign(model, res)
     if got * sign0 * (-1.0) ** n > 0:
         return res
     raise PathError(
@@ -547,7 +543,7 @@ def _across_by_modes(
     start): near a fold the two sheets are mirror images, so the midpoint lies next to it.
     """
     from ..follower.geometry import features
-    from ..follower.singular import _det_sign, nearest_singular
+    from ..follower.singular import nearest_singular
     from .modes import assembly_modes
 
     try:
