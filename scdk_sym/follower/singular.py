@@ -371,6 +371,51 @@ def nearest_singular(model, start: Configuration, backend: str = "cvodes") -> Cr
     return Crossing(0.0, cfg.x, cfg.y, cfg.theta, kind=kind)
 
 
+#: Gauss-Newton iterations of :func:`singular_from`.
+SINGULAR_ITERATIONS = 30
+
+
+def singular_from(model, seed: Configuration, backend: str = "cvodes") -> Crossing | None:
+    """A singular configuration reached from ``seed`` by Gauss-Newton on ``[g; f] = 0``.
+
+    ``f = sign(det J_p) sigma_min(J_p)``; minimum-norm steps over ``z = (y, theta)``, so the
+    point found is near ``seed`` where the singular manifold passes near it, and may be far
+    where it does not. ``seed`` need not be assembled: the midpoint of two mirror assemblies
+    (the Delta's above and below its base) lies on the singular surface of their closure
+    rows without closing them. The fallback of :func:`nearest_singular` where ``sigma_min``
+    has a non-singular local minimum on the manifold (the Delta at home).
+
+    Args:
+        model: the model.
+        seed: first guess (``y``, ``theta``; not necessarily assembled).
+        backend: kernel backend.
+
+    Returns:
+        The singular configuration as a ``Crossing`` (``s = 0``; kind as in
+        :func:`nearest_singular`), or None when Gauss-Newton did not converge.
+    """
+    kern = follower_calls(model, backend)
+    m = model.m
+    tol = float(model.tolerance)
+    y, c = model.chart.to_local(seed.y)
+    z = np.concatenate([y, np.array(seed.theta, dtype=float)])
+    for _ in range(SINGULAR_ITERATIONS):
+        g, Jp, Js, dJ = (np.array(a) for a in kern.singular(z[:m], z[m:], c))
+        g = g.ravel()
+        if not (np.all(np.isfinite(g)) and np.all(np.isfinite(Jp))):
+            return None
+        f, grad, rel = _signed_sigma(Jp, dJ)
+        if float(np.max(np.abs(g))) <= 1e-3 * tol and rel <= 1e-9:
+            cfg = model.configuration(z[:m], z[m:], c)
+            if not cfg.residual <= tol:
+                return None
+            kind = "bifurcation" if _branches_cross(Jp, Js) else "fold"
+            return Crossing(0.0, cfg.x, cfg.y, cfg.theta, kind=kind)
+        A = np.vstack([np.hstack([Jp, -Js]), grad[None]])
+        z = z - np.linalg.lstsq(A, np.concatenate([g, [f]]), rcond=None)[0]
+    return None
+
+
 def across_fold(
     model,
     start: Configuration,

@@ -540,10 +540,13 @@ def _across_by_modes(
     stopped at a local minimum of ``sigma_min``), the candidate is the solution with
     ``det J_p`` of the other sign nearest to the start, and the singular surface crossed is
     located from the configuration midway between it and the convergent answer (or the
-    start): near a fold the two sheets are mirror images, so the midpoint lies next to it.
+    start): near a fold the two sheets are mirror images, so the midpoint lies next to it;
+    where ``sigma_min`` has no singular minimum near it either, by Gauss-Newton onto the
+    singular manifold from the midpoint (:func:`~scdk_sym.follower.singular.singular_from`:
+    a singular configuration, not necessarily the nearest).
     """
     from ..follower.geometry import features
-    from ..follower.singular import nearest_singular
+    from ..follower.singular import nearest_singular, singular_from
     from .modes import assembly_modes
 
     try:
@@ -583,6 +586,8 @@ def _across_by_modes(
             fold = nearest_singular(model, seed, backend)
             if fold is not None:
                 break
+        else:  # sigma_min has a non-singular local minimum there (the Delta near home)
+            fold = singular_from(model, mid, backend)
         if fold is None:
             tried.append("every real solution at theta0: no singular surface located between")
             return None
