@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike
 
 from .drawing import RobotDrawing, placements, rigid_groups, robot_drawing, robot_drawing_3d
 from .errors import InputError, PlotError
+from .optional import require
 from .results import Configuration, SolveResult, TrackResult
 from .robot import Model, as_vector
 
@@ -39,17 +40,13 @@ def require_matplotlib() -> None:
     Raises:
         PlotError: it cannot (the message gives the install command).
     """
-    try:
-        import matplotlib  # noqa: F401
-        from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: F401
-        from matplotlib.figure import Figure  # noqa: F401
-        from matplotlib.lines import Line2D  # noqa: F401
-        from matplotlib.patches import Polygon  # noqa: F401
-    except ImportError as exc:
-        raise PlotError(
-            f"figures need matplotlib, which is not installed: {INSTALL_HINT} "
-            "(or pip install matplotlib)"
-        ) from exc
+    require(
+        ("matplotlib", "matplotlib.backends.backend_agg", "matplotlib.figure",
+         "matplotlib.lines", "matplotlib.patches"),
+        needed_for="figures",
+        install=f"{INSTALL_HINT} (or pip install matplotlib)",
+        error=PlotError,
+    )  # fmt: skip
 
 
 def _figure(width: float = 6.0, height: float = 4.5):

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import AtlasError, InputError
+from ..optional import require
 from .chunk import _MODELS, STATUS, ModelSource, model_source, solve_chunk, worker_model
 from .grid import Grid, make_grid
 from .store import FORMAT, Layout, create_or_check, write_chunk
@@ -274,12 +275,14 @@ def _bar(progress: bool, total: int, initial: int):
 
 
 def _distributed(todo, args, finished, workers, scheduler) -> None:
-    try:
-        from distributed import Client, LocalCluster, as_completed
-    except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise AtlasError(
-            "atlas with workers or a scheduler needs Dask: pip install 'dask[distributed]'"
-        ) from exc
+    require(
+        "distributed",
+        needed_for="an atlas with workers or a scheduler",
+        install="pip install 'dask[distributed]'",
+        error=AtlasError,
+    )
+    from distributed import Client, LocalCluster, as_completed
+
     cluster = client = None
     try:
         if scheduler is None:

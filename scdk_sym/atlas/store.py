@@ -29,18 +29,15 @@ from typing import Any
 import numpy as np
 
 from ..errors import AtlasError, StoreMismatchError
+from ..optional import require
 
 #: Format of the store layout.
 FORMAT = 1
 
 
 def _zarr():
-    try:
-        import zarr
-    except ImportError as exc:  # pragma: no cover - depends on the environment
-        hint = "'zarr>=3'" if sys.version_info >= (3, 11) else "'zarr>=2.18,<3'"
-        raise AtlasError(f"the atlas needs zarr: pip install {hint}") from exc
-    return zarr
+    hint = "'zarr>=3'" if sys.version_info >= (3, 11) else "'zarr>=2.18,<3'"
+    return require("zarr", needed_for="the atlas", install=f"pip install {hint}", error=AtlasError)
 
 
 @dataclass(frozen=True)

@@ -4,6 +4,8 @@
 - :mod:`~scdk_sym.follower.cvodes`: CVODES on the stabilised singularity-consistent field;
 - :mod:`~scdk_sym.follower.curve`: :func:`~scdk_sym.follower.curve.follow`, the walk along one
   curve (predictors, step control, folds, bifurcations, level crossings);
+- :mod:`~scdk_sym.follower.finish`: the answer at ``s = 1`` of a walk (a fold touching it, the
+  parity check);
 - :mod:`~scdk_sym.follower.singular`: the nearest singular surface and the solution across it
   (the divergent branch);
 - :mod:`~scdk_sym.follower.geometry`: chart-free comparison of configurations.

@@ -29,6 +29,7 @@ from ..errors import (
 )
 from ..follower.curve import Hit, Line, Walk, follow, null_direction  # noqa: F401
 from ..follower.cvodes import GRID, Engine, engine  # noqa: F401
+from ..follower.finish import jacobian, parity_checked, singular_jp, touching
 from ..follower.singular import _det_sign
 from ..kernels.fastcall import model_calls
 from ..results import Configuration, Crossing, PathSamples, SolveResult
@@ -194,8 +195,8 @@ def solve(
             return _result(model, start.y, theta0, (), "convergent", 1.0, start, None)
         direction = 1.0 if b > 0 else -1.0
         name = "convergent" if direction * det0 > 0 else "divergent"
-        return _along_line(model, theta0, start, direction, name, backend, max_arc, record_path,
-                           nu)  # fmt: skip
+        return _along_line(model, theta0, start, 1.0 if det0 > 0 else -1.0, direction, name,
+                           backend, max_arc, record_path, nu)  # fmt: skip
     if _singular_start(model, start, Jp):
         raise SolveError(
             f"the start configuration is singular (J_p singular, det {det0:.3g}): the branch "
@@ -205,8 +206,8 @@ def solve(
     if branch == "convergent":
         if same:
             return _result(model, start.y, theta0, (), "convergent", sign, start, None)
-        return _along_line(model, theta0, start, sign, "convergent", backend, max_arc, record_path,
-                           nu, detour=True)  # fmt: skip
+        return _along_line(model, theta0, start, sign, sign, "convergent", backend, max_arc,
+                           record_path, nu, detour=True)  # fmt: skip
     return _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu)
 
 
@@ -222,11 +223,11 @@ def _singular_start(model: Model, start: Configuration, Jp: np.ndarray | None = 
     return not S[-1] > 1e-10 * S[0]
 
 
-def _along_line(model, theta0, start, direction, name, backend, max_arc, record_path, nu=None,
-                detour=False):  # fmt: skip
+def _along_line(model, theta0, start, sign0, direction, name, backend, max_arc, record_path,
+                nu=None, detour=False):  # fmt: skip
     """The first ``s = 1`` crossing along the straight path in one direction (or the singular
-    solution where the curve only touches ``s = 1``); ``nu``: the unit SC vector at the start
-    (:func:`start_direction`), when known.
+    solution where the curve only touches ``s = 1``); ``sign0``: the sign of ``det J_p`` at
+    the start; ``nu``: the unit SC vector at the start (:func:`start_direction`), when known.
 
     With ``detour`` (the convergent branch): where the path leaves the start's side at a fold
     before ``theta0`` that it grazes, or leaves it and never reaches ``s = 1``, the solution
@@ -243,18 +244,17 @@ def _along_line(model, theta0, start, direction, name, backend, max_arc, record_
                       any_fold=not tr.hits)  # fmt: skip
         if res is not None:
             return res
-    sign0 = _det_sign(model, start)
     if tr.hits:
         hit = tr.hits[0]
         crossings = tuple(tr.singular[: hit.crossings])
         res = _result(model, hit.y, theta0, crossings, name, direction, start, tr.path)
-        return _parity_checked(model, res, sign0)
-    touch = _touching(model, theta0, tr, sign0)
+        return parity_checked(model, res, sign0)
+    touch = touching(model, theta0, tr, sign0)
     if touch is not None:
         y, n = touch
         crossings = tuple(tr.singular[:n])
         res = _result(model, y, theta0, crossings, name, direction, start, tr.path)
-        return _parity_checked(model, res, sign0)
+        return parity_checked(model, res, sign0)
     if tr.stalled:
         why = "the curve could not be followed further"
     elif tr.closed:
@@ -329,73 +329,6 @@ def _detour(
         if cfg is not None:
             return _result(model, cfg.y, theta0, (), "convergent", direction, start, None)
     return None
-
-
-def _touching(model, theta0, tr, sign0: float) -> tuple[np.ndarray, int] | None:
-    """A fold of the curve at ``s = 1`` (``theta0`` on the singular surface): the singular
-    solution there, polished at ``theta0``, and the number of crossings before it.
-
-    Where the fold lies only nearly at ``s = 1`` there are two solutions at ``theta0`` next
-    to it, one on each sheet: Newton from the fold may converge to either. The one on the
-    incoming sheet (``det J_p`` of sign ``sign0 (-1)^i`` after ``i`` crossings) is kept; from
-    a solution on the other sheet Newton is restarted at its reflections through the fold.
-    """
-    from ..follower.kernels import follower_calls
-
-    polish = follower_calls(model).polish
-
-    def newton(y, c):
-        for _ in range(8):  # Newton converges only linearly to a double root
-            y_new, res = polish(y, theta0, c)
-            y = np.array(y_new).ravel()
-            if not np.all(np.isfinite(y)) or float(res) <= 1e-3 * model.tolerance:
-                break
-        ok = np.all(np.isfinite(y)) and model.residual(y, theta0, c) <= model.tolerance
-        return y if ok else None
-
-    for i, cr in enumerate(tr.singular):
-        if cr.kind != "fold" or abs(cr.s - 1.0) > 1e-6:
-            continue
-        y_f, c = model.chart.to_local(cr.y)
-        want = sign0 * (-1.0) ** i
-        y = newton(y_f, c)
-        if y is None:
-            continue
-        if _singular_or_sign(model, y, theta0, c, want):
-            return model.chart.to_canonical(y, c), i
-        for k in (1.0, 0.5, 2.0, 4.0):
-            y_r = newton(y_f - k * (y - y_f), c)
-            if y_r is not None and _singular_or_sign(model, y_r, theta0, c, want):
-                return model.chart.to_canonical(y_r, c), i
-    return None
-
-
-def _singular_or_sign(model, y_loc, theta, c, want: float) -> bool:
-    """J_p singular to 1e-6 relative at a point, or its det has the sign ``want``."""
-    Jp = np.array(model_calls(model).jac(y_loc, theta, c)[0])
-    S = np.linalg.svd(Jp, compute_uv=False)
-    return not S[-1] > 1e-6 * S[0] or float(np.linalg.det(Jp)) * want > 0
-
-
-def _parity_checked(model, res: SolveResult, sign0: float) -> SolveResult:
-    """The answer of a path, verified against its crossings: ``det J_p`` changes sign at
-    each crossing met, so a non-singular answer has the sign ``sign0 (-1)^n`` after ``n``.
-
-    Raises:
-        PathError: it has the other sign (the answer is on a sheet the path did not reach).
-    """
-    if res.status == "singular":
-        return res
-    n = len(res.crossings)
-    got = _det_sign(model, res)
-    if got * sign0 * (-1.0) ** n > 0:
-        return res
-    raise PathError(
-        f"{res.branch} branch at theta0={np.asarray(res.theta).tolist()}: the solution found "
-        f"has det J_p of sign {got:+.0f} after {n} singular crossing(s) from a start of sign "
-        f"{sign0:+.0f}: it is not on the path's sheet (theta0 is next to a singular surface); "
-        "every real solution: sc.assembly_modes(model, theta0)"
-    )
 
 
 def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=None) -> SolveResult:
@@ -512,7 +445,7 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
     # 4. the literal straight path
     if not _same_theta(theta0, start.theta):
         try:
-            res = _along_line(model, theta0, start, -sign, "divergent", backend, max_arc,
+            res = _along_line(model, theta0, start, sign, -sign, "divergent", backend, max_arc,
                               record_path, nu)  # fmt: skip
         except PathError as exc:
             tried.append(f"along the straight path: {exc}")
@@ -667,19 +600,14 @@ def _result(model, y, theta0, crossings, branch, direction, start, path) -> Solv
 
 
 def _is_singular(model: Model, cfg: Configuration) -> bool:
-    """J_p singular to 1e-6 relative at a configuration."""
+    """``J_p`` singular to 1e-6 relative at a configuration."""
     y_loc, c = model.chart.to_local(cfg.y)
-    S = np.linalg.svd(np.array(model_calls(model).jac(y_loc, cfg.theta, c)[0]), compute_uv=False)
-    return not S[-1] > 1e-6 * S[0]
+    return singular_jp(jacobian(model, y_loc, cfg.theta, c))
 
 
 def _is_same_side(model: Model, a: Configuration, b) -> bool:
     """det J_p has the same sign at two configurations."""
-    dets = []
-    for cfg in (a, b):
-        y, c = model.chart.to_local(cfg.y)
-        dets.append(float(np.linalg.det(np.array(model_calls(model).jac(y, cfg.theta, c)[0]))))
-    return dets[0] * dets[1] > 0
+    return _det_sign(model, a) * _det_sign(model, b) > 0
 
 
 def _joined(first: PathSamples, rest: PathSamples, b: float) -> PathSamples:

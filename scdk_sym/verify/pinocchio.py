@@ -14,6 +14,7 @@ import numpy as np
 
 from ..errors import DependencyError
 from ..model.rotations import rot_exp
+from ..optional import require
 from ..robot import Model
 
 #: Install command of the optional Pinocchio cross-check.
@@ -26,14 +27,12 @@ def pinocchio():
     Raises:
         DependencyError: Pinocchio is not installed (the message gives the install command).
     """
-    try:
-        import pinocchio as pin
-    except ImportError as exc:
-        raise DependencyError(
-            f"the Pinocchio cross-check needs pinocchio, which is not installed: {INSTALL_HINT} "
-            "(or pip install pin)"
-        ) from exc
-    return pin
+    return require(
+        "pinocchio",
+        needed_for="the Pinocchio cross-check",
+        install=f"{INSTALL_HINT} (or pip install pin)",
+        error=DependencyError,
+    )
 
 
 @lru_cache(maxsize=32)

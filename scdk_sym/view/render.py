@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ViewError
+from ..optional import require
 from ..robot import Model
 from .scene import COLORS, Frame, RobotScene, configurations, frame, robot_scene
 
@@ -30,15 +31,12 @@ def require_viser():
     Raises:
         ViewError: it is not installed (the message gives the install command).
     """
-    try:
-        import viser
-        import viser.transforms  # noqa: F401
-    except ImportError as exc:
-        raise ViewError(
-            f"the 3-D viewer needs viser, which is not installed: {INSTALL_HINT} "
-            "(or pip install viser)"
-        ) from exc
-    return viser
+    return require(
+        ("viser", "viser.transforms"),
+        needed_for="the 3-D viewer",
+        install=f"{INSTALL_HINT} (or pip install viser)",
+        error=ViewError,
+    )
 
 
 @contextlib.contextmanager
