@@ -65,6 +65,10 @@ def test_skew_and_vee():
     np.testing.assert_allclose(rot.vee(S), 2 * v, atol=1e-15)
     f = ca.Function("skew", [x := ca.SX.sym("x", 3)], [rot.skew(x)])
     np.testing.assert_array_equal(np.array(f(v[0])), S[0])
+    M = rng.normal(size=(3, 3))  # symbolic vee = numeric vee, on a matrix with a symmetric part
+    g = ca.Function("vee", [X := ca.SX.sym("X", 3, 3)], [rot.vee(X)])
+    np.testing.assert_array_equal(np.array(g(M)).ravel(), rot.vee(M))
+    np.testing.assert_allclose(rot.vee(M), rot.vee(0.5 * (M - M.T)), atol=1e-15)
 
 
 @pytest.mark.parametrize(("axis", "R"), [((1, 0, 0), Rx), ((0, 1, 0), Ry), ((0, 0, 1), Rz)])

@@ -50,9 +50,13 @@ def skew(v: Any) -> Any:
     return S
 
 
-def vee(M: np.ndarray) -> np.ndarray:
+def vee(M: Any) -> Any:
     """``(M[2,1] - M[1,2], M[0,2] - M[2,0], M[1,0] - M[0,1])``: twice the vector of the skew
-    part of ``M`` (``(..., 3, 3)`` -> ``(..., 3)``)."""
+    part of ``M`` (``(..., 3, 3)`` -> ``(..., 3)``, or a CasADi 3 x 3 -> 3-vector)."""
+    if is_symbolic(M):
+        import casadi as ca
+
+        return ca.vertcat(M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1])
     M = np.asarray(M, dtype=float)
     if M.ndim == 2:
         return np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]])

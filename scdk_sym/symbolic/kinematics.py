@@ -11,7 +11,7 @@ from collections.abc import Mapping
 import casadi as ca
 import numpy as np
 
-from ..model.rotations import axis_rotation, cayley
+from ..model.rotations import axis_rotation, cayley, vee
 from ..model.spec import Closure
 from ..model.urdf import Tree
 
@@ -69,8 +69,7 @@ def link_placements(
 
 def rotation_error(R_a: ca.SX, R_b: ca.SX) -> ca.SX:
     """Rotation error vee(skew part of R_a^T R_b): zero when equal, = log3 to first order."""
-    R = R_a.T @ R_b
-    return 0.5 * ca.vertcat(R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1])
+    return 0.5 * vee(R_a.T @ R_b)
 
 
 def closure_residual(
@@ -133,8 +132,7 @@ def pose_error(names: tuple[str, ...], T: ca.SX, T_target: ca.SX) -> ca.SX:
     for i, axis in enumerate("xyz"):
         if axis in names:
             rows.append(T[i, 3] - T_target[i, 3])
-    R = T[:3, :3] @ T_target[:3, :3].T
-    w = 0.5 * ca.vertcat(R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1])
+    w = 0.5 * vee(T[:3, :3] @ T_target[:3, :3].T)
     rot = {"roll", "pitch", "yaw"} & set(names)
     if "phi" in names or rot == {"yaw"}:
         rows.append(w[2])
