@@ -184,6 +184,12 @@ def _det_sign(model, cfg: Configuration | SolveResult) -> float:
     return 1.0 if np.linalg.det(np.array(model_calls(model).jac(y, cfg.theta, c)[0])) > 0 else -1.0
 
 
+#: ``sigma_min / sigma_max`` of ``J_p`` below which a point a step off a singular
+#: configuration is still singular (the singular set extends along the step at fixed
+#: ``theta``, e.g. a five-bar with its two elbows on one point): no sheet to enter there.
+DEGENERATE = 1e-10
+
+
 def from_fold(
     model,
     fold: Crossing,
@@ -246,7 +252,11 @@ def from_fold(
             if not (np.all(np.isfinite(q1)) and float(res) <= 0.1 * tol):
                 continue
             t1, J1 = kern.tangent(q1, v, p, c)
-            det1 = np.linalg.det(np.array(J1).reshape(m, m, order="F"))
+            J1 = np.array(J1).reshape(m, m, order="F")
+            S1 = np.linalg.svd(J1, compute_uv=False)
+            if not S1[-1] > DEGENERATE * S1[0]:
+                continue  # still singular off the point: a self-motion, not a sheet to enter
+            det1 = np.linalg.det(J1)
             if want is not None and not det1 * want > 0:
                 continue
             walk = follow(model, line, q1[:m], float(q1[-1]), 1.0, predictor=predictor,
