@@ -184,6 +184,10 @@ def _det_sign(model, cfg: Configuration | SolveResult) -> float:
     return 1.0 if np.linalg.det(np.array(model_calls(model).jac(y, cfg.theta, c)[0])) > 0 else -1.0
 
 
+#: Cosine above which two points a step off a singular configuration lie on one half-branch
+#: (their chords from it agree to 0.8 degrees; distinct branches cross at larger angles).
+SAME_HALF_BRANCH = 0.9999
+
 #: ``sigma_min / sigma_max`` of ``J_p`` below which a point a step off a singular
 #: configuration is still singular (the singular set extends along the step at fixed
 #: ``theta``, e.g. a five-bar with its two elbows on one point): no sheet to enter there.
@@ -245,12 +249,17 @@ def from_fold(
     scale = max(1.0, float(model.length_scale))
     found: list[tuple[np.ndarray, list[Crossing]]] = []
     for length in (1e-4 * scale, 1e-3 * scale, 1e-5 * scale):
+        entered: list[np.ndarray] = []  # unit chords fold -> q1 of the half-branches followed
         for t in directions:
             v = t / math.sqrt(float(t[:m] @ t[:m]) + w2 * t[m] ** 2)
             q1, res = kern.plane(q_f + length * v, v, p, c)
             q1 = np.array(q1).ravel()
             if not (np.all(np.isfinite(q1)) and float(res) <= 0.1 * tol):
                 continue
+            chord = (q1 - q_f) / max(float(np.linalg.norm(q1 - q_f)), 1e-300)
+            if any(float(chord @ e) > SAME_HALF_BRANCH for e in entered):
+                continue  # projected onto a half-branch already followed: the same walk
+            entered.append(chord)
             t1, J1 = kern.tangent(q1, v, p, c)
             J1 = np.array(J1).reshape(m, m, order="F")
             S1 = np.linalg.svd(J1, compute_uv=False)
