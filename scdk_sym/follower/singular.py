@@ -471,10 +471,9 @@ def across_fold(
     Returns:
         (configuration at ``theta0``, singular points met after the fold) or None.
     """
-    from .geometry import difference, features
+    from .geometry import difference
 
     kern = follower_calls(model, backend)
-    tol = float(model.tolerance)
     sign0 = _det_sign(model, start)
     candidates: list[tuple[np.ndarray, list[Crossing]]] = []
     leg = from_fold(model, fold, theta0, sign0, backend=backend, predictor=predictor)
@@ -502,8 +501,45 @@ def across_fold(
             y = np.array(y).ravel()
             if np.all(np.isfinite(y)) and float(np.max(np.abs(y - y_f))) <= 10.0 * scale:
                 candidates.append((model.chart.to_canonical(y, c), []))
-    f_fold = features(model, fold.y)[0]
-    crossing = _branches_cross(Jp, Js)
+    return nearest_across(model, fold.y, theta0, candidates, sign0,
+                          any_sign=_branches_cross(Jp, Js), exclude=exclude)  # fmt: skip
+
+
+def nearest_across(
+    model,
+    anchor_y: np.ndarray,
+    theta0: np.ndarray,
+    candidates: list[tuple[np.ndarray, list[Crossing]]],
+    sign0: float,
+    *,
+    any_sign: bool = False,
+    exclude: Configuration | None = None,
+) -> tuple[Configuration, list[Crossing]] | None:
+    """The candidate across the singular surface nearest to ``anchor_y``: the one rule that
+    picks the divergent answer, whoever proposed the candidates.
+
+    Kept: candidates that close at ``theta0`` (residual), are not ``exclude`` (chart-free
+    features within 1e-7 model sizes) and, unless ``any_sign`` (branches cross at the
+    singular point: ``det J_p`` tells nothing of the side), have ``det J_p`` of the sign
+    opposite to ``sign0``. Of those, the nearest to ``anchor_y`` (max-norm of the features).
+
+    Args:
+        model: the model.
+        anchor_y: canonical unknowns of the singular configuration (or of the start).
+        theta0: (k,) target.
+        candidates: (canonical unknowns at ``theta0``, singular points met on the way).
+        sign0: sign of ``det J_p`` on the start's side.
+        any_sign: accept either sign.
+        exclude: a configuration not to return (the convergent answer).
+
+    Returns:
+        (configuration, its singular points met) or None.
+    """
+    from .geometry import features
+
+    tol = float(model.tolerance)
+    scale = max(1.0, float(model.length_scale))
+    f_anchor = features(model, anchor_y)[0]
     f_exclude = None if exclude is None else features(model, exclude.y)[0]
     best = None
     for y, met in candidates:
@@ -515,10 +551,10 @@ def across_fold(
         f = features(model, cfg.y)[0]
         if f_exclude is not None and float(np.max(np.abs(f - f_exclude))) <= 1e-7 * scale:
             continue
-        if not crossing and _det_sign(model, cfg) * sign0 > 0:
+        if not any_sign and _det_sign(model, cfg) * sign0 > 0:
             continue
-        dist = float(np.max(np.abs(features(model, cfg.y)[0] - f_fold)))
-        if best is None or dist < best[0] - 1e-9:
+        dist = float(np.max(np.abs(f - f_anchor)))
+        if best is None or dist < best[0] - 1e-9 * scale:
             best = (dist, cfg, met)
     return None if best is None else (best[1], best[2])
 
