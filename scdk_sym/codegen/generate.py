@@ -28,7 +28,7 @@ import numpy as np
 from ..errors import InputError, OutputError
 from ..kernels.compile import OPT, compile_parallel, compiler_tag, write_c, write_c_parts
 from . import templates
-from .kernels import build_tracker_kernels
+from .kernels import UNOPTIMISED, build_tracker_kernels
 
 #: Flags compiling each source of the shared library built for Python (the optimisation
 #: level of :mod:`scdk_sym.kernels.compile`).
@@ -51,8 +51,11 @@ class GeneratedSources:
         kernels_h: their header.
         tracker_c: the tracker (``<prefix>_tracker.c``).
         tracker_h: its header (include this one).
-        parts: written split, the kernels' sources, one per kernel
-            (``<prefix>_kernels_00.c``, ...), else empty.
+        parts: written split, the kernels' sources, one per group of kernels
+            (``<prefix>_kernels_00.c``, ..., see :data:`~scdk_sym.codegen.kernels.GROUPS`),
+            else empty.
+        unoptimised: those of ``parts`` that the shared library compiles at ``-O0``
+            (:data:`~scdk_sym.codegen.kernels.UNOPTIMISED`).
     """
 
     directory: Path
@@ -62,6 +65,7 @@ class GeneratedSources:
     tracker_c: Path
     tracker_h: Path
     parts: tuple[Path, ...] = ()
+    unoptimised: tuple[Path, ...] = ()
 
     @property
     def sources(self) -> tuple[Path, ...]:
@@ -103,6 +107,8 @@ def source_key(sources: GeneratedSources) -> str:
         h.update(path.read_bytes())
         h.update(b"\0")
     h.update(" ".join(SHARED_FLAGS).encode())
+    for path in sources.unoptimised:
+        h.update(f"\0{path.name} -O0".encode())
     h.update(compiler_tag().encode())
     return h.hexdigest()[:24]
 
@@ -142,8 +148,9 @@ def generate(
         model: the model (:class:`~scdk_sym.robot.Model`).
         directory: output directory (created if needed).
         prefix: C prefix of every exported name and file name.
-        split: one kernel source per kernel (compiled in parallel) instead of one
-            ``<prefix>_kernels.c``; the same header and functions.
+        split: one kernel source per group of kernels (compiled in parallel, see
+            :data:`~scdk_sym.codegen.kernels.GROUPS`) instead of one ``<prefix>_kernels.c``;
+            the same header and functions.
 
     Returns:
         The paths of the generated files.
@@ -164,8 +171,15 @@ def generate(
 def _generate(model, out: Path, prefix: str, split: bool = False) -> GeneratedSources:
     kern = build_tracker_kernels(model.symbolic, model.chart.rotations, prefix)
     funcs = kern.all()
+    unoptimised: list[Path] = []
     if split:
-        parts, _ = write_c_parts(funcs, f"{prefix}_kernels", out)
+        parts, _ = write_c_parts(kern.groups(), f"{prefix}_kernels", out)
+        cold = {getattr(kern, name).name() for name in UNOPTIMISED}
+        unoptimised = [
+            part
+            for part, group in zip(parts, kern.groups(), strict=True)
+            if all(f.name() in cold for f in group)
+        ]
     else:
         parts = [write_c(funcs, f"{prefix}_kernels", out, with_header=True)]
     for part in parts:
@@ -214,6 +228,7 @@ def _generate(model, out: Path, prefix: str, split: bool = False) -> GeneratedSo
         tracker_c=out / f"{prefix}_tracker.c",
         tracker_h=out / f"{prefix}_tracker.h",
         parts=tuple(parts) if split else (),
+        unoptimised=tuple(unoptimised),
     )
 
 
@@ -274,5 +289,10 @@ def compile_library(sources: GeneratedSources, target: str | Path) -> Path:
     """
     target = Path(target).resolve()
     return compile_parallel(
-        sources.sources, target, COMPILE_FLAGS, LINK_FLAGS, cwd=sources.directory
+        sources.sources,
+        target,
+        COMPILE_FLAGS,
+        LINK_FLAGS,
+        cwd=sources.directory,
+        unoptimised=sources.unoptimised,
     )
