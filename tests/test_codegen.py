@@ -322,3 +322,12 @@ def test_split_sources_hold_one_copy_of_the_closures_and_of_each_solve(tmp_path)
     assert defined.findall(one.kernels_c.read_text()).count("scdk_closure") == 1
     # the inverse kinematics has its own source (compiled unoptimised): no closure call there
     assert "scdk_closure" not in src.parts[2].read_text()
+
+
+def test_sources_without_the_inverse_kinematics(tmp_path):
+    """The library Python loads leaves the inverse kinematics out (its ik_solve refuses)."""
+    src = generate(shipped("stewart_gough"), tmp_path, split=True, inverse_kinematics=False)
+    assert len(src.parts) == 2 and src.unoptimised == ()
+    assert "#define SCDK_HAS_IK 0" in src.tracker_h.read_text()
+    for path in (*src.parts, src.kernels_h):
+        assert "scdk_ik_step" not in path.read_text(), path.name

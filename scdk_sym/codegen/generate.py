@@ -140,7 +140,11 @@ def output_directory(directory: str | Path) -> Path:
 
 
 def generate(
-    model, directory: str | Path, prefix: str = "scdk", split: bool = False
+    model,
+    directory: str | Path,
+    prefix: str = "scdk",
+    split: bool = False,
+    inverse_kinematics: bool = True,
 ) -> GeneratedSources:
     """Write the C sources and headers of the model's tracker into ``directory``.
 
@@ -151,6 +155,9 @@ def generate(
         split: one kernel source per group of kernels (compiled in parallel, see
             :data:`~scdk_sym.codegen.kernels.GROUPS`) instead of one ``<prefix>_kernels.c``;
             the same header and functions.
+        inverse_kinematics: False to leave out the inverse kinematics (no ``ik_step``
+            kernel, ``<PREFIX>_HAS_IK`` 0: ``<prefix>_ik_solve`` refuses): the library that
+            Python loads, which never calls it, compiles faster without.
 
     Returns:
         The paths of the generated files.
@@ -162,22 +169,27 @@ def generate(
     prefix = check_prefix(prefix)
     out = output_directory(directory)
     try:
-        return _generate(model, out, prefix, split)
+        return _generate(model, out, prefix, split, inverse_kinematics)
     except OSError as exc:
         name = exc.filename or out
         raise OutputError(f"cannot write: {exc.strerror or exc}", name) from exc
 
 
-def _generate(model, out: Path, prefix: str, split: bool = False) -> GeneratedSources:
+def _generate(
+    model, out: Path, prefix: str, split: bool = False, inverse_kinematics: bool = True
+) -> GeneratedSources:
     kern = build_tracker_kernels(model.symbolic, model.chart.rotations, prefix)
-    funcs = kern.all()
+    left_out = set() if inverse_kinematics else {kern.ik_step.name()}
+    groups = [[f for f in group if f.name() not in left_out] for group in kern.groups()]
+    groups = [group for group in groups if group]
+    funcs = [f for f in kern.all() if f.name() not in left_out]
     unoptimised: list[Path] = []
     if split:
-        parts, _ = write_c_parts(kern.groups(), f"{prefix}_kernels", out)
+        parts, _ = write_c_parts(groups, f"{prefix}_kernels", out)
         cold = {getattr(kern, name).name() for name in UNOPTIMISED}
         unoptimised = [
             part
-            for part, group in zip(parts, kern.groups(), strict=True)
+            for part, group in zip(parts, groups, strict=True)
             if all(f.name() in cold for f in group)
         ]
     else:
@@ -186,7 +198,7 @@ def _generate(model, out: Path, prefix: str, split: bool = False) -> GeneratedSo
         _quiet_unused_parameters(part)
     home = model.home
     y_loc, c = model.chart.to_local(home.y)
-    has_ik = len(model.workspace) == model.k
+    has_ik = inverse_kinematics and len(model.workspace) == model.k
     values = {
         "P": prefix,
         "PU": prefix.upper(),

@@ -216,7 +216,9 @@ def newton_correction(sym, inline: bool = True, closure: ca.Function | None = No
         g, Jp = sym.g, sym.J_p
     else:
         g, Jp, _ = (closure or closure_function(sym))(y, theta, c)
-    return ca.Function("scdk_newton1", [y, theta, c], [_solve(Jp, g, inline)], _options(inline))
+    # the solve is written out here (one copy, as this Function's calls stay calls): a call of
+    # linear_solver on this hot path costs a few percent of a tracking step
+    return ca.Function("scdk_newton1", [y, theta, c], [ca.solve(Jp, g)], _options(inline))
 
 
 def rk4_in_s(
@@ -258,7 +260,7 @@ def rk4_in_s(
     else:
         _, Jp, Js = (closure or closure_function(sym))(sym.y, a + s * d, sym.c)
     f = ca.Function(
-        "scdk_dyds", [sym.y, s, a, d, sym.c], [_solve(Jp, Js @ d, inline), Jp], _options(inline)
+        "scdk_dyds", [sym.y, s, a, d, sym.c], [ca.solve(Jp, Js @ d), Jp], _options(inline)
     )
     c = sym.c
 
@@ -323,7 +325,8 @@ def build_follower_kernels(
         )
         f_tan = ca.Function("scdk_follow_tangent", [q, v, p, c], f_tan_call(q, v, p, c), *names)
     Hq = ca.horzcat(gH[1], -(gH[2] @ dtheta))
-    f_gH = ca.Function("scdk_follow_gH", [q, p, c], [gH[0], Hq], opts)
+    # inlined where it is used: with calls of the closure, it is a call and a product
+    f_gH = ca.Function("scdk_follow_gH", [q, p, c], [gH[0], Hq])
 
     # one predictor-corrector step, mapped STEPS times
     x = ca.SX.sym("x", 2 * (m + 1))
