@@ -36,12 +36,12 @@ from ..model.rotations import cayley
 from ..symbolic.system import Symbolic
 
 #: The kernels written into one source each (:meth:`TrackerKernels.groups`): the inner
-#: Functions a group's kernels call (the closure system and its Jacobians above all) are
-#: compiled once per source, and the sources compile in parallel. The kernels of every
-#: tracking step; the curve follower's; the inverse kinematics.
+#: Functions a group's kernels call are compiled once per source, and the sources compile in
+#: parallel. The kernels that call the closure Function (its one copy); the others; the
+#: inverse kinematics.
 GROUPS = (
-    ("g", "jac", "pose", "predict", "newton", "polish", "recentre", "check"),
-    ("tangent", "step"),
+    ("jac", "predict", "newton", "polish", "tangent", "step"),
+    ("g", "pose", "recentre", "check"),
     ("ik_step",),
 )
 #: Kernels compiled without optimisation (``-O0``): the inverse kinematics, called only to
