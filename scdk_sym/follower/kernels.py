@@ -165,7 +165,7 @@ def linear_solver(sparsity: ca.Sparsity) -> ca.Function:
     return _SOLVERS[key]
 
 
-def _solve(A: ca.SX, B: ca.SX, inline: bool) -> ca.SX:
+def _solve(A: ca.SX, B: ca.SX | ca.DM, inline: bool) -> ca.SX:
     """``A^{-1} B``: CasADi's symbolic solve, or (``inline`` False) calls of
     :func:`linear_solver`, one per column of ``B``."""
     if inline:
@@ -297,7 +297,9 @@ def build_follower_kernels(
             (default: a new one; pass the one other kernels call for one copy in C).
     """
     opts = _options(inline)
-    if not inline and closure is None:
+    if inline:
+        closure = None
+    elif closure is None:
         closure = closure_function(sym)
     m, k = sym.m, sym.k
     y, c = sym.y, sym.c
@@ -311,11 +313,13 @@ def build_follower_kernels(
     weight = ca.vertcat(ca.DM.ones(m), w2)
     v = ca.SX.sym("v", m + 1)
     t, t_hat, _w, _ = bordered_tangent(Jp, Js, dtheta, v)
-    names = (["q", "v", "p", "c"], ["t", "J_p"])
-    if inline:
-        f_tan = ca.Function("scdk_follow_tangent", [q, v, p, c], [t, ca.vec(Jp)], *names)
+    names_in, names_out = ["q", "v", "p", "c"], ["t", "J_p"]
+    if closure is None:
+        f_tan = ca.Function(
+            "scdk_follow_tangent", [q, v, p, c], [t, ca.vec(Jp)], names_in, names_out
+        )
         f_tan_call = f_tan
-        gH = (g, Jp, Js)
+        gH: tuple[ca.SX, ...] = (g, Jp, Js)
     else:
         # one copy of the tangent: the exported kernel calls the Function the step calls
         gH = tuple(closure(y, theta1 + s * dtheta, c))
@@ -323,7 +327,13 @@ def build_follower_kernels(
         f_tan_call = ca.Function(
             "scdk_follow_tangent_call", [q, v, p, c], [tc, ca.vec(gH[1])], opts
         )
-        f_tan = ca.Function("scdk_follow_tangent", [q, v, p, c], f_tan_call(q, v, p, c), *names)
+        f_tan = ca.Function(
+            "scdk_follow_tangent",
+            [q, v, p, c],
+            list(f_tan_call(q, v, p, c)),
+            names_in,
+            names_out,
+        )
     Hq = ca.horzcat(gH[1], -(gH[2] @ dtheta))
     # inlined where it is used: with calls of the closure, it is a call and a product
     f_gH = ca.Function("scdk_follow_gH", [q, p, c], [gH[0], Hq])
