@@ -303,11 +303,38 @@ def test_robot_delta_eight_assemblies_each_certified(theta):
 
 
 @SLOW
-@pytest.mark.xfail(
-    reason="the 64 roots pass no wide-circle trace test (0.27, 2e-3), and a narrow-circle "
-    "test is no proof: completeness of robot_delta's start system is not certified",
-    strict=False,
-)
 def test_robot_delta_set_certified_complete():
+    """No trace test passes on robot_delta's 64 roots (solutions escape to infinity on the
+    circle charts); their count equals the form's BKK root bound, which proves it."""
     model, _ref, _expected, sols = robot_delta_case((0.0, 0.0))
     assert_certified(model, sols, root_count=64)
+    assert "BKK root bound 64" in sols.report
+
+
+def test_root_bound_certificate_rejects_an_incomplete_or_degenerate_set():
+    """The seed robot's start system is complete by its root bound (6, the 3-RPR sextic's
+    degree); without one root, or with one root replaced by a near copy of another, the
+    count check fails."""
+    from scdk_sym.algebraic import algebraic_form
+    from scdk_sym.algebraic.scaled import scaled_form
+    from scdk_sym.solvers.homotopy_modes import complete_by_bound, model_start_system
+
+    form = scaled_form(algebraic_form(shipped("planar_hexa")))
+    start = model_start_system(form, 0)
+    assert start.trace_passed and start.root_bound == 6 == start.root_count
+    assert start.certificate == "root count = BKK root bound 6"
+    z, p, b = start.solutions, start.p, start.b
+    ok, note = complete_by_bound(form, z, p, b, start.root_bound)
+    assert ok, note
+    ok, note = complete_by_bound(form, z[1:], p, b, start.root_bound)
+    assert not ok and note == "5 roots found, root bound 6"
+    rng = np.random.default_rng(0)
+    near = z.copy()
+    near[0] = z[1] + 1e-9 * (rng.normal(size=z.shape[1]) + 1j * rng.normal(size=z.shape[1]))
+    ok, note = complete_by_bound(form, near, p, b, start.root_bound)
+    assert not ok and "apart" in note
+    # a point that is no root
+    off = z.copy()
+    off[0] = z[0] + 0.3
+    ok, note = complete_by_bound(form, off, p, b, start.root_bound)
+    assert not ok and "do not refine" in note

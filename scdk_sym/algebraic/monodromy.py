@@ -55,6 +55,9 @@ class StartSystem:
         loops: monodromy loops run.
         seed: the seed the start system was computed with.
         reason: why the set is not proven complete (empty when ``trace_passed``).
+        root_bound: an upper bound on the isolated roots of the family at ``p*`` (e.g. the
+            BKK bound of :mod:`scdk_sym.algebraic.rootbound`); -1 when none was computed.
+        certificate: what proved the set complete (empty when ``trace_passed`` is False).
     """
 
     p: np.ndarray
@@ -66,6 +69,8 @@ class StartSystem:
     loops: int
     seed: int
     reason: str = ""
+    root_bound: int = -1
+    certificate: str = ""
 
 
 def _cnormal(rng: np.random.Generator, shape) -> np.ndarray:
@@ -166,12 +171,14 @@ def monodromy_solve(
     options: TrackerOptions | None = None,
     progress: bool = True,
     test: Callable[[np.ndarray, np.ndarray, np.ndarray], float] | None = None,
+    target: int | None = None,
 ) -> StartSystem:
     """A complete start system by monodromy loops and a trace test.
 
-    Loops run until the solution count has not changed for ``stable_loops`` loops; then the
-    completeness test runs and the loops stop as soon as it passes; if it fails, loops
-    continue (and the test reruns when the count is stable again) until ``max_loops``.
+    Loops run until the solution count has not changed for ``stable_loops`` loops (or has
+    reached ``target``); then the completeness test runs and the loops stop as soon as it
+    passes; if it fails, loops continue (and the test reruns when the count is stable again)
+    until ``max_loops``.
 
     Args:
         system: the polynomial system.
@@ -185,6 +192,8 @@ def monodromy_solve(
         test: ``test(solutions, p, b) -> residual``, the completeness test (default:
             :func:`trace_test` with ``trace_map``); the set is complete when the residual is
             at most ``trace_tol``.
+        target: the number of solutions at which the test runs at once (an upper bound on
+            the isolated solutions: no loop can add one beyond it); ``None``: no target.
 
     Returns:
         A :class:`StartSystem` (``trace_passed`` False if the budget ran out, ``reason``
@@ -243,7 +252,7 @@ def monodromy_solve(
             stable = stable + 1 if len(sols) == before else 0
             bar.update(1)
             bar.set_postfix(solutions=len(sols))
-            if stable >= stable_loops:
+            if stable >= stable_loops or (len(sols) != before and len(sols) == target):
                 residual = float(test(sols, p, b))
                 passed = residual <= trace_tol
                 bar.set_postfix(solutions=len(sols), trace=f"{residual:.0e}")
