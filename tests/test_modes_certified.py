@@ -213,6 +213,7 @@ def test_start_systems_are_stored_on_disk_proven_or_failed(monkeypatch):
     assert len(ref) == 2
     first = sc.assembly_modes(sc.builders.delta(R, r, arm, rod), theta)
     assert first.certified, first.report
+    assert "BKK root bound 2" in first.report  # the sphere intersections' count
     calls: list[int] = []
     monodromy = algebraic.monodromy_solve
 
@@ -225,10 +226,11 @@ def test_start_systems_are_stored_on_disk_proven_or_failed(monkeypatch):
     assert calls == [] and again.certified
     for p in ref:
         assert min(np.abs(c.x - p).max() for c in again) < 1e-9
-    # one loop: the count is never stable, no test runs; the failure is stored
-    failed = sc.assembly_modes(sc.builders.delta(R, r, arm, rod), theta, seed=5, max_loops=1)
-    assert calls == [1] and not failed.certified and failed.root_count <= 2
-    assert "no trace test passed" in failed.report and "rebuild=True" in failed.report
+    # no loop: one solution, below the root bound, no test runs; the failure is stored
+    failed = sc.assembly_modes(sc.builders.delta(R, r, arm, rod), theta, seed=5, max_loops=0)
+    assert calls == [1] and not failed.certified and failed.root_count == 1
+    assert "no completeness test passed" in failed.report and "rebuild=True" in failed.report
+    assert "BKK root bound 2" in failed.report
     assert list((cache_dir() / "homotopy").glob("*-s5-modes*.npz"))
     stored = sc.assembly_modes(sc.builders.delta(R, r, arm, rod), theta, seed=5)
     assert calls == [1] and not stored.certified and stored.report == failed.report

@@ -275,7 +275,7 @@ def monodromy_solve(
         )
     else:
         reason = (
-            f"no trace test passed: {len(sols)} solutions after {loops} monodromy loops "
+            f"no completeness test passed: {len(sols)} solutions after {loops} monodromy loops "
             "(the count never stayed stable, or paths failed along the trace pencil)"
         )
     return StartSystem(

@@ -215,54 +215,83 @@ def isotropic_rows(form, p: np.ndarray) -> tuple[list[_Poly], list[str], tuple[s
     return out, labels, tuple(variables)
 
 
-def _sparse_combination(polys: list[_Poly], subsets: int, rng) -> list[np.ndarray]:
-    """Supports of an invertible combination of ``polys`` made of the sparsest vectors of
-    their span (see the module documentation); each support (m, nvars) int, no origin."""
+def _nonzero(v: np.ndarray) -> np.ndarray:
+    return np.abs(v) > ZERO_COEFFICIENT * max(float(np.abs(v).max(initial=0.0)), 1e-300)
+
+
+def _eliminated(B: np.ndarray, order: np.ndarray) -> list[np.ndarray]:
+    """Combinations (rows of ``L``) of the rows of ``B`` in reduced row echelon form, the
+    columns taken in ``order`` (partial pivoting)."""
+    k = len(B)
+    A = np.hstack([B[:, order], np.eye(k, dtype=complex)])
+    row = 0
+    for c in range(len(order)):
+        if row == k:
+            break
+        piv = row + int(np.argmax(np.abs(A[row:, c])))
+        if abs(A[piv, c]) <= 1e-9 * max(float(np.abs(A[:, c]).max()), 1e-300) or A[piv, c] == 0:
+            continue
+        A[[row, piv]] = A[[piv, row]]
+        A[row] /= A[row, c]
+        others = np.arange(k) != row
+        A[others] -= A[others, c][:, None] * A[row][None]
+        row += 1
+    return list(A[:, len(order) :])
+
+
+def _sparse_supports(
+    polys: list[_Poly], groups: list[list[int]], subsets: int, rng
+) -> list[np.ndarray]:
+    """Supports of an invertible combination of ``polys`` made of sparse vectors of their
+    span (see the module documentation); each support (m, nvars) int, origin left out.
+
+    Candidates: the rows; in each group of rows (one closure), the vectors of the group's
+    span that vanish on ``k - 1`` of its monomials (every choice, or ``subsets`` random
+    ones); the reduced row echelon forms of all rows with the monomials taken densest first
+    and in random orders. The sparsest independent candidates are kept.
+    """
     k = len(polys)
-    mons = sorted({e for q in polys for e in _support(q)[0]})
     zero = (0,) * polys[0].nvars
-    mons = [m for m in mons if m != zero]  # the origin is added to every support anyway
+    mons = sorted({e for q in polys for e in _support(q)[0]} - {zero})
     col = {m: i for i, m in enumerate(mons)}
     B = np.zeros((k, len(mons)), dtype=complex)
     for r, q in enumerate(polys):
-        ms, cs = _support(q)
-        for m, c in zip(ms, cs, strict=True):
+        for m, c in zip(*_support(q), strict=True):
             if m != zero:
                 B[r, col[m]] = c
     B /= np.maximum(np.abs(B).max(axis=1, keepdims=True), 1e-300)
-    # candidates: the rows themselves, and the vectors of the span vanishing on k - 1 columns
-    cands = [np.eye(k, dtype=complex)[r] for r in range(k)]
+    cands = list(np.eye(k, dtype=complex))
     cols = len(mons)
-    if 1 < k <= cols + 1:
+    for rows in groups:
+        g = len(rows)
+        if not 1 < g <= cols + 1:
+            continue
         picks: Iterable[tuple[int, ...]]
-        if math.comb(cols, k - 1) <= subsets:
-            picks = itertools.combinations(range(cols), k - 1)
+        if math.comb(cols, g - 1) <= subsets:
+            picks = itertools.combinations(range(cols), g - 1)
         else:
-            picks = (tuple(rng.choice(cols, k - 1, replace=False)) for _ in range(subsets))
+            picks = (tuple(rng.choice(cols, g - 1, replace=False)) for _ in range(subsets))
         for T in picks:
-            sub = B[:, list(T)]
-            u, sv, _ = np.linalg.svd(sub, full_matrices=True)
-            if k - 1 > 0 and sv[-1] <= 1e-9 * max(sv[0], 1e-300):
+            u, sv, _ = np.linalg.svd(B[np.ix_(rows, list(T))], full_matrices=True)
+            if sv[-1] <= 1e-9 * max(sv[0], 1e-300):
                 continue  # the columns do not fix a unique vector
-            cands.append(u[:, -1].conj())
-    scored = []
-    for lam in cands:
-        v = lam @ B
-        nz = np.abs(v) > ZERO_COEFFICIENT * max(np.abs(v).max(), 1e-300)
-        scored.append((int(nz.sum()), lam))
-    scored.sort(key=lambda t: t[0])
+            lam = np.zeros(k, dtype=complex)
+            lam[rows] = u[:, -1].conj()
+            cands.append(lam)
+    density = (np.abs(B) > 0).sum(axis=0)
+    orders = [np.argsort(-density, kind="stable")] + [rng.permutation(cols) for _ in range(4)]
+    for order in orders:
+        cands.extend(_eliminated(B, order))
+    cands.sort(key=lambda lam: int(_nonzero(lam @ B).sum()))
     chosen: list[np.ndarray] = []
-    for _, lam in scored:
-        trial = np.vstack([*chosen, lam])
-        if np.linalg.matrix_rank(trial, tol=1e-8) == len(chosen) + 1:
+    for lam in cands:
+        if np.linalg.matrix_rank(np.vstack([*chosen, lam]), tol=1e-8) == len(chosen) + 1:
             chosen.append(lam)
         if len(chosen) == k:
             break
     out = []
     for lam in chosen:
-        v = lam @ B
-        nz = np.abs(v) > ZERO_COEFFICIENT * max(np.abs(v).max(), 1e-300)
-        S = np.array([mons[i] for i in np.flatnonzero(nz)], dtype=int)
+        S = np.array([mons[i] for i in np.flatnonzero(_nonzero(lam @ B))], dtype=int)
         out.append(S.reshape(-1, len(zero)))
     return out
 
@@ -409,37 +438,59 @@ def _block_mixed_volume(supports: list[np.ndarray], rng, deadline: float) -> tup
         {(a, b): _constraints(P, wi, a, b) for a, b in _lower_edges(P, wi)}
         for P, wi in zip(supports, w, strict=True)
     ]
-    order = sorted(range(n), key=lambda i: len(cons[i]))
     volume = cells = nodes = 0
+    dirs_of = [
+        {e: (P[e[1]] - P[e[0]]).astype(float) for e in c}
+        for P, c in zip(supports, cons, strict=True)
+    ]
+
+    def compatible(A, Bv, U, Ub, D, i, e) -> bool:
+        """Whether edge ``e`` of support ``i`` extends the partial cell ``(A, U)``."""
+        nonlocal nodes
+        nodes += 1
+        if time.perf_counter() > deadline:
+            raise HomotopyError(
+                f"mixed volume of a block of {n} variables: out of time after {nodes} "
+                "partial cells; the root bound is not computed (raise its time budget)"
+            )
+        d = dirs_of[i][e]
+        if np.linalg.matrix_rank(np.vstack([D, d])) < len(D) + 1:
+            return False
+        ea, eb, ua, ubb = cons[i][e]
+        A2, B2 = np.vstack([A, ea]), np.concatenate([Bv, eb])
+        U2, Ub2 = np.vstack([U, ua]), np.concatenate([Ub, ubb])
+        if len(A2) == n:  # a vertex: check it
+            x = np.linalg.solve(A2, B2)
+            return bool(np.all(U2 @ x <= Ub2 + 1e-12))
+        return _feasible(A2, B2, U2, Ub2)
+
+    def dfs(remaining: dict[int, list], A, Bv, U, Ub, D) -> None:
+        """Dynamic enumeration: branch on the support with the fewest compatible edges."""
+        nonlocal volume, cells
+        j = min(remaining, key=lambda i: len(remaining[i]))
+        for e in remaining[j]:
+            d = dirs_of[j][e]
+            ea, eb, ua, ubb = cons[j][e]
+            A2, B2 = np.vstack([A, ea]), np.concatenate([Bv, eb])
+            U2, Ub2 = np.vstack([U, ua]), np.concatenate([Ub, ubb])
+            D2 = np.vstack([D, d])
+            if len(remaining) == 1:  # compatible() checked this cell's vertex
+                volume += int(round(abs(np.linalg.det(D2))))
+                cells += 1
+                continue
+            nxt = {}
+            for i, edges in remaining.items():
+                if i == j:
+                    continue
+                keep = [f for f in edges if compatible(A2, B2, U2, Ub2, D2, i, f)]
+                if not keep:
+                    break
+                nxt[i] = keep
+            else:
+                dfs(nxt, A2, B2, U2, Ub2, D2)
+
     empty = np.zeros((0, n))
-
-    def dfs(level: int, eq_a, eq_b, ub_a, ub_b, dirs) -> None:
-        nonlocal volume, cells, nodes
-        i = order[level]
-        P = supports[i]
-        for (a, b), (ea, eb, ua, ubb) in cons[i].items():
-            d = (P[b] - P[a]).astype(float)
-            D = np.vstack([*dirs, d])
-            if np.linalg.matrix_rank(D) < len(D):
-                continue
-            nodes += 1
-            if time.perf_counter() > deadline:
-                raise HomotopyError(
-                    f"mixed volume of a block of {n} variables: out of time after {nodes} "
-                    "partial cells; the root bound is not computed (raise its time budget)"
-                )
-            A, Bv = np.vstack([eq_a, ea]), np.concatenate([eq_b, eb])
-            U, Ub = np.vstack([ub_a, ua]), np.concatenate([ub_b, ubb])
-            if level == n - 1:
-                x = np.linalg.solve(A, Bv)
-                if np.all(U @ x <= Ub + 1e-12):
-                    volume += int(round(abs(np.linalg.det(D))))
-                    cells += 1
-                continue
-            if _feasible(A, Bv, U, Ub):
-                dfs(level + 1, A, Bv, U, Ub, [*dirs, d])
-
-    dfs(0, empty, np.zeros(0), empty, np.zeros(0), [])
+    dfs({i: list(c) for i, c in enumerate(cons)}, empty, np.zeros(0), empty, np.zeros(0), empty)
     return volume, cells
 
 
@@ -508,11 +559,7 @@ def root_bound(form, p: np.ndarray, seed: int = 0, budget: float = BUDGET) -> Ro
     groups: dict[str, list[int]] = {}
     for i, label in enumerate(labels):
         groups.setdefault(label.rsplit(".", 1)[0], []).append(i)
-    supports: list[np.ndarray] = [np.zeros((0, len(variables)), dtype=int)] * len(polys)
-    for rows in groups.values():
-        sparse = _sparse_combination([polys[r] for r in rows], SPARSIFY_SUBSETS, rng)
-        for r, S in zip(rows, sparse, strict=True):
-            supports[r] = S
+    supports = _sparse_supports(polys, list(groups.values()), SPARSIFY_SUBSETS, rng)
     volume, sizes, vols, cells = mixed_volume(supports, seed, budget)
     return RootBound(
         bound=volume,
