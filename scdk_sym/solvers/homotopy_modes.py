@@ -246,7 +246,7 @@ def model_start_system(
             if bound is not None and np.array_equal(p, p_star):
                 ok, verdict["note"] = complete_by_bound(form, sols, p, b, bound.bound)
                 if ok:
-                    verdict["certificate"] = f"root count = BKK root bound {bound.bound}"
+                    verdict["certificate"] = verdict["note"]
                     return 0.0
             linear = trace_test(form, sols, p, b, rng, trace_map=trace_map)
             verdict["trace"] = best = linear
@@ -486,7 +486,7 @@ def homotopy_modes(
     if certified:
         report = (
             f"certified complete: {len(cfgs)} real of {start.root_count} complex solutions "
-            f"(start system complete by {start.certificate}); each real one proven "
+            f"(start system complete: {start.certificate}); each real one proven "
             "unique in its Krawczyk box, boxes pairwise disjoint"
         )
         if spurious:
