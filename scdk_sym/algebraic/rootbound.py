@@ -46,7 +46,8 @@ from ..errors import AlgebraicFormError, DependencyError, HomotopyError
 ZERO_COEFFICIENT = 1e-11
 #: Most ``(k - 1)``-subsets of monomials cancelled per closure when sparsifying its rows.
 SPARSIFY_SUBSETS = 4000
-#: Default time budget of :func:`root_bound` [s].
+#: Default budget of :func:`root_bound` [s of this process's CPU time, so that a loaded machine
+#: does not change the outcome].
 BUDGET = 20.0
 
 
@@ -448,7 +449,7 @@ def _block_mixed_volume(supports: list[np.ndarray], rng, deadline: float) -> tup
         """Whether edge ``e`` of support ``i`` extends the partial cell ``(A, U)``."""
         nonlocal nodes
         nodes += 1
-        if time.perf_counter() > deadline:
+        if time.process_time() > deadline:
             raise HomotopyError(
                 f"mixed volume of a block of {n} variables: out of time after {nodes} "
                 "partial cells; the root bound is not computed (raise its time budget)"
@@ -502,7 +503,7 @@ def mixed_volume(
     Args:
         supports: ``n`` integer arrays (m_i, n) of exponents (negative allowed).
         seed: seed of the random liftings.
-        budget: time budget [s].
+        budget: budget [s of CPU time].
 
     Returns:
         ``(volume, block sizes, block volumes, cells)``.
@@ -510,7 +511,7 @@ def mixed_volume(
     Raises:
         HomotopyError: two liftings disagree, or the budget ran out.
     """
-    deadline = time.perf_counter() + budget
+    deadline = time.process_time() + budget
     pts = [_with_origin(np.asarray(P, dtype=int).reshape(-1, len(supports))) for P in supports]
     blocks = _blocks(pts)
     if blocks is None:
@@ -544,7 +545,7 @@ def root_bound(form, p: np.ndarray, seed: int = 0, budget: float = BUDGET) -> Ro
         form: an :class:`~scdk_sym.algebraic.form.AlgebraicForm` (or a scaled one).
         p: (n_params,) complex parameters (the start system's).
         seed: seed of the sparsifying samples and of the liftings.
-        budget: time budget of the mixed volume [s].
+        budget: budget of the mixed volume [s of CPU time].
 
     Returns:
         A :class:`RootBound`.

@@ -69,7 +69,8 @@ TRACE_TOL = 1e-9
 RATIONAL_TESTS = ((0.5, 8, 32),)
 #: Version of the start-system test (part of the cache file name).
 MODES_CACHE_VERSION = "4"
-#: Time budget of the BKK root bound of a form [s]; beyond it only the trace tests remain.
+#: Budget of the BKK root bound of a form [s of CPU time]; beyond it only the trace tests
+#: remain.
 ROOT_BOUND_BUDGET = 5.0
 #: Largest condition number (rows and columns scaled) of ``dG/dz`` at a root counted
 #: against the root bound: a regular, hence isolated, root.
