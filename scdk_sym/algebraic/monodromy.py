@@ -50,8 +50,10 @@ class StartSystem:
         b: (n,) complex base offsets ``b*`` (zero on structural rows).
         solutions: (R, n) complex, every solution of ``G(z, p*) + b* = 0``.
         root_count: R.
-        trace_residual: relative size of the trace's non-polynomial Fourier modes.
-        trace_passed: ``trace_residual <= trace_tol``: the set is complete.
+        trace_residual: relative size of the trace's non-polynomial Fourier modes (NaN when
+            the set was proven complete without a trace test).
+        trace_passed: the set passed its completeness test (the trace test,
+            ``trace_residual <= trace_tol``, or the one ``certificate`` names): it is complete.
         loops: monodromy loops run.
         seed: the seed the start system was computed with.
         reason: why the set is not proven complete (empty when ``trace_passed``).

@@ -7,7 +7,8 @@ variables with negative exponents allowed, ``b`` ordinary ones), where ``Q_i`` i
 hull of the exponents of ``f_i`` and the origin and ``MV`` the mixed volume. The bound holds
 for every offset ``b`` of the homotopy family ``G(z, p) + b`` at once (the origin stands for
 the offset). When a complete-looking set of ``R`` distinct nonsingular roots is known and
-``MV = R``, no isolated root is missing: the set is complete, with no probabilistic step.
+``MV = R``, no isolated root is missing: the set is complete, with no random step (beyond
+the numerical zero test of coefficients below).
 
 Taken as written the bound of a form is far too large (two circles ``c^2 + s^2 = 1`` count
 as two general conics), so the form is first rewritten, keeping its roots one to one:
@@ -16,15 +17,18 @@ as two general conics), so the form is first rewritten, keeping its roots one to
    ``c = (u + 1/u) / 2`` and ``s = (u - 1/u) / (2 i)``; the circle row then holds identically
    and is dropped. A product of rotations about one axis keeps only ``u1 u2`` and
    ``1 / (u1 u2)`` where ``(c, s)`` had every cross term.
-2. each closure's rows are replaced by an invertible linear combination of the sparsest
-   vectors of their span (``y + i z`` and ``y - i z`` for a planar point): found by
-   cancelling ``k - 1`` monomials of a ``k``-row closure in every (or a sample of) ways.
+2. the rows are replaced by an invertible linear combination of sparse vectors of their
+   span (``y + i z`` and ``y - i z`` for a planar point; differences of distance rows, which
+   cancel ``|t|^2``): the candidates cancel ``k - 1`` monomials of a closure's ``k`` rows in
+   every (or a sample of) ways, or are the reduced row echelon forms of all rows with the
+   monomials taken densest first and in random orders; the sparsest independent ones are kept.
 3. the mixed volume is a product over the irreducible blocks of the system (its block
    triangular form: a block of rows that uses only its own variables and those of blocks
    already counted, projected away), and in each block the sum of ``|det|`` over the fine
-   mixed cells of a random lifting (Huber and Sturmfels 1995), enumerated depth first with a
-   linear-programming feasibility test per partial cell. Two independent liftings must give
-   the same number.
+   mixed cells of a random lifting (Huber and Sturmfels 1995), enumerated depth first,
+   branching on the support with the fewest compatible edges (dynamic enumeration,
+   Mizutani, Takeda and Kojima 2007), one linear-programming feasibility test per partial
+   cell. Two independent liftings must give the same number.
 
 Coefficients below :data:`ZERO_COEFFICIENT` times a row's largest are taken as exact zeros
 (the rounding residue of a cancellation such as ``c1 c2 - s1 s2`` in ``u1 / u2``).
