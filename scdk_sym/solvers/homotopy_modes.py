@@ -71,7 +71,7 @@ RATIONAL_TESTS = ((0.5, 8, 32),)
 MODES_CACHE_VERSION = "4"
 #: Budget of the BKK root bound of a form [s of CPU time]; beyond it only the trace tests
 #: remain.
-ROOT_BOUND_BUDGET = 5.0
+ROOT_BOUND_BUDGET = 2.0
 #: Largest condition number (rows and columns scaled) of ``dG/dz`` at a root counted
 #: against the root bound: a regular, hence isolated, root.
 REGULAR_COND = 1e10
