@@ -5,8 +5,9 @@ Levenberg-Marquardt on 6-6 platforms (tests/stewart.py) and Gepetto's ``robot_de
 Pinocchio (tests/gepetto_reference.py).
 
 Every start system here is computed in a fresh cache directory, so the times include the
-monodromy of each model. CI time (``pytest tests/test_modes_certified.py``): 63 s in one run
-on the 2 shared cores (the seed robot's monodromy 35-40 s of it). The 6-6 platforms and
+monodromy of each model. CI time (``pytest tests/test_modes_certified.py
+tests/test_rootbound.py``): 41 s in one run on the 2 shared cores, load average 5 (the seed
+robot's monodromy stops when its 6 roots reach the root bound). The 6-6 platforms and
 ``robot_delta`` run only with ``SCDK_SLOW=1`` (``SCDK_SLOW=1 pytest
 tests/test_modes_certified.py -k "dietmaier or random_6_6"``: 73-103 s per platform, 4 passed;
 ``-k robot_delta``: 76 s for its four tests, start system (complete by its root bound after 7
