@@ -50,6 +50,9 @@ from ..errors import AlgebraicFormError, DependencyError, HomotopyError
 ZERO_COEFFICIENT = 1e-11
 #: Most ``(k - 1)``-subsets of monomials cancelled per closure when sparsifying its rows.
 SPARSIFY_SUBSETS = 4000
+#: Largest product of term counts in one multiplication of the expansion (a larger model's
+#: rows are not expanded: no bound).
+MAX_TERMS = 200_000
 #: Default budget of :func:`root_bound` [s of this process's CPU time, so that a loaded machine
 #: does not change the outcome].
 BUDGET = 20.0
@@ -112,6 +115,11 @@ class _Poly:
         return self + (-other)
 
     def __mul__(self, other: _Poly) -> _Poly:
+        if len(self.terms) * len(other.terms) > MAX_TERMS:
+            raise HomotopyError(
+                f"expanding the algebraic form multiplies polynomials of {len(self.terms)} and "
+                f"{len(other.terms)} terms (more than {MAX_TERMS}); no root bound for it"
+            )
         out: dict[tuple[int, ...], complex] = {}
         for e1, c1 in self.terms.items():
             for e2, c2 in other.terms.items():

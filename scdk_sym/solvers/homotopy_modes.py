@@ -138,7 +138,7 @@ def form_root_bound(form, p: np.ndarray, seed: int = 0):
 
     try:
         return root_bound(form, p, seed, ROOT_BOUND_BUDGET), ""
-    except ScdkError as exc:
+    except (ScdkError, ValueError) as exc:  # ValueError: numpy's LinAlgError among others
         return None, str(exc)
 
 
