@@ -5,12 +5,13 @@ Levenberg-Marquardt on 6-6 platforms (tests/stewart.py) and Gepetto's ``robot_de
 Pinocchio (tests/gepetto_reference.py).
 
 Every start system here is computed in a fresh cache directory, so the times include the
-monodromy of each model. CI time (``pytest tests/test_modes_certified.py``): 63 s in one run
-on the 2 shared cores (the seed robot's monodromy 35-40 s of it). The 6-6 platforms and
+monodromy of each model. CI time (``pytest tests/test_modes_certified.py
+tests/test_rootbound.py``): 41 s in one run on the 2 shared cores, load average 5 (the seed
+robot's monodromy stops when its 6 roots reach the root bound). The 6-6 platforms and
 ``robot_delta`` run only with ``SCDK_SLOW=1`` (``SCDK_SLOW=1 pytest
 tests/test_modes_certified.py -k "dietmaier or random_6_6"``: 73-103 s per platform, 4 passed;
-``-k robot_delta``: 220 s for the first motor value, start system and Pinocchio reference
-included, 7 s for each of the two others, load average 13-15 on the 2 cores).
+``-k robot_delta``: 76 s for its four tests, start system (complete by its root bound after 7
+loops) and Pinocchio reference included, load average 6.3 on the 2 cores).
 """
 
 from __future__ import annotations
@@ -213,6 +214,7 @@ def test_start_systems_are_stored_on_disk_proven_or_failed(monkeypatch):
     assert len(ref) == 2
     first = sc.assembly_modes(sc.builders.delta(R, r, arm, rod), theta)
     assert first.certified, first.report
+    assert "2 distinct regular roots = BKK root bound" in first.report  # two sphere meets
     calls: list[int] = []
     monodromy = algebraic.monodromy_solve
 
@@ -225,10 +227,11 @@ def test_start_systems_are_stored_on_disk_proven_or_failed(monkeypatch):
     assert calls == [] and again.certified
     for p in ref:
         assert min(np.abs(c.x - p).max() for c in again) < 1e-9
-    # one loop: the count is never stable, no test runs; the failure is stored
-    failed = sc.assembly_modes(sc.builders.delta(R, r, arm, rod), theta, seed=5, max_loops=1)
-    assert calls == [1] and not failed.certified and failed.root_count <= 2
-    assert "no trace test passed" in failed.report and "rebuild=True" in failed.report
+    # no loop: one solution, below the root bound, no test runs; the failure is stored
+    failed = sc.assembly_modes(sc.builders.delta(R, r, arm, rod), theta, seed=5, max_loops=0)
+    assert calls == [1] and not failed.certified and failed.root_count == 1
+    assert "no completeness test passed" in failed.report and "rebuild=True" in failed.report
+    assert "BKK root bound 2" in failed.report
     assert list((cache_dir() / "homotopy").glob("*-s5-modes*.npz"))
     stored = sc.assembly_modes(sc.builders.delta(R, r, arm, rod), theta, seed=5)
     assert calls == [1] and not stored.certified and stored.report == failed.report
@@ -303,11 +306,40 @@ def test_robot_delta_eight_assemblies_each_certified(theta):
 
 
 @SLOW
-@pytest.mark.xfail(
-    reason="the 64 roots pass no wide-circle trace test (0.27, 2e-3), and a narrow-circle "
-    "test is no proof: completeness of robot_delta's start system is not certified",
-    strict=False,
-)
 def test_robot_delta_set_certified_complete():
+    """No trace test passes on robot_delta's 64 roots (solutions escape to infinity on the
+    circle charts); their count equals the form's BKK root bound, which proves it."""
     model, _ref, _expected, sols = robot_delta_case((0.0, 0.0))
     assert_certified(model, sols, root_count=64)
+    assert "64 distinct regular roots = BKK root bound" in sols.report
+
+
+def test_root_bound_certificate_rejects_an_incomplete_or_degenerate_set():
+    """The seed robot's start system is complete by its root bound (6, the 3-RPR sextic's
+    degree); without one root, or with one root replaced by a near copy of another, the
+    count check fails."""
+    from scdk_sym.algebraic import algebraic_form
+    from scdk_sym.algebraic.rootbound import root_bound
+    from scdk_sym.algebraic.scaled import scaled_form
+    from scdk_sym.solvers.homotopy_modes import complete_by_bound, model_start_system
+
+    form = scaled_form(algebraic_form(shipped("planar_hexa")))
+    start = model_start_system(form, 0)
+    assert start.trace_passed and start.root_count == 6
+    bound = root_bound(form, start.p, budget=60.0).bound  # the pipeline's budget is 2 s
+    assert bound == 6
+    z, p, b = start.solutions, start.p, start.b
+    ok, note = complete_by_bound(form, z, p, b, bound)
+    assert ok and note == "6 distinct regular roots = BKK root bound"
+    ok, note = complete_by_bound(form, z[1:], p, b, bound)
+    assert not ok and note == "5 roots found, root bound 6"
+    rng = np.random.default_rng(0)
+    near = z.copy()
+    near[0] = z[1] + 1e-9 * (rng.normal(size=z.shape[1]) + 1j * rng.normal(size=z.shape[1]))
+    ok, note = complete_by_bound(form, near, p, b, bound)
+    assert not ok and "apart" in note
+    # a point that is no root
+    off = z.copy()
+    off[0] = z[0] + 0.3
+    ok, note = complete_by_bound(form, off, p, b, bound)
+    assert not ok and "do not refine" in note

@@ -50,11 +50,16 @@ class StartSystem:
         b: (n,) complex base offsets ``b*`` (zero on structural rows).
         solutions: (R, n) complex, every solution of ``G(z, p*) + b* = 0``.
         root_count: R.
-        trace_residual: relative size of the trace's non-polynomial Fourier modes.
-        trace_passed: ``trace_residual <= trace_tol``: the set is complete.
+        trace_residual: relative size of the trace's non-polynomial Fourier modes (NaN when
+            the set was proven complete without a trace test).
+        trace_passed: the set passed its completeness test (the trace test,
+            ``trace_residual <= trace_tol``, or the one ``certificate`` names): it is complete.
         loops: monodromy loops run.
         seed: the seed the start system was computed with.
         reason: why the set is not proven complete (empty when ``trace_passed``).
+        root_bound: an upper bound on the isolated roots of the family at ``p*`` (e.g. the
+            BKK bound of :mod:`scdk_sym.algebraic.rootbound`); -1 when none was computed.
+        certificate: what proved the set complete (empty when ``trace_passed`` is False).
     """
 
     p: np.ndarray
@@ -66,6 +71,8 @@ class StartSystem:
     loops: int
     seed: int
     reason: str = ""
+    root_bound: int = -1
+    certificate: str = ""
 
 
 def _cnormal(rng: np.random.Generator, shape) -> np.ndarray:
@@ -166,12 +173,14 @@ def monodromy_solve(
     options: TrackerOptions | None = None,
     progress: bool = True,
     test: Callable[[np.ndarray, np.ndarray, np.ndarray], float] | None = None,
+    target: int | None = None,
 ) -> StartSystem:
     """A complete start system by monodromy loops and a trace test.
 
-    Loops run until the solution count has not changed for ``stable_loops`` loops; then the
-    completeness test runs and the loops stop as soon as it passes; if it fails, loops
-    continue (and the test reruns when the count is stable again) until ``max_loops``.
+    Loops run until the solution count has not changed for ``stable_loops`` loops (or has
+    reached ``target``); then the completeness test runs and the loops stop as soon as it
+    passes; if it fails, loops continue (and the test reruns when the count is stable again)
+    until ``max_loops``.
 
     Args:
         system: the polynomial system.
@@ -185,6 +194,8 @@ def monodromy_solve(
         test: ``test(solutions, p, b) -> residual``, the completeness test (default:
             :func:`trace_test` with ``trace_map``); the set is complete when the residual is
             at most ``trace_tol``.
+        target: the number of solutions at which the test runs at once (an upper bound on
+            the isolated solutions: no loop can add one beyond it); ``None``: no target.
 
     Returns:
         A :class:`StartSystem` (``trace_passed`` False if the budget ran out, ``reason``
@@ -243,7 +254,7 @@ def monodromy_solve(
             stable = stable + 1 if len(sols) == before else 0
             bar.update(1)
             bar.set_postfix(solutions=len(sols))
-            if stable >= stable_loops:
+            if stable >= stable_loops or (len(sols) != before and len(sols) == target):
                 residual = float(test(sols, p, b))
                 passed = residual <= trace_tol
                 bar.set_postfix(solutions=len(sols), trace=f"{residual:.0e}")
@@ -266,7 +277,7 @@ def monodromy_solve(
         )
     else:
         reason = (
-            f"no trace test passed: {len(sols)} solutions after {loops} monodromy loops "
+            f"no completeness test passed: {len(sols)} solutions after {loops} monodromy loops "
             "(the count never stayed stable, or paths failed along the trace pencil)"
         )
     return StartSystem(

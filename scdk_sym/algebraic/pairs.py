@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as ca
 
@@ -59,39 +60,47 @@ class Pair:
         return Pair(ca.sin(a) * ca.cosh(b), ca.cos(a) * ca.sinh(b))
 
 
-_BINARY: dict[int, Callable[[Pair, Pair], Pair]] = {
+_BINARY: dict[int, Callable[[Any, Any], Any]] = {
     ca.OP_ADD: lambda x, y: x + y,
     ca.OP_SUB: lambda x, y: x - y,
     ca.OP_MUL: lambda x, y: x * y,
     ca.OP_DIV: lambda x, y: x / y,
 }
-_UNARY: dict[int, Callable[[Pair], Pair]] = {
+_UNARY: dict[int, Callable[[Any], Any]] = {
     ca.OP_ASSIGN: lambda x: x,
     ca.OP_NEG: lambda x: -x,
     ca.OP_SQ: lambda x: x * x,
     ca.OP_TWICE: lambda x: x + x,
-    ca.OP_INV: lambda x: Pair(ca.SX(1.0), ca.SX(0.0)) / x,
-    ca.OP_COS: Pair.cos,
-    ca.OP_SIN: Pair.sin,
+    ca.OP_COS: lambda x: x.cos(),
+    ca.OP_SIN: lambda x: x.sin(),
 }
 
 
-def replay(f: ca.Function, inputs: list[list[Pair]]) -> list[list[Pair]]:
-    """Evaluate a real SX Function on complex pairs.
+def _pair_constant(value: float) -> Pair:
+    return Pair(ca.SX(value), ca.SX(0.0))
+
+
+def replay(
+    f: ca.Function, inputs: list[list], constant: Callable[[float], Any] = _pair_constant
+) -> list[list]:
+    """Evaluate a real SX Function on complex pairs (or on any other number type).
 
     Args:
         f: an SX Function with dense inputs and outputs.
         inputs: for each input of ``f``, one :class:`Pair` per element (column-major).
+        constant: the number of a real constant; the values (inputs and constants) support
+            ``+``, ``-``, ``*``, ``/``, unary ``-``, ``.cos()`` and ``.sin()`` (default:
+            :class:`Pair`; e.g. sparse polynomials expand ``f`` instead).
 
     Returns:
-        For each output of ``f``, one :class:`Pair` per element (column-major).
+        For each output of ``f``, one value per element (column-major).
 
     Raises:
         AlgebraicFormError: ``f`` uses an operation with no holomorphic polynomial form
             (e.g. sqrt, atan2, comparisons).
     """
-    outputs = [[Pair(ca.SX(0.0), ca.SX(0.0))] * f.nnz_out(i) for i in range(f.n_out())]
-    work: dict[int, Pair] = {}
+    outputs = [[constant(0.0)] * f.nnz_out(i) for i in range(f.n_out())]
+    work: dict[int, Any] = {}
     for k in range(f.n_instructions()):
         op = f.instruction_id(k)
         args = f.instruction_input(k)
@@ -101,7 +110,9 @@ def replay(f: ca.Function, inputs: list[list[Pair]]) -> list[list[Pair]]:
         elif op == ca.OP_OUTPUT:
             outputs[res[0]][res[1]] = work[args[0]]
         elif op == ca.OP_CONST:
-            work[res[0]] = Pair(ca.SX(f.instruction_constant(k)), ca.SX(0.0))
+            work[res[0]] = constant(f.instruction_constant(k))
+        elif op == ca.OP_INV:
+            work[res[0]] = constant(1.0) / work[args[0]]
         elif op in _BINARY:
             work[res[0]] = _BINARY[op](work[args[0]], work[args[1]])
         elif op in _UNARY:

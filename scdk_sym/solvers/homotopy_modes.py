@@ -5,8 +5,10 @@ The pipeline of :func:`homotopy_modes`:
 1. the model's algebraic form ``G(z, p) = 0`` (:func:`scdk_sym.algebraic.algebraic_form`,
    generated C when a C compiler is present);
 2. its start system: every complex solution at one random complex parameter point, by
-   monodromy, proven complete by a trace test (:func:`scdk_sym.algebraic.start_system`,
-   cached on disk under the form's content hash). The traced functions are the entries of
+   monodromy, proven complete (cached on disk under the form's content hash) when the
+   number of distinct regular roots found equals the form's BKK root bound
+   (:mod:`scdk_sym.algebraic.rootbound`), or else by a trace test
+   (:func:`scdk_sym.algebraic.trace_test`). The traced functions are the entries of
    the placement of the model's frame (translation and rotation), which stay finite where a
    quaternion chart does not;
 3. the parameter homotopy from there to ``params(theta0)``
@@ -27,6 +29,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import replace
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -65,7 +68,16 @@ TRACE_TOL = 1e-9
 #: roots passed such a test while failing this one).
 RATIONAL_TESTS = ((0.5, 8, 32),)
 #: Version of the start-system test (part of the cache file name).
-MODES_CACHE_VERSION = "3"
+MODES_CACHE_VERSION = "4"
+#: Budget of the BKK root bound of a form [s of CPU time]; beyond it only the trace tests
+#: remain.
+ROOT_BOUND_BUDGET = 2.0
+#: Largest condition number (rows and columns scaled) of ``dG/dz`` at a root counted
+#: against the root bound: a regular, hence isolated, root.
+REGULAR_COND = 1e10
+#: Smallest distance between two roots counted against the root bound, relative to
+#: ``1 + max |z|``: distinct roots.
+DISTINCT = 1e-6
 
 
 def frame_trace_map(form, p: np.ndarray):
@@ -110,6 +122,65 @@ def frame_trace_map(form, p: np.ndarray):
     return trace_map
 
 
+def form_root_bound(form, p: np.ndarray, seed: int = 0):
+    """The BKK root bound of a form at ``p`` within :data:`ROOT_BOUND_BUDGET`.
+
+    Args:
+        form: the model's algebraic form (scaled or not).
+        p: (n_params,) complex parameters.
+        seed: seed of the bound's random choices.
+
+    Returns:
+        ``(bound, note)``: a :class:`~scdk_sym.algebraic.rootbound.RootBound` and ``""``, or
+        ``None`` and why no bound was computed.
+    """
+    from ..algebraic.rootbound import root_bound
+
+    try:
+        return root_bound(form, p, seed, ROOT_BOUND_BUDGET), ""
+    except (ScdkError, ValueError) as exc:  # ValueError: numpy's LinAlgError among others
+        return None, str(exc)
+
+
+def complete_by_bound(form, solutions: np.ndarray, p: np.ndarray, b: np.ndarray, bound: int):
+    """Whether ``solutions`` are all the isolated roots of ``G(z, p) + b = 0``, by count.
+
+    They are when they are roots (two Newton steps converge), regular (scaled condition
+    number of ``dG/dz`` at most :data:`REGULAR_COND`, so each is isolated), pairwise distinct
+    (relative distance at least :data:`DISTINCT`) and exactly ``bound`` many, ``bound`` an
+    upper bound on the isolated roots (the BKK bound).
+
+    Args:
+        form: the model's algebraic form (scaled or not).
+        solutions: (R, n) complex candidate roots.
+        p: (n_params,) complex parameters.
+        b: (n,) complex offsets.
+        bound: the upper bound on the isolated roots.
+
+    Returns:
+        ``(complete, note)``: the verdict and one line saying why.
+    """
+    from ..algebraic.homotopy import scaled_cond
+    from ..algebraic.monodromy import _refine
+
+    count = len(solutions)
+    if count != bound:
+        return False, f"{count} roots found, root bound {bound}"
+    z, ok = _refine(form, np.asarray(solutions, dtype=complex), p, b)
+    if not ok.all():
+        return False, f"{int((~ok).sum())} of {count} roots do not refine by Newton"
+    _, Jz, _ = form.evaluate(z, np.broadcast_to(p, (count, form.n_params)))
+    cond = scaled_cond(Jz)
+    if count and cond.max() > REGULAR_COND:
+        return False, f"a root has condition number {cond.max():.1e} > {REGULAR_COND:.0e}"
+    scale = 1.0 + np.abs(z).max(axis=1)
+    d = np.abs(z[:, None] - z[None]).max(axis=2) / np.minimum(scale[:, None], scale[None])
+    np.fill_diagonal(d, np.inf)
+    if count > 1 and d.min() < DISTINCT:
+        return False, f"two roots lie {d.min():.1e} apart (< {DISTINCT:.0e})"
+    return True, f"{count} distinct regular roots = BKK root bound"
+
+
 def model_start_system(
     form,
     seed: int = 0,
@@ -122,9 +193,12 @@ def model_start_system(
     """The start system of a model's form, with its completeness test (cached).
 
     Monodromy (:func:`scdk_sym.algebraic.monodromy_solve`) runs until the solution count has
-    been stable for 5 loops, then tests the set and stops as soon as it passes, else loops on
-    (testing again at each stable count) within ``max_loops``. The set is proven complete
-    when the trace of the frames' placements (:func:`frame_trace_map`) along a random offset
+    been stable for 5 loops (or has reached the form's BKK root bound,
+    :func:`form_root_bound`), then tests the set and stops as soon as it passes, else loops
+    on (testing again at each stable count) within ``max_loops``. The set is proven complete
+    when its roots are as many as the root bound, distinct and regular
+    (:func:`complete_by_bound`: no isolated root is missing), or when the trace of the
+    frames' placements (:func:`frame_trace_map`) along a random offset
     pencil is a polynomial of degree 1 (:func:`scdk_sym.algebraic.trace_test`, relative
     residual <= :data:`TRACE_TOL`) or a rational function of low degree
     (:func:`scdk_sym.algebraic.rational_trace.rational_trace_test` on the circles of
@@ -145,8 +219,10 @@ def model_start_system(
             new result replaces the stored one).
 
     Returns:
-        A :class:`~scdk_sym.algebraic.monodromy.StartSystem` whose ``trace_passed`` and
-        ``trace_residual`` are those of the test above.
+        A :class:`~scdk_sym.algebraic.monodromy.StartSystem` whose ``trace_passed`` is the
+        verdict of the tests above, ``certificate`` names the one that passed,
+        ``root_bound`` is the BKK bound (-1 if not computed) and ``trace_residual`` the last
+        trace test's (NaN if none ran).
     """
     from ..algebraic import monodromy_solve, trace_test
     from ..algebraic.rational_trace import rational_trace_test
@@ -164,26 +240,51 @@ def model_start_system(
         _, p_star = form.random_point(np.random.default_rng(seed))
         trace_map = frame_trace_map(form, p_star)
         rng = np.random.default_rng(seed + 1)
+        bound, bound_note = form_root_bound(form, p_star, seed)
+        verdict: dict[str, Any] = {"certificate": "", "trace": float("nan"), "note": ""}
 
         def test(sols: np.ndarray, p: np.ndarray, b: np.ndarray) -> float:
+            if bound is not None and np.array_equal(p, p_star):
+                ok, verdict["note"] = complete_by_bound(form, sols, p, b, bound.bound)
+                if ok:
+                    verdict["certificate"] = verdict["note"]
+                    return 0.0
             linear = trace_test(form, sols, p, b, rng, trace_map=trace_map)
-            if linear <= TRACE_TOL:
-                return linear
-            best = linear
-            for radius, degree, samples in RATIONAL_TESTS:
-                rational, _ = rational_trace_test(
-                    form, sols, p, b, rng, trace_map,
-                    radius=radius, max_degree=degree, samples=samples,
-                )  # fmt: skip
-                best = min(best, rational)
-                if best <= TRACE_TOL:
-                    break
+            verdict["trace"] = best = linear
+            what = "linear trace test"
+            if linear > TRACE_TOL:
+                for radius, degree, samples in RATIONAL_TESTS:
+                    rational, _ = rational_trace_test(
+                        form, sols, p, b, rng, trace_map,
+                        radius=radius, max_degree=degree, samples=samples,
+                    )  # fmt: skip
+                    best = min(best, rational)
+                    verdict["trace"], what = best, "rational trace test"
+                    if best <= TRACE_TOL:
+                        break
+            if best <= TRACE_TOL:
+                verdict["certificate"] = f"{what} (residual {best:.1e})"
             return best
 
         start = monodromy_solve(
             form, seed, stable_loops=5, max_loops=max_loops, trace_tol=TRACE_TOL,
             trace_map=trace_map, progress=progress, test=test,
+            target=None if bound is None else bound.bound,
         )  # fmt: skip
+        reason = start.reason
+        if not start.trace_passed:
+            reason += (
+                f"; root bound: {verdict['note']}" if bound is not None and verdict["note"]
+                else f"; BKK root bound {bound.bound}" if bound is not None
+                else f"; no root bound ({bound_note})"
+            )  # fmt: skip
+        start = replace(
+            start,
+            trace_residual=float(verdict["trace"]),
+            root_bound=-1 if bound is None else int(bound.bound),
+            certificate=str(verdict["certificate"]) if start.trace_passed else "",
+            reason=reason,
+        )
         if path is not None:
             _save(start, path)
     return products.put(START_SYSTEM, start, key)
@@ -210,6 +311,8 @@ def _load(form, path):
             loops=int(s.loops),
             seed=int(s.seed),
             reason=str(s.reason),
+            root_bound=int(s.root_bound),
+            certificate=str(s.certificate),
         )
     except (OSError, KeyError, ValueError, TypeError):
         return None
@@ -229,7 +332,7 @@ def _save(s, path) -> None:
 
 _FIELDS = (
     "p", "b", "solutions", "root_count", "trace_residual", "trace_passed", "loops", "seed",
-    "reason",
+    "reason", "root_bound", "certificate",
 )  # fmt: skip
 
 
@@ -384,7 +487,7 @@ def homotopy_modes(
     if certified:
         report = (
             f"certified complete: {len(cfgs)} real of {start.root_count} complex solutions "
-            f"(start system trace residual {start.trace_residual:.1e}); each real one proven "
+            f"(start system complete: {start.certificate}); each real one proven "
             "unique in its Krawczyk box, boxes pairwise disjoint"
         )
         if spurious:
