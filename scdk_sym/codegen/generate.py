@@ -260,8 +260,8 @@ def _rule_constants() -> dict[str, str]:
     from ..solvers import track as rule
 
     floats = ("ACCEPT", "MARGIN", "BUDGET", "SMOOTH", "PARTNER_STEP")
-    ints = ("NEWTON_CALLS", "PREDICTED_CALLS", "PARTNER_ITERATIONS", "HITS_PER_DIRECTION",
-            "MAX_STEPS")  # fmt: skip
+    ints = ("FAST_ITERATIONS", "NEWTON_CALLS", "PREDICTED_CALLS", "PARTNER_ITERATIONS",
+            "HITS_PER_DIRECTION", "MAX_STEPS")  # fmt: skip
     return _c_literals(rule, floats, ints)
 
 

@@ -43,8 +43,18 @@ R1. *Prediction.* With ``lin = |d_k - d_(k-1)|`` (``n >= 2``, else 0) and ``quad
     unknown (infinite), ``E = 0``, and ``ell = 1 / |t_s|`` with ``t`` the unit tangent of the
     curve at ``(y_k, 0)`` in the metric ``|dy|_2^2 + (|dtheta|_2 ds)^2``, clamped to
     ``[|dtheta|_2, 1e3 max(1, length scale)]``.
-R2. *Cheap continuation* ``y_c``: one RK4 step of ``dy/ds = J_p^-1 J_s dtheta`` from ``s = 0``
-    to 1, then Newton (``NEWTON_CALLS`` calls of the 2-iteration kernel, stopping once
+R2. *Fast continuation* ``y_f`` (``n >= 1``): Newton from ``y_pred``, ``g`` and ``J_p``
+    evaluated at every iterate (at most ``FAST_ITERATIONS`` times, each evaluation followed by
+    its correction, the last one that after which ``max|g| <= 1e-3 tol`` at the iterate). It is
+    the answer, without any other candidate, if every evaluation was finite with ``J_p``
+    regular, ``max|g| <= tol`` at the last iterate, Newton moved ``y_pred`` by at most ``0.05
+    |y_f - y_k| + 10 tol`` (the extrapolated motion was as accurate as the RK4 point below must
+    be, which implies ``|y_f - y_pred| <= ACCEPT L + 10 tol``), ``det J_p`` at the last iterate
+    and at ``y_pred`` (the first) has the non-zero sign of ``det_k``, ``2 det_k - det_(k-1)``
+    has that sign and ``|det J_p(y_f)| >= |det_k - det J_p(y_f)|``: the conditions of the cheap
+    continuation below, checked at ``y_f``.
+    Else the *cheap continuation* ``y_c``: one RK4 step of ``dy/ds = J_p^-1 J_s dtheta`` from
+    ``s = 0`` to 1, then Newton (``NEWTON_CALLS`` calls of the 2-iteration kernel, stopping once
     ``max|g| <= 1e-3 tol``). *Valid* if finite, ``max|g| <= tol`` and Newton moved the RK4
     point by at most ``0.05 |y_c - y_k| + 10 tol``. It is the answer, without any other
     candidate, if valid and ``det J_p(y_c, theta)`` has the non-zero sign of ``det_k``, and:
@@ -123,6 +133,8 @@ MARGIN = 3.0
 SMOOTH = 0.5
 #: R3: arc length followed along the curve in each direction, in units of ``ell``.
 BUDGET = 40.0
+#: R2: evaluations of g and J_p (Newton iterations + 1) of the fast continuation.
+FAST_ITERATIONS = 4
 #: R2: Newton calls of the cheap continuation.
 NEWTON_CALLS = 3
 #: R3: Newton calls from the prediction and of the polish of each candidate.
@@ -232,6 +244,7 @@ class _Kernels:
     predict: Buffered
     newton: Buffered
     jac: Buffered
+    g: Buffered
     recentre: Buffered
 
 
@@ -241,7 +254,7 @@ def _kernels(model: Model) -> _Kernels:
 
         kern = build_tracker_kernels(model.symbolic, model.chart.rotations, "scdk")
         return _Kernels(
-            Buffered(kern.predict), Buffered(kern.newton), Buffered(kern.jac),
+            Buffered(kern.predict), Buffered(kern.newton), Buffered(kern.jac), Buffered(kern.g),
             Buffered(kern.recentre),
         )  # fmt: skip
 
@@ -314,6 +327,30 @@ class _Tracker:
                 break
         return y, res, _inf(y - y0)
 
+    def _newton_lu(self, y, theta) -> tuple[np.ndarray | None, float, float, float]:
+        """R2: Newton from y with g and J_p evaluated at every iterate, at most
+        ``FAST_ITERATIONS`` times: every evaluation is followed by the Newton correction, and the
+        iteration stops after the first one at which max|g| <= 1e-3 tol. Returns (y, max|g| at
+        the last iterate, det J_p at the start, det J_p at the last iterate); y None if an
+        evaluation was not finite or J_p singular."""
+        m = self.m
+        y = np.array(y, dtype=float)
+        res = d0 = d1 = math.nan
+        for it in range(FAST_ITERATIONS):
+            Jp = self.K.jac(y, theta, self.c)[0].reshape(m, m, order="F")
+            g = self.K.g(y, theta, self.c)[0]
+            if not (np.all(np.isfinite(Jp)) and np.all(np.isfinite(g))):
+                return None, math.nan, math.nan, math.nan
+            res, d1 = _inf(g), float(np.linalg.det(Jp))
+            if it == 0:
+                d0 = d1
+            if d1 == 0.0:
+                return None, math.nan, math.nan, math.nan
+            y = y - np.linalg.solve(Jp, g)
+            if res <= 1e-3 * self.tol:
+                break
+        return y, res, d0, d1
+
     def _polish(self, y, theta) -> np.ndarray | None:
         """R3: a candidate polished, its revolute angles within pi of y_k (None: not a
         solution)."""
@@ -371,7 +408,9 @@ class _Tracker:
             self.n = 0
             return OK
         pred = self._prediction(w)
-        y, det, code = self._cheap(theta, pred)
+        y, det, code = self._fast(theta, pred)
+        if y is None:
+            y, det, code = self._cheap(theta, pred)
         if y is None:
             y, code = self._path(theta, dtheta, w, pred, index)
             det = 0.0
@@ -392,6 +431,24 @@ class _Tracker:
         E = qua if quad else lin
         ell = math.sqrt(w * w + float(D @ D))
         return _Prediction(self.y + D, _inf(D), E, ell)
+
+    def _fast(self, theta, pred):
+        """R2: the fast continuation, (y_f, det J_p there, OK) if taken, else (None, 0, 0)."""
+        s0 = _sign(self.det)
+        if pred is None or s0 == 0:
+            return None, 0.0, 0
+        y, res, d0, d1 = self._newton_lu(pred.y, theta)
+        if y is None or not res <= self.tol:
+            return None, 0.0, 0
+        if not _inf(y - pred.y) <= 0.05 * _inf(y - self.y) + 10.0 * self.tol:
+            return None, 0.0, 0
+        if _sign(d1) != s0 or _sign(d0) != s0:
+            return None, 0.0, 0
+        if _sign(2.0 * self.det - self.det_prev) != s0:
+            return None, 0.0, 0
+        if abs(d1) < abs(self.det - d1):
+            return None, 0.0, 0
+        return y, d1, OK
 
     def _cheap(self, theta, pred):
         """R2: (y_c, det J_p there, OK) if taken, else (None, 0, 0); keeps a valid y_c."""
