@@ -43,18 +43,18 @@ R1. *Prediction.* With ``lin = |d_k - d_(k-1)|`` (``n >= 2``, else 0) and ``quad
     unknown (infinite), ``E = 0``, and ``ell = 1 / |t_s|`` with ``t`` the unit tangent of the
     curve at ``(y_k, 0)`` in the metric ``|dy|_2^2 + (|dtheta|_2 ds)^2``, clamped to
     ``[|dtheta|_2, 1e3 max(1, length scale)]``.
-R2. *Fast continuation* ``y_f`` (``n >= 1``): Newton from ``y_pred``, ``g`` and ``J_p``
-    evaluated at every iterate (at most ``FAST_ITERATIONS`` times, each evaluation followed by
-    its correction, the last one that after which ``max|g| <= 1e-3 tol`` at the iterate). It is
-    the answer, without any other candidate, if every evaluation was finite with ``J_p``
-    regular, ``max|g| <= tol`` at the last iterate, Newton moved ``y_pred`` by at most ``0.05
-    |y_f - y_k| + 10 tol`` (the extrapolated motion was as accurate as the RK4 point below must
-    be, which implies ``|y_f - y_pred| <= ACCEPT L + 10 tol``), ``det J_p`` at the last iterate
-    and at ``y_pred`` (the first) has the non-zero sign of ``det_k``, ``2 det_k - det_(k-1)``
-    has that sign and ``|det J_p(y_f)| >= |det_k - det J_p(y_f)|``: the conditions of the cheap
-    continuation below, checked at ``y_f``.
-    Else the *cheap continuation* ``y_c``: one RK4 step of ``dy/ds = J_p^-1 J_s dtheta`` from
-    ``s = 0`` to 1, then Newton (``NEWTON_CALLS`` calls of the 2-iteration kernel, stopping once
+R2. *Cheap continuation.* First (``n >= 1``) ``y_f``: Newton from ``y_pred``, ``g`` and
+    ``J_p`` evaluated at every iterate (at most ``FAST_ITERATIONS`` times, each evaluation
+    followed by its correction, the last one that after which ``max|g| <= 1e-3 tol`` at the
+    iterate). It is the answer, without any other candidate, if every evaluation was finite
+    with ``J_p`` regular, ``max|g| <= tol`` at the last iterate, Newton moved ``y_pred`` by at
+    most ``0.05 |y_f - y_k| + 10 tol`` (the extrapolated motion was as accurate as the RK4
+    point below must be; this implies ``|y_f - y_pred| <= ACCEPT L + 10 tol``), ``det J_p`` at
+    the last iterate and at ``y_pred`` (the first) has the non-zero sign of ``det_k``, ``2
+    det_k - det_(k-1)`` has that sign and ``|det J_p(y_f)| >= |det_k - det J_p(y_f)|``: the
+    conditions of the cheap continuation below, checked at ``y_f``. Else ``y_c``: one RK4 step
+    of ``dy/ds = J_p^-1 J_s dtheta`` from ``s = 0`` to 1, then Newton (``NEWTON_CALLS`` calls
+    of the 2-iteration kernel, stopping once
     ``max|g| <= 1e-3 tol``). *Valid* if finite, ``max|g| <= tol`` and Newton moved the RK4
     point by at most ``0.05 |y_c - y_k| + 10 tol``. It is the answer, without any other
     candidate, if valid and ``det J_p(y_c, theta)`` has the non-zero sign of ``det_k``, and:
@@ -339,13 +339,12 @@ class _Tracker:
         for it in range(FAST_ITERATIONS):
             Jp = self.K.jac(y, theta, self.c)[0].reshape(m, m, order="F")
             g = self.K.g(y, theta, self.c)[0]
-            if not (np.all(np.isfinite(Jp)) and np.all(np.isfinite(g))):
+            with np.errstate(all="ignore"):
+                res, d1 = _inf(g), float(np.linalg.det(Jp))
+            if not (math.isfinite(res) and math.isfinite(d1)) or d1 == 0.0:
                 return None, math.nan, math.nan, math.nan
-            res, d1 = _inf(g), float(np.linalg.det(Jp))
             if it == 0:
                 d0 = d1
-            if d1 == 0.0:
-                return None, math.nan, math.nan, math.nan
             y = y - np.linalg.solve(Jp, g)
             if res <= 1e-3 * self.tol:
                 break
