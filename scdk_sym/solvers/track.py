@@ -664,10 +664,13 @@ def crossings(
     y_loc0, c0 = model.chart.to_local(start.y)
     det0 = float(np.linalg.det(np.array(model.kernels.jac(y_loc0, start.theta, c0)[0])))
     dd = np.concatenate([[det0], dets])
+    changes = np.flatnonzero(np.sign(dd[:-1]) * np.sign(dd[1:]) < 0)
+    if changes.size == 0:
+        return ()
     ys = np.vstack([start.y, y])
     ths = np.vstack([start.theta, thetas])
     out = []
-    for j in np.flatnonzero(np.sign(dd[:-1]) * np.sign(dd[1:]) < 0):
+    for j in changes:
         out.append(locate(model, ys[j], ys[j + 1], ths[j], ths[j + 1], float(dd[j]), j - 1))
     return tuple(out)
 
