@@ -158,6 +158,35 @@ def test_regular_motion_matches_newton_and_truth():
     assert jumps(newton, np.array([c.platform_pose for c in truth])) == 0
 
 
+@pytest.mark.parametrize("count", [27, 61])
+def test_fast_continuation_on_regular_samples_never_across_the_fold(monkeypatch, count):
+    """R2's Newton from the prediction answers the regular samples and never the reading
+    where the motion crosses the singular manifold (the inverse-kinematics truth)."""
+    from scdk_sym.solvers import track as rule
+
+    model = shipped("planar_hexa")
+    phis, thetas, truth = seed_path(model, count)
+    taken: list[bool] = []
+    fast = rule._Tracker._fast
+
+    def record(self, theta, pred):
+        out = fast(self, theta, pred)
+        taken.append(out[0] is not None)
+        return out
+
+    monkeypatch.setattr(rule._Tracker, "_fast", record)
+    result = sc.track(model, thetas, start=truth[0])
+    # sample 0 is the start's reading (R0: no call); taken[i - 1] is sample i
+    assert len(taken) == count - 1
+    assert np.max(np.abs(result.x - np.array([c.x for c in truth]))) < 1e-9
+    across = int(np.nonzero(phis > SINGULAR_PHI)[0][0])  # first sample past the singularity
+    assert not taken[across - 1]
+    assert not taken[0]  # sample 1: no motion known yet, no prediction to start from
+    # elsewhere, away from the fold, the fast continuation answers
+    far = [i for i in range(2, count) if abs(phis[i] - SINGULAR_PHI) > 0.1]
+    assert far and all(taken[i - 1] for i in far)
+
+
 def test_first_sample_solved_from_start_and_standing_still():
     model = shipped("planar_hexa")
     a = model.inverse_kinematics([0.0, 0.0, 0.30])
