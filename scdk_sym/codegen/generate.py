@@ -31,8 +31,10 @@ from . import templates
 from .kernels import build_tracker_kernels
 
 #: Flags compiling each source of the shared library built for Python (the optimisation
-#: level of :mod:`scdk_sym.kernels.compile`).
-COMPILE_FLAGS = ("-std=c99", OPT, "-Wall", "-fPIC")
+#: level of :mod:`scdk_sym.kernels.compile`; ``-fno-semantic-interposition``: the kernels'
+#: helpers such as ``casadi_sq``, global functions, are inlined as in a static build instead
+#: of called, since ``-Bsymbolic`` binds them inside the library anyway).
+COMPILE_FLAGS = ("-std=c99", OPT, "-Wall", "-fPIC", "-fno-semantic-interposition")
 #: Flags linking it (``-Bsymbolic``: the tracker calls its own kernels even if another library
 #: of the process exports the same names).
 LINK_FLAGS = ("-shared", "-Wl,-Bsymbolic")
