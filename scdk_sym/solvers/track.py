@@ -116,7 +116,7 @@ import numpy as np
 
 from ..backends import resolve
 from ..errors import InputError, PathError, TrackError
-from ..kernels.fastcall import Buffered
+from ..kernels.fastcall import Buffered, model_calls
 from ..model.rotations import gibbs, rot_exp
 from ..products import TRACK_KERNELS
 from ..results import Configuration, Crossing, TrackResult
@@ -662,7 +662,7 @@ def crossings(
     if dets.size == 0:
         return ()
     y_loc0, c0 = model.chart.to_local(start.y)
-    det0 = float(np.linalg.det(np.array(model.kernels.jac(y_loc0, start.theta, c0)[0])))
+    det0 = float(np.linalg.det(model_calls(model).jac(y_loc0, start.theta, c0)[0]))
     dd = np.concatenate([[det0], dets])
     changes = np.flatnonzero(np.sign(dd[:-1]) * np.sign(dd[1:]) < 0)
     if changes.size == 0:
