@@ -47,23 +47,23 @@ R2. *Cheap continuation.* First (``n >= 1``) ``y_f``: Newton from ``y_pred``, ``
     ``J_p`` evaluated at every iterate (at most ``FAST_ITERATIONS`` times, each evaluation
     followed by its correction, the last one that after which ``max|g| <= 1e-3 tol`` at the
     iterate). It is the answer, without any other candidate, if every evaluation was finite
-    with ``J_p`` regular, ``max|g| <= tol`` at the last iterate, Newton moved ``y_pred`` by at
-    most ``0.05 |y_f - y_k| + 10 tol`` (the extrapolated motion was as accurate as the RK4
-    point below must be; this implies ``|y_f - y_pred| <= ACCEPT L + 10 tol``), ``det J_p`` at
-    the last iterate and at ``y_pred`` (the first) has the non-zero sign of ``det_k``, ``2
-    det_k - det_(k-1)`` has that sign and ``|det J_p(y_f)| >= |det_k - det J_p(y_f)|``: the
-    conditions of the cheap continuation below, checked at ``y_f``. Else ``y_c``: one RK4 step
-    of ``dy/ds = J_p^-1 J_s dtheta`` from ``s = 0`` to 1, then Newton (``NEWTON_CALLS`` calls
-    of the 2-iteration kernel, stopping once
-    ``max|g| <= 1e-3 tol``). *Valid* if finite, ``max|g| <= tol`` and Newton moved the RK4
-    point by at most ``0.05 |y_c - y_k| + 10 tol``. It is the answer, without any other
-    candidate, if valid and ``det J_p(y_c, theta)`` has the non-zero sign of ``det_k``, and:
-    with ``n >= 1``, ``|y_c - y_pred| <= ACCEPT L + 10 tol``, ``2 det_k - det_(k-1)`` has that
-    sign, ``|det J_p(y_c)| >= |det_k - det J_p(y_c)|`` and ``det J_p(y_pred, theta)`` has that
-    sign (nothing hints at a crossing of ``det J_p = 0`` between the samples or within the
-    next step; ``y_c`` is *regular* if all but the first of these hold); with ``n = 0``, its
-    fold partner (see R3), polished, is not a solution other than ``y_c`` within ``MARGIN
-    |y_c - y_k| + 10 tol`` of ``y_k``.
+    with ``J_p`` regular, ``max|g| <= tol`` at the last iterate, Newton moved ``y_pred`` by
+    at most ``0.05 |y_f - y_k| + 10 tol`` (the extrapolated motion was as accurate as the RK4
+    point below must be) and by at most ``ACCEPT L + 10 tol``, ``d = det J_p`` at the last
+    iterate (kept as the sample's ``det``) and ``det J_p`` at ``y_pred`` (the first) have the
+    non-zero sign of ``det_k``, ``2 det_k - det_(k-1)`` has that sign and ``|d| >= |det_k -
+    d|``: the conditions of the cheap continuation below, checked at ``y_f``. Else ``y_c``:
+    one RK4 step of ``dy/ds = J_p^-1 J_s dtheta`` from ``s = 0`` to 1, then Newton
+    (``NEWTON_CALLS`` calls of the 2-iteration kernel, stopping once ``max|g| <= 1e-3 tol``).
+    *Valid* if finite, ``max|g| <= tol`` and Newton moved the RK4 point by at most ``0.05
+    |y_c - y_k| + 10 tol``. It is the answer, without any other candidate, if valid and ``det
+    J_p(y_c, theta)`` has the non-zero sign of ``det_k``, and: with ``n >= 1``, ``|y_c -
+    y_pred| <= ACCEPT L + 10 tol``, ``2 det_k - det_(k-1)`` has that sign, ``|det J_p(y_c)|
+    >= |det_k - det J_p(y_c)|`` and ``det J_p(y_pred, theta)`` has that sign (nothing hints
+    at a crossing of ``det J_p = 0`` between the samples or within the next step; ``y_c`` is
+    *regular* if all but the first of these hold); with ``n = 0``, its fold partner (see R3),
+    polished, is not a solution other than ``y_c`` within ``MARGIN |y_c - y_k| + 10 tol`` of
+    ``y_k``.
 R3. *Candidates* (R2 not taken), in this order: ``y_c`` if valid; Newton from ``y_pred``; the
     *fold partner* of each of these two that was kept; the first ``HITS_PER_DIRECTION``
     crossings of ``s = 1`` of the SC curve from ``(y_k, 0)`` in each direction (convergent,
@@ -439,7 +439,10 @@ class _Tracker:
         y, res, d0, d1 = self._newton_lu(pred.y, theta)
         if y is None or not res <= self.tol:
             return None, 0.0, 0
-        if not _inf(y - pred.y) <= 0.05 * _inf(y - self.y) + 10.0 * self.tol:
+        moved = _inf(y - pred.y)
+        if not moved <= 0.05 * _inf(y - self.y) + 10.0 * self.tol:
+            return None, 0.0, 0
+        if not moved <= ACCEPT * pred.step + 10.0 * self.tol:
             return None, 0.0, 0
         if _sign(d1) != s0 or _sign(d0) != s0:
             return None, 0.0, 0
