@@ -154,7 +154,12 @@ def main(argv: list[str] | None = None) -> int:
             for fut in as_completed(futures):
                 report.tracks += fut.result()
             track_time = time.perf_counter() - t1
-    print(f"\nsolves: {len(report.solves)} in {solve_time:.0f} s wall\n")
+    off = report.confirm_refusals()
+    print(f"\nsolves: {len(report.solves)} in {solve_time:.0f} s wall")
+    print(
+        f"{off} convergent refusal(s) confirmed by the reference: the curve through the start "
+        "closes without reaching s = 1 (column 'off'; no answer exists on that branch)\n"
+    )
     print(report.table())
     print()
     print(report.kind_table())

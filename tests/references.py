@@ -743,7 +743,10 @@ BRANCHES = ("convergent", "divergent")
 #: Draws tried for one scenario of a kind before giving up on it.
 ATTEMPTS = 40
 #: Outcome classes of a solve.
-OUTCOMES = ("ok", "wrong_residual", "wrong_parity", "refused", "crash", "timeout")
+#: "off_curve": a convergent refusal where the curve through the start closes without
+#: reaching ``s = 1``, confirmed by the reference (:func:`confirm_off_curve`): no answer
+#: exists on that branch.
+OUTCOMES = ("ok", "wrong_residual", "wrong_parity", "refused", "off_curve", "crash", "timeout")
 
 
 class SolveTimeout(BaseException):
@@ -1342,6 +1345,106 @@ def _track_errors(ref: Reference, model, tr: Track, res) -> np.ndarray:
     return np.array(errs)
 
 
+# ------------------------------------------------------- the curve of a convergent solve
+
+#: Budgets of :func:`line_curve_reaches`: steps and arc length [reference coordinates, s].
+LINE_STEPS = 4000
+LINE_ARC = 200.0
+
+
+def _free(ref: Reference, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(indices of the unknown coordinates of ``u``, 1 where they are angles)."""
+    if isinstance(ref, GepettoReference):
+        return np.array(ref.free), np.ones(len(ref.free))
+    return np.arange(len(u)), np.zeros(len(u))
+
+
+def line_curve_reaches(ref: Reference, u0, theta1, theta0) -> bool | None:
+    """Whether the solution curve of the closures along the line ``theta1 + s (theta0 -
+    theta1)`` through the start ``u0`` (at ``s = 0``) reaches ``s = 1``, followed from the
+    start towards increasing ``s`` (the convergent branch's first direction).
+
+    Pseudo-arclength continuation on the reference's own closures (finite-difference
+    Jacobians, bordered Newton corrector, step halving and growth): True when ``s`` crosses
+    1, False when the curve comes back to the start (closed without reaching it), None
+    when a budget ran out or the corrector failed (undecided).
+    """
+    theta1 = np.asarray(theta1, dtype=float)
+    dth = np.asarray(theta0, dtype=float) - theta1
+    u0 = np.array(u0, dtype=float)
+    idx, angle = _free(ref, u0)
+    rows = ref.rows if isinstance(ref, GepettoReference) else slice(None)
+
+    def F(v):
+        u = u0.copy()
+        u[idx] = v[:-1]
+        return np.asarray(ref.closure(u, theta1 + v[-1] * dth))[rows]
+
+    def J(v, h=1e-7):
+        cols = []
+        for i in range(len(v)):
+            e = np.zeros(len(v))
+            e[i] = h
+            cols.append((F(v + e) - F(v - e)) / (2 * h))
+        return np.array(cols).T
+
+    def tangent(v, prev):
+        t = np.linalg.svd(J(v))[2][-1]
+        return t if float(t @ prev) > 0 else -t
+
+    v = np.append(u0[idx], 0.0)
+    start = v.copy()
+    if not float(np.abs(F(v)).max()) <= 1e-8:
+        return None
+    e_s = np.zeros(len(v))
+    e_s[-1] = 1.0
+    t = tangent(v, e_s)
+    h, arc, far = 1e-3, 0.0, False
+    for _ in range(LINE_STEPS):
+        w = v + h * t
+        for _it in range(8):  # Newton on [F; t . (w - v) - h] = 0
+            r = np.append(F(w), float(t @ (w - v)) - h)
+            if float(np.abs(r).max()) <= 1e-11:
+                break
+            w = w - np.linalg.solve(np.vstack([J(w), t]), r)
+        ok = float(np.abs(F(w)).max()) <= 1e-10 and float(np.linalg.norm(w - v)) <= 2 * h
+        if not ok:
+            h *= 0.5
+            if h < 1e-9:
+                return None
+            continue
+        t_new = tangent(w, t)
+        if float(t_new @ t) < 0.9:  # turned too sharply for the step: halve it
+            h *= 0.5
+            continue
+        if (v[-1] - 1.0) * (w[-1] - 1.0) <= 0:
+            return True
+        arc += h
+        v, t = w, t_new
+        d = np.where(np.append(angle, 0.0) > 0, wrap(v - start), v - start)
+        d[-1] = v[-1] - start[-1]
+        dist = float(np.linalg.norm(d))
+        if dist > 10 * h:
+            far = True
+        elif far and dist <= 2 * h:
+            return False  # back at the start: the curve is closed
+        if arc > LINE_ARC:
+            return None
+        h = min(1.5 * h, 0.05)
+    return None
+
+
+def confirm_off_curve(o: Outcome) -> bool:
+    """A convergent refusal ("did not reach s = 1") confirmed by the reference: the curve
+    through the start closes without reaching ``s = 1`` (:func:`line_curve_reaches`)."""
+    if o.branch != "convergent" or o.status != "refused" or "did not reach s = 1" not in o.detail:
+        return False
+    scen = o.scenario
+    ref, model = reference(scen.name), load(scen.name)
+    start = scen.start(model)
+    return line_curve_reaches(ref, ref.coords(start), start.theta, scen.theta0) is False
+
+
 # ---------------------------------------------------------------------------- summaries
 
 
@@ -1375,12 +1478,26 @@ class Report:
                 kind is None or o.scenario.kind == kind
             ):
                 by.setdefault(id(o.scenario), []).append(o)
-        return sum(len(v) == 2 and all(o.status == "refused" for o in v) for v in by.values())
+        no = ("refused", "off_curve")  # no answer on either branch
+        return sum(len(v) == 2 and all(o.status in no for o in v) for v in by.values())
+
+    def confirm_refusals(self) -> int:
+        """Relabel the convergent refusals that the reference confirms (the curve through the
+        start closes without reaching ``s = 1``) as "off_curve"; returns their number."""
+        n = 0
+        for o in self.solves:
+            if confirm_off_curve(o):
+                o.status = "off_curve"
+                n += 1
+        return n
 
     def failures(self, statuses=("wrong_residual", "wrong_parity", "crash")) -> list[Outcome]:
         return [o for o in self.solves if o.status in statuses]
 
-    def classes(self, statuses=("wrong_residual", "wrong_parity", "crash", "refused", "timeout")):
+    def classes(
+        self,
+        statuses=("wrong_residual", "wrong_parity", "crash", "refused", "off_curve", "timeout"),
+    ):
         """Non-ok solves grouped by (status, model, branch, kind, message with numbers
         blanked): key -> (count, first outcome)."""
         groups: dict[tuple, list] = {}
@@ -1393,12 +1510,14 @@ class Report:
 
     def table(self) -> str:
         """Per model and branch: solves, ok, silently wrong (of which parity), refused (both
-        branches refused, per scenario), crashes, timeouts, parity checks skipped, results equal
-        to the generating solution, median wall time per solve."""
+        branches refused, per scenario), refusals confirmed off the start's curve, crashes,
+        timeouts, parity checks skipped, results equal to the generating solution, median wall
+        time per solve."""
         names = list(dict.fromkeys(o.scenario.name for o in self.solves))
         head = (
             f"{'model':<20} {'branch':<10} {'solves':>6} {'ok':>6} {'wrong':>5} {'(par)':>5} "
-            f"{'refused':>7} {'(both)':>6} {'crash':>5} {'t/o':>4} {'par.skip':>8} {'gen':>5} "
+            f"{'refused':>7} {'(both)':>6} {'off':>4} {'crash':>5} {'t/o':>4} {'par.skip':>8} "
+            f"{'gen':>5} "
             f"{'ms/solve':>9}"
         )
         lines = [head, "-" * len(head)]
@@ -1411,7 +1530,8 @@ class Report:
                 both = self.both_refused(name) if branch == "convergent" else ""
                 lines.append(
                     f"{name or 'all':<20} {branch:<10} {c['solves']:>6} {c['ok']:>6} {wrong:>5} "
-                    f"{c['wrong_parity']:>5} {c['refused']:>7} {both!s:>6} {c['crash']:>5} "
+                    f"{c['wrong_parity']:>5} {c['refused']:>7} {both!s:>6} {c['off_curve']:>4} "
+                    f"{c['crash']:>5} "
                     f"{c['timeout']:>4} {c['parity_skipped']:>8} {c['generating']:>5} "
                     f"{c['median_ms']:>9.2f}"
                 )

@@ -307,3 +307,28 @@ def test_cli_refuses_a_bad_prefix(tmp_path, capsys):
     rc = main(["codegen", str(ROOT / "models" / "planar_3rpr"), "--out", str(tmp_path),
                "--prefix", "9bad", "--no-shared"])  # fmt: skip
     assert rc == 1 and "C prefix" in capsys.readouterr().err
+
+
+def test_split_sources_hold_one_copy_of_the_closures_and_of_each_solve(tmp_path):
+    """Kernels call the closure Function and the linear solves: one definition per source."""
+    model = shipped("stewart_gough")
+    src = generate(model, tmp_path / "split", split=True)
+    one = generate(model, tmp_path / "one")
+    assert len(src.parts) == 3 and src.unoptimised == (src.parts[2],)
+    defined = re.compile(r"^/\* (scdk_closure|scdk_solve\d+_[0-9a-f]+):\(", re.M)
+    for path in (*src.parts, one.kernels_c):
+        names = defined.findall(path.read_text())
+        assert len(names) == len(set(names)), (path.name, names)
+    assert defined.findall(one.kernels_c.read_text()).count("scdk_closure") == 1
+    # the kernels that evaluate the closures share one source: one copy of them in all
+    split = [name for part in src.parts for name in defined.findall(part.read_text())]
+    assert split.count("scdk_closure") == 1
+
+
+def test_sources_without_the_inverse_kinematics(tmp_path):
+    """The library Python loads leaves the inverse kinematics out (its ik_solve refuses)."""
+    src = generate(shipped("stewart_gough"), tmp_path, split=True, inverse_kinematics=False)
+    assert len(src.parts) == 2 and src.unoptimised == ()
+    assert "#define SCDK_HAS_IK 0" in src.tracker_h.read_text()
+    for path in (*src.parts, src.kernels_h):
+        assert "scdk_ik_step" not in path.read_text(), path.name

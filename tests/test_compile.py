@@ -1,6 +1,7 @@
 """Compiled kernels (scdk_sym.kernels.compile) against the CasADi SX Functions."""
 
 from dataclasses import fields
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -146,3 +147,23 @@ def test_generated_library_keys_change_with_flags_and_compiler(tmp_path, monkeyp
     assert flagged != changed
     monkeypatch.setenv("CC", "clang")
     assert gen.source_key(src) != flagged
+
+
+def test_unoptimised_sources_compile_at_O0_and_enter_the_key(tmp_path, monkeypatch):
+    import importlib
+
+    gen = importlib.import_module("scdk_sym.codegen.generate")
+    calls = []
+    monkeypatch.setattr(comp, "run_compiler", lambda args, cwd=None: calls.append(list(args)))
+    a, b = tmp_path / "a.c", tmp_path / "b.c"
+    a.write_text("int a(void) { return 1; }\n")
+    b.write_text("int b(void) { return 2; }\n")
+    comp.compile_parallel([a, b], tmp_path / "lib.so", ("-O1", "-fPIC"), unoptimised=[b])
+    flags = {Path(c[c.index("-c") + 1]).name: c[: c.index("-c")] for c in calls if "-c" in c}
+    assert flags == {"a.c": ["-O1", "-fPIC"], "b.c": ["-O1", "-fPIC", "-O0"]}
+    parts = [tmp_path / n for n in ("k.c", "k.h", "t.c", "t.h")]
+    for i, p in enumerate(parts):
+        p.write_text(f"/* {i} */\n")
+    src = gen.GeneratedSources(tmp_path, "p", parts[0], parts[1], parts[2], parts[3], (a, b))
+    cold = gen.GeneratedSources(tmp_path, "p", *parts, (a, b), (b,))
+    assert gen.source_key(src) != gen.source_key(cold)

@@ -28,6 +28,7 @@ from references import (
     classify,
     draw_scenarios,
     draw_tracks,
+    line_curve_reaches,
     load,
     reference,
     run_solves,
@@ -258,6 +259,30 @@ def test_divergent_cases_found_refused_by_the_fuzz(name: str, kind: str, theta0,
     except PathError:  # the straight path from the start closes on itself (iso3d)
         return
     assert ref.distance(ref.coords(res), ref.coords(conv)) > 1e-6
+
+
+#: Convergent refusals of the fuzz whose curve through the start closes before s = 1, and
+#: solvable controls: (model, theta0, start (y, theta) or None for home, reaches s = 1).
+LINE_CURVES = [
+    ("5bar_linkage_iso3d", [2.352439619767056, 0.6010503765557498], None, False),
+    ("5bar_linkage_iso3d", [0.3, -0.2], None, True),
+    ("delta", [0.1, 0.2, 0.3], None, True),
+]
+
+
+@pytest.mark.parametrize(("name", "theta0", "start", "reaches"), LINE_CURVES)
+def test_the_reference_continuation_tells_a_closed_curve(name, theta0, start, reaches) -> None:
+    import scdk_sym as sc
+    from scdk_sym.errors import PathError
+
+    ref, model = reference(name), load(name)
+    cfg = model.home if start is None else model.configuration(*start)
+    assert line_curve_reaches(ref, ref.coords(cfg), cfg.theta, theta0) is reaches
+    if reaches:  # the package agrees: the convergent branch answers where the curve reaches
+        assert sc.solve(model, theta0, start=cfg).residual <= 1e-9
+    else:
+        with pytest.raises(PathError, match="did not reach s = 1"):
+            sc.solve(model, theta0, start=cfg)
 
 
 def test_convergent_next_to_a_fold_at_s_1_keeps_the_incoming_sheet() -> None:

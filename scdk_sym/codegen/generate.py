@@ -28,7 +28,7 @@ import numpy as np
 from ..errors import InputError, OutputError
 from ..kernels.compile import OPT, compile_parallel, compiler_tag, write_c, write_c_parts
 from . import templates
-from .kernels import build_tracker_kernels
+from .kernels import UNOPTIMISED, build_tracker_kernels
 
 #: Flags compiling each source of the shared library built for Python (the optimisation
 #: level of :mod:`scdk_sym.kernels.compile`; ``-fno-semantic-interposition``: the kernels'
@@ -53,8 +53,11 @@ class GeneratedSources:
         kernels_h: their header.
         tracker_c: the tracker (``<prefix>_tracker.c``).
         tracker_h: its header (include this one).
-        parts: written split, the kernels' sources, one per kernel
-            (``<prefix>_kernels_00.c``, ...), else empty.
+        parts: written split, the kernels' sources, one per group of kernels
+            (``<prefix>_kernels_00.c``, ..., see :data:`~scdk_sym.codegen.kernels.GROUPS`),
+            else empty.
+        unoptimised: those of ``parts`` that the shared library compiles at ``-O0``
+            (:data:`~scdk_sym.codegen.kernels.UNOPTIMISED`).
     """
 
     directory: Path
@@ -64,6 +67,7 @@ class GeneratedSources:
     tracker_c: Path
     tracker_h: Path
     parts: tuple[Path, ...] = ()
+    unoptimised: tuple[Path, ...] = ()
 
     @property
     def sources(self) -> tuple[Path, ...]:
@@ -105,6 +109,8 @@ def source_key(sources: GeneratedSources) -> str:
         h.update(path.read_bytes())
         h.update(b"\0")
     h.update(" ".join(SHARED_FLAGS).encode())
+    for path in sources.unoptimised:
+        h.update(f"\0{path.name} -O0".encode())
     h.update(compiler_tag().encode())
     return h.hexdigest()[:24]
 
@@ -136,7 +142,11 @@ def output_directory(directory: str | Path) -> Path:
 
 
 def generate(
-    model, directory: str | Path, prefix: str = "scdk", split: bool = False
+    model,
+    directory: str | Path,
+    prefix: str = "scdk",
+    split: bool = False,
+    inverse_kinematics: bool = True,
 ) -> GeneratedSources:
     """Write the C sources and headers of the model's tracker into ``directory``.
 
@@ -144,8 +154,12 @@ def generate(
         model: the model (:class:`~scdk_sym.robot.Model`).
         directory: output directory (created if needed).
         prefix: C prefix of every exported name and file name.
-        split: one kernel source per kernel (compiled in parallel) instead of one
-            ``<prefix>_kernels.c``; the same header and functions.
+        split: one kernel source per group of kernels (compiled in parallel, see
+            :data:`~scdk_sym.codegen.kernels.GROUPS`) instead of one ``<prefix>_kernels.c``;
+            the same header and functions.
+        inverse_kinematics: False to leave out the inverse kinematics (no ``ik_step``
+            kernel, ``<PREFIX>_HAS_IK`` 0: ``<prefix>_ik_solve`` refuses): the library that
+            Python loads, which never calls it, compiles faster without.
 
     Returns:
         The paths of the generated files.
@@ -157,24 +171,36 @@ def generate(
     prefix = check_prefix(prefix)
     out = output_directory(directory)
     try:
-        return _generate(model, out, prefix, split)
+        return _generate(model, out, prefix, split, inverse_kinematics)
     except OSError as exc:
         name = exc.filename or out
         raise OutputError(f"cannot write: {exc.strerror or exc}", name) from exc
 
 
-def _generate(model, out: Path, prefix: str, split: bool = False) -> GeneratedSources:
+def _generate(
+    model, out: Path, prefix: str, split: bool = False, inverse_kinematics: bool = True
+) -> GeneratedSources:
     kern = build_tracker_kernels(model.symbolic, model.chart.rotations, prefix)
-    funcs = kern.all()
+    left_out = set() if inverse_kinematics else {kern.ik_step.name()}
+    groups = [[f for f in group if f.name() not in left_out] for group in kern.groups()]
+    groups = [group for group in groups if group]
+    funcs = [f for f in kern.all() if f.name() not in left_out]
+    unoptimised: list[Path] = []
     if split:
-        parts, _ = write_c_parts(funcs, f"{prefix}_kernels", out)
+        parts, _ = write_c_parts(groups, f"{prefix}_kernels", out)
+        cold = {getattr(kern, name).name() for name in UNOPTIMISED}
+        unoptimised = [
+            part
+            for part, group in zip(parts, groups, strict=True)
+            if all(f.name() in cold for f in group)
+        ]
     else:
         parts = [write_c(funcs, f"{prefix}_kernels", out, with_header=True)]
     for part in parts:
         _quiet_unused_parameters(part)
     home = model.home
     y_loc, c = model.chart.to_local(home.y)
-    has_ik = len(model.workspace) == model.k
+    has_ik = inverse_kinematics and len(model.workspace) == model.k
     values = {
         "P": prefix,
         "PU": prefix.upper(),
@@ -216,6 +242,7 @@ def _generate(model, out: Path, prefix: str, split: bool = False) -> GeneratedSo
         tracker_c=out / f"{prefix}_tracker.c",
         tracker_h=out / f"{prefix}_tracker.h",
         parts=tuple(parts) if split else (),
+        unoptimised=tuple(unoptimised),
     )
 
 
@@ -276,5 +303,10 @@ def compile_library(sources: GeneratedSources, target: str | Path) -> Path:
     """
     target = Path(target).resolve()
     return compile_parallel(
-        sources.sources, target, COMPILE_FLAGS, LINK_FLAGS, cwd=sources.directory
+        sources.sources,
+        target,
+        COMPILE_FLAGS,
+        LINK_FLAGS,
+        cwd=sources.directory,
+        unoptimised=sources.unoptimised,
     )

@@ -16,6 +16,12 @@ step and of the Newton corrector), renamed with the C prefix and made dense:
   used for the cheap continuation step of a smooth track;
 - ``newton`` and ``polish``: Newton at fixed ``theta`` (a few iterations, and the follower's
   polish that finishes a crossing of ``s = 1``).
+
+Every kernel that evaluates the closures calls one Function of them
+(:func:`scdk_sym.follower.kernels.closure_function`) and every linear solve calls one Function
+per matrix pattern (:func:`~scdk_sym.follower.kernels.linear_solver`): the generated C holds
+one copy of each per source file (:data:`GROUPS`) instead of one per use, and compiles in a
+fraction of the time.
 """
 
 from __future__ import annotations
@@ -24,10 +30,23 @@ from dataclasses import dataclass, fields
 
 import casadi as ca
 
-from ..follower.kernels import build_follower_kernels
+from ..follower.kernels import build_follower_kernels, closure_function
 from ..kernels.functions import build_kernels
 from ..model.rotations import cayley
 from ..symbolic.system import Symbolic
+
+#: The kernels written into one source each (:meth:`TrackerKernels.groups`): the inner
+#: Functions a group's kernels call are compiled once per source, and the sources compile in
+#: parallel. The kernels that call the closure Function (its one copy); the others; the
+#: inverse kinematics.
+GROUPS = (
+    ("jac", "predict", "newton", "polish", "tangent", "step"),
+    ("g", "pose", "recentre", "check"),
+    ("ik_step",),
+)
+#: Kernels compiled without optimisation (``-O0``): the inverse kinematics, called only to
+#: assemble a start from a pose, whose symbolic (m+k)x(m+k) solve is most of the generated C.
+UNOPTIMISED = ("ik_step",)
 
 
 @dataclass(frozen=True)
@@ -74,6 +93,10 @@ class TrackerKernels:
         """Every kernel, in declaration order."""
         return [getattr(self, f.name) for f in fields(self)]
 
+    def groups(self) -> list[list[ca.Function]]:
+        """The kernels by source file (:data:`GROUPS`)."""
+        return [[getattr(self, name) for name in group] for group in GROUPS]
+
 
 def _dense(f: ca.Function, name: str | None = None) -> ca.Function:
     """``f`` with every input and output dense (column-major, all entries stored), renamed.
@@ -110,8 +133,11 @@ def build_tracker_kernels(
         is dense (the C tracker indexes them as dense column-major arrays).
     """
     base = build_kernels(sym, name=prefix)
-    curve = build_follower_kernels(sym, inline=False)
+    closure = closure_function(sym)
+    curve = build_follower_kernels(sym, inline=False, closure=closure)
     y, theta, c = sym.y, sym.theta, sym.c
+    _, Jp, Js = closure(y, theta, c)
+    jac = ca.Function(f"{prefix}_jac", [y, theta, c], [Jp, Js], ["y", "theta", "c"], ["J_p", "J_s"])
 
     # recentre: R_ref <- R_ref cayley(rho), rho <- 0, one Newton-Schulz orthonormalisation
     y_out = ca.SX(y)
@@ -128,7 +154,7 @@ def build_tracker_kernels(
     g = ca.Function(f"{prefix}_g", [y, theta, c], [sym.g], ["y", "theta", "c"], ["g"])
     kernels = dict(
         g=g,
-        jac=base.jac,
+        jac=jac,
         pose=base.pose,
         tangent=curve.tangent,
         step=curve.step,

@@ -1,9 +1,10 @@
 """The generated C tracker as a shared library, compiled once per model and loaded with ctypes.
 
-The library is built from the same sources that :func:`~scdk_sym.codegen.generate.generate`
-writes, into the on-disk cache (:mod:`scdk_sym.kernels.cache`) under a hash of those sources
-and the compiler flags; later processes regenerate the sources (a fraction of a second) and
-load the cached library without compiling.
+The library is built from the sources that :func:`~scdk_sym.codegen.generate.generate`
+writes (split, without the inverse kinematics that Python does not call), into the on-disk
+cache (:mod:`scdk_sym.kernels.cache`) under a hash of those sources and the compiler flags;
+later processes regenerate the sources (a fraction of a second) and load the cached library
+without compiling.
 """
 
 from __future__ import annotations
@@ -309,9 +310,10 @@ def tracker_library(model) -> CTracker:
 
 
 def _build_tracker(model) -> CTracker:
-    """Generate, compile (or find on disk) and load the model's C tracker."""
+    """Generate, compile (or find on disk) and load the model's C tracker (without the
+    inverse kinematics, which Python does not call)."""
     with tempfile.TemporaryDirectory() as tmp:
-        src = generate(model, Path(tmp), PREFIX, split=True)
+        src = generate(model, Path(tmp), PREFIX, split=True, inverse_kinematics=False)
         key = source_key(src)
         target = cache_dir() / f"tracker_{key}.so"
         if not target.exists():

@@ -19,6 +19,7 @@ curve kernels are this module's Functions (:mod:`scdk_sym.codegen.kernels`).
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, fields
 
 import casadi as ca
@@ -84,7 +85,12 @@ class FollowerKernels:
 
 
 def bordered_tangent(
-    Jp: ca.SX, Js: ca.SX, dtheta: ca.SX, v: ca.SX, rhs: ca.SX | None = None
+    Jp: ca.SX,
+    Js: ca.SX,
+    dtheta: ca.SX,
+    v: ca.SX,
+    rhs: ca.SX | None = None,
+    inline: bool = True,
 ) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX | None]:
     """The oriented SC tangent by the bordered solve: the package's one definition of it.
 
@@ -99,6 +105,7 @@ def bordered_tangent(
         v: (m+1,) orientation: the tangent has ``v . t > 0`` (in the balanced variables).
         rhs: optional (m,) right-hand side ``r``: also solve ``[H'; v^T] d = [r; 0]`` with the
             same matrix (the stabilising correction of the SC field, ``r = -g``).
+        inline: False to solve by calls of :func:`linear_solver` (compact generated C).
 
     Returns:
         ``(t, t_hat, w, d)``: the unit tangent in ``(y, s)`` (metric ``|dy|^2 + (|dtheta| ds)^2``)
@@ -114,9 +121,9 @@ def bordered_tangent(
     e[m] = 1.0
     d = None
     if rhs is None:
-        t_hat = ca.solve(A, e)
+        t_hat = _solve(A, e, inline)
     else:
-        sol = ca.solve(A, ca.horzcat(e, ca.vertcat(rhs, 0)))
+        sol = _solve(A, ca.horzcat(e, ca.vertcat(rhs, 0)), inline)
         t_hat = sol[:, 0]
         d = ca.vertcat(sol[:m, 1], sol[m, 1] / w)
     t = ca.vertcat(t_hat[:m], t_hat[m] / w) / ca.norm_2(t_hat)
@@ -129,20 +136,89 @@ def _options(inline: bool) -> dict:
     return {} if inline else {"never_inline": True}
 
 
-def newton_correction(sym, inline: bool = True) -> ca.Function:
+#: :func:`linear_solver` Functions by sparsity pattern (one per pattern and process).
+_SOLVERS: dict[tuple, ca.Function] = {}
+
+
+def linear_solver(sparsity: ca.Sparsity) -> ca.Function:
+    """The linear solve with a matrix of a given sparsity as one Function whose calls stay
+    calls.
+
+    CasADi solves a symbolic system by a symbolic QR factorisation of the matrix's sparsity
+    pattern: a few hundred operations for a dense 6x6, about a thousand for a 7x7, written out
+    in generated C at each use. Kernels that solve by calls of this Function (one per pattern
+    and process) hold one copy.
+
+    Args:
+        sparsity: the (square) matrix's sparsity.
+
+    Returns:
+        (A, b[n]) -> ``A^{-1} b``.
+    """
+    key = (sparsity.size1(), tuple(sparsity.colind()), tuple(sparsity.row()))
+    if key not in _SOLVERS:
+        A, b = ca.SX.sym("A", sparsity), ca.SX.sym("b", sparsity.size1())
+        # named by the pattern: the generated C does not depend on what was built before
+        tag = hashlib.sha256(repr(key).encode()).hexdigest()[:8]
+        name = f"scdk_solve{sparsity.size1()}_{tag}"
+        _SOLVERS[key] = ca.Function(name, [A, b], [ca.solve(A, b)], _options(False))
+    return _SOLVERS[key]
+
+
+def _solve(A: ca.SX, B: ca.SX | ca.DM, inline: bool) -> ca.SX:
+    """``A^{-1} B``: CasADi's symbolic solve, or (``inline`` False) calls of
+    :func:`linear_solver`, one per column of ``B``."""
+    if inline:
+        return ca.solve(A, B)
+    solver = linear_solver(A.sparsity())
+    return ca.horzcat(*[solver(A, B[:, j]) for j in range(B.size2())])
+
+
+def closure_function(sym) -> ca.Function:
+    """The closure system and its Jacobians as one Function whose calls stay calls.
+
+    Kernels built from calls of it (``inline=False`` below) hold one copy of the model's
+    expressions in generated C, however many of them evaluate the closures; computing ``g``,
+    ``J_p`` and ``J_s`` together costs a few percent more than any two of them (their
+    subexpressions are shared).
+
+    Args:
+        sym: the model's symbolic system (``model.symbolic``).
+
+    Returns:
+        (y[m], theta[k], c) -> (g[m], J_p[m,m], J_s[m,k]) [model length unit, per rad].
+    """
+    return ca.Function(
+        "scdk_closure",
+        [sym.y, sym.theta, sym.c],
+        [sym.g, sym.J_p, sym.J_s],
+        ["y", "theta", "c"],
+        ["g", "J_p", "J_s"],
+        _options(False),
+    )
+
+
+def newton_correction(sym, inline: bool = True, closure: ca.Function | None = None) -> ca.Function:
     """The Newton correction at fixed ``theta`` (``y - correction`` is one Newton step).
 
     Args:
         sym: the model's symbolic system (``model.symbolic``).
         inline: False to keep calls of it as calls in the expressions built from it
             (compact generated C).
+        closure: with ``inline`` False, the :func:`closure_function` it calls (default: a
+            new one; pass one shared by several kernels for one copy in generated C).
 
     Returns:
         (y[m], theta[k], c) -> ``J_p^{-1} g`` [model length unit, rad].
     """
-    return ca.Function(
-        "scdk_newton1", [sym.y, sym.theta, sym.c], [ca.solve(sym.J_p, sym.g)], _options(inline)
-    )
+    y, theta, c = sym.y, sym.theta, sym.c
+    if inline:
+        g, Jp = sym.g, sym.J_p
+    else:
+        g, Jp, _ = (closure or closure_function(sym))(y, theta, c)
+    # the solve is written out here (one copy, as this Function's calls stay calls): a call of
+    # linear_solver on this hot path costs a few percent of a tracking step
+    return ca.Function("scdk_newton1", [y, theta, c], [ca.solve(Jp, g)], _options(inline))
 
 
 def rk4_in_s(
@@ -155,6 +231,7 @@ def rk4_in_s(
     steps: int,
     stage_jp: list | None = None,
     inline: bool = True,
+    closure: ca.Function | None = None,
 ) -> ca.SX:
     """RK4 steps along the curve with ``s`` as the independent variable (valid off the
     singular manifold): ``dy/ds = J_p^{-1} J_s dtheta`` on ``theta = theta1 + s dtheta``.
@@ -171,12 +248,17 @@ def rk4_in_s(
             order (the expression the slope is solved with, so a check of its determinant
             costs no second evaluation).
         inline: False to evaluate ``dy/ds`` by calls of one Function (compact generated C).
+        closure: with ``inline`` False, the :func:`closure_function` ``dy/ds`` calls
+            (default: a new one).
 
     Returns:
         (m,) the unknowns at ``s1``.
     """
     s, a, d = ca.SX.sym("s"), ca.SX.sym("theta1", sym.k), ca.SX.sym("dtheta", sym.k)
-    Jp, Js = ca.substitute([sym.J_p, sym.J_s], [sym.theta], [a + s * d])
+    if inline:
+        Jp, Js = ca.substitute([sym.J_p, sym.J_s], [sym.theta], [a + s * d])
+    else:
+        _, Jp, Js = (closure or closure_function(sym))(sym.y, a + s * d, sym.c)
     f = ca.Function(
         "scdk_dyds", [sym.y, s, a, d, sym.c], [ca.solve(Jp, Js @ d), Jp], _options(inline)
     )
@@ -200,16 +282,25 @@ def rk4_in_s(
     return yk
 
 
-def build_follower_kernels(sym, inline: bool = True) -> FollowerKernels:
+def build_follower_kernels(
+    sym, inline: bool = True, closure: ca.Function | None = None
+) -> FollowerKernels:
     """Build the follower's Functions from a model's symbolic system (``model.symbolic``).
 
     Args:
         sym: the model's symbolic system.
-        inline: False to build the kernels from calls of their inner Functions (tangent,
-            closure and Jacobian, Newton step, ``dy/ds``) instead of inlined copies: the same
-            operations, several times less generated C to compile (the C tracker's choice).
+        inline: False to build the kernels from calls of their inner Functions (the closure
+            system and its Jacobians, tangent, corrector, Newton step, residual, ``dy/ds``)
+            instead of inlined copies: the same operations, several times less generated C to
+            compile (the C tracker's choice).
+        closure: with ``inline`` False, the :func:`closure_function` every kernel calls
+            (default: a new one; pass the one other kernels call for one copy in C).
     """
     opts = _options(inline)
+    if inline:
+        closure = None
+    elif closure is None:
+        closure = closure_function(sym)
     m, k = sym.m, sym.k
     y, c = sym.y, sym.c
     s = ca.SX.sym("s")
@@ -222,16 +313,30 @@ def build_follower_kernels(sym, inline: bool = True) -> FollowerKernels:
     weight = ca.vertcat(ca.DM.ones(m), w2)
     v = ca.SX.sym("v", m + 1)
     t, t_hat, _w, _ = bordered_tangent(Jp, Js, dtheta, v)
-    f_tan = ca.Function(
-        "scdk_follow_tangent", [q, v, p, c], [t, ca.vec(Jp)], ["q", "v", "p", "c"], ["t", "J_p"]
-    )
-    Hq = ca.horzcat(Jp, -(Js @ dtheta))
-    f_gH = ca.Function("scdk_follow_gH", [q, p, c], [g, Hq], opts)
-    f_tan_call = (
-        f_tan
-        if inline
-        else ca.Function("scdk_follow_tangent_call", [q, v, p, c], [t, ca.vec(Jp)], opts)
-    )
+    names_in, names_out = ["q", "v", "p", "c"], ["t", "J_p"]
+    if closure is None:
+        f_tan = ca.Function(
+            "scdk_follow_tangent", [q, v, p, c], [t, ca.vec(Jp)], names_in, names_out
+        )
+        f_tan_call = f_tan
+        gH: tuple[ca.SX, ...] = (g, Jp, Js)
+    else:
+        # one copy of the tangent: the exported kernel calls the Function the step calls
+        gH = tuple(closure(y, theta1 + s * dtheta, c))
+        tc = bordered_tangent(gH[1], gH[2], dtheta, v, inline=False)[0]
+        f_tan_call = ca.Function(
+            "scdk_follow_tangent_call", [q, v, p, c], [tc, ca.vec(gH[1])], opts
+        )
+        f_tan = ca.Function(
+            "scdk_follow_tangent",
+            [q, v, p, c],
+            list(f_tan_call(q, v, p, c)),
+            names_in,
+            names_out,
+        )
+    Hq = ca.horzcat(gH[1], -(gH[2] @ dtheta))
+    # inlined where it is used: with calls of the closure, it is a call and a product
+    f_gH = ca.Function("scdk_follow_gH", [q, p, c], [gH[0], Hq])
 
     # one predictor-corrector step, mapped STEPS times
     x = ca.SX.sym("x", 2 * (m + 1))
@@ -248,7 +353,7 @@ def build_follower_kernels(sym, inline: bool = True) -> FollowerKernels:
     f_corr = ca.Function(
         "scdk_follow_correct",
         [qc, qp, t1, p, c],
-        [-ca.solve(ca.vertcat(Hk, row), ca.vertcat(gk, row @ (qc - qp)))],
+        [-_solve(ca.vertcat(Hk, row), ca.vertcat(gk, row @ (qc - qp)), inline)],
         opts,
     )
     qk = q_pred
@@ -293,8 +398,8 @@ def build_follower_kernels(sym, inline: bool = True) -> FollowerKernels:
 
     # Newton at fixed theta: one step, iterated by the polish and the tracker's corrector
     theta = sym.theta
-    newton1 = newton_correction(sym, inline)
-    residual = ca.Function("scdk_residual", [y, theta, c], [ca.norm_inf(sym.g)])
+    newton1 = newton_correction(sym, inline, closure)
+    residual = ca.Function("scdk_residual", [y, theta, c], [ca.norm_inf(sym.g)], opts)
     yk = y
     for _ in range(POLISH_STEPS):
         yk = yk - newton1(yk, theta, c)
@@ -322,7 +427,7 @@ def build_follower_kernels(sym, inline: bool = True) -> FollowerKernels:
     f_predict = ca.Function(
         "scdk_follow_predict",
         [y, theta1, dtheta, c],
-        [rk4_in_s(sym, y, 0.0, 1.0, theta1, dtheta, 1, inline=inline)],
+        [rk4_in_s(sym, y, 0.0, 1.0, theta1, dtheta, 1, inline=inline, closure=closure)],
         ["y", "theta1", "dtheta", "c"],
         ["y1"],
     )

@@ -184,6 +184,16 @@ def _det_sign(model, cfg: Configuration | SolveResult) -> float:
     return 1.0 if np.linalg.det(np.array(model_calls(model).jac(y, cfg.theta, c)[0])) > 0 else -1.0
 
 
+#: Cosine above which two points a step off a singular configuration lie on one half-branch
+#: (their chords from it agree to 0.8 degrees; distinct branches cross at larger angles).
+SAME_HALF_BRANCH = 0.9999
+
+#: ``sigma_min / sigma_max`` of ``J_p`` below which a point a step off a singular
+#: configuration is still singular (the singular set extends along the step at fixed
+#: ``theta``, e.g. a five-bar with its two elbows on one point): no sheet to enter there.
+DEGENERATE = 1e-10
+
+
 def from_fold(
     model,
     fold: Crossing,
@@ -239,14 +249,23 @@ def from_fold(
     scale = max(1.0, float(model.length_scale))
     found: list[tuple[np.ndarray, list[Crossing]]] = []
     for length in (1e-4 * scale, 1e-3 * scale, 1e-5 * scale):
+        entered: list[np.ndarray] = []  # unit chords fold -> q1 of the half-branches followed
         for t in directions:
             v = t / math.sqrt(float(t[:m] @ t[:m]) + w2 * t[m] ** 2)
             q1, res = kern.plane(q_f + length * v, v, p, c)
             q1 = np.array(q1).ravel()
             if not (np.all(np.isfinite(q1)) and float(res) <= 0.1 * tol):
                 continue
+            chord = (q1 - q_f) / max(float(np.linalg.norm(q1 - q_f)), 1e-300)
+            if any(float(chord @ e) > SAME_HALF_BRANCH for e in entered):
+                continue  # projected onto a half-branch already followed: the same walk
+            entered.append(chord)
             t1, J1 = kern.tangent(q1, v, p, c)
-            det1 = np.linalg.det(np.array(J1).reshape(m, m, order="F"))
+            J1 = np.array(J1).reshape(m, m, order="F")
+            S1 = np.linalg.svd(J1, compute_uv=False)
+            if not S1[-1] > DEGENERATE * S1[0]:
+                continue  # still singular off the point: a self-motion, not a sheet to enter
+            det1 = np.linalg.det(J1)
             if want is not None and not det1 * want > 0:
                 continue
             walk = follow(model, line, q1[:m], float(q1[-1]), 1.0, predictor=predictor,
@@ -452,10 +471,9 @@ def across_fold(
     Returns:
         (configuration at ``theta0``, singular points met after the fold) or None.
     """
-    from .geometry import difference, features
+    from .geometry import difference
 
     kern = follower_calls(model, backend)
-    tol = float(model.tolerance)
     sign0 = _det_sign(model, start)
     candidates: list[tuple[np.ndarray, list[Crossing]]] = []
     leg = from_fold(model, fold, theta0, sign0, backend=backend, predictor=predictor)
@@ -483,8 +501,45 @@ def across_fold(
             y = np.array(y).ravel()
             if np.all(np.isfinite(y)) and float(np.max(np.abs(y - y_f))) <= 10.0 * scale:
                 candidates.append((model.chart.to_canonical(y, c), []))
-    f_fold = features(model, fold.y)[0]
-    crossing = _branches_cross(Jp, Js)
+    return nearest_across(model, fold.y, theta0, candidates, sign0,
+                          any_sign=_branches_cross(Jp, Js), exclude=exclude)  # fmt: skip
+
+
+def nearest_across(
+    model,
+    anchor_y: np.ndarray,
+    theta0: np.ndarray,
+    candidates: list[tuple[np.ndarray, list[Crossing]]],
+    sign0: float,
+    *,
+    any_sign: bool = False,
+    exclude: Configuration | None = None,
+) -> tuple[Configuration, list[Crossing]] | None:
+    """The candidate across the singular surface nearest to ``anchor_y``: the one rule that
+    picks the divergent answer, whoever proposed the candidates.
+
+    Kept: candidates that close at ``theta0`` (residual), are not ``exclude`` (chart-free
+    features within 1e-7 model sizes) and, unless ``any_sign`` (branches cross at the
+    singular point: ``det J_p`` tells nothing of the side), have ``det J_p`` of the sign
+    opposite to ``sign0``. Of those, the nearest to ``anchor_y`` (max-norm of the features).
+
+    Args:
+        model: the model.
+        anchor_y: canonical unknowns of the singular configuration (or of the start).
+        theta0: (k,) target.
+        candidates: (canonical unknowns at ``theta0``, singular points met on the way).
+        sign0: sign of ``det J_p`` on the start's side.
+        any_sign: accept either sign.
+        exclude: a configuration not to return (the convergent answer).
+
+    Returns:
+        (configuration, its singular points met) or None.
+    """
+    from .geometry import features
+
+    tol = float(model.tolerance)
+    scale = max(1.0, float(model.length_scale))
+    f_anchor = features(model, anchor_y)[0]
     f_exclude = None if exclude is None else features(model, exclude.y)[0]
     best = None
     for y, met in candidates:
@@ -496,10 +551,10 @@ def across_fold(
         f = features(model, cfg.y)[0]
         if f_exclude is not None and float(np.max(np.abs(f - f_exclude))) <= 1e-7 * scale:
             continue
-        if not crossing and _det_sign(model, cfg) * sign0 > 0:
+        if not any_sign and _det_sign(model, cfg) * sign0 > 0:
             continue
-        dist = float(np.max(np.abs(features(model, cfg.y)[0] - f_fold)))
-        if best is None or dist < best[0] - 1e-9:
+        dist = float(np.max(np.abs(f - f_anchor)))
+        if best is None or dist < best[0] - 1e-9 * scale:
             best = (dist, cfg, met)
     return None if best is None else (best[1], best[2])
 

@@ -347,9 +347,10 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
     5. every real solution at ``theta0`` (:func:`~scdk_sym.solvers.modes.assembly_modes`,
        certified): of those on the other side of the nearest singular configuration
        (``det J_p`` of the sign opposite to the start's; where branches cross there, any
-       other than the convergent answer) the one nearest to it, as in way 2, which guesses
-       the candidates by Newton from points beyond the singular configuration where this
-       way has them all (e.g. the Delta's mirror assembly above its base).
+       other than the convergent answer) the one nearest to it, picked by the rule of way 2
+       (:func:`~scdk_sym.follower.singular.nearest_across`), which guesses the candidates by
+       Newton from points beyond the singular configuration where this way has them all
+       (e.g. the Delta's mirror assembly above its base).
     """
     from ..follower.singular import across, across_fold, nearest_singular
 
@@ -478,8 +479,7 @@ def _across_by_modes(
     singular manifold from the midpoint (:func:`~scdk_sym.follower.singular.singular_from`:
     a singular configuration, not necessarily the nearest).
     """
-    from ..follower.geometry import features
-    from ..follower.singular import nearest_singular, singular_from
+    from ..follower.singular import nearest_across, nearest_singular, singular_from
     from .modes import assembly_modes
 
     try:
@@ -494,19 +494,16 @@ def _across_by_modes(
         tried.append("every real solution at theta0: the set is not certified complete")
         return None
     conv = convergent()
-    sign0 = _det_sign(model, start)
-    scale = max(1.0, float(model.length_scale))
     anchor = start if fold is None else fold
-    f_anchor = features(model, anchor.y)[0]
-    best: tuple[float, Configuration] | None = None
-    for cfg in sols:
-        if conv is not None and _same_configuration(model, cfg, conv):
-            continue
-        if (fold is None or fold.kind == "fold") and _det_sign(model, cfg) * sign0 > 0:
-            continue
-        dist = float(np.max(np.abs(features(model, cfg.y)[0] - f_anchor)))
-        if best is None or dist < best[0] - 1e-9 * scale:
-            best = (dist, cfg)
+    best = nearest_across(
+        model,
+        anchor.y,
+        theta0,
+        [(cfg.y, []) for cfg in sols],
+        _det_sign(model, start),
+        any_sign=fold is not None and fold.kind != "fold",
+        exclude=None if conv is None else conv.configuration,
+    )
     if best is None:
         tried.append(
             f"every real solution at theta0 ({len(sols)}, certified): none on the other side"
@@ -514,8 +511,8 @@ def _across_by_modes(
         return None
     if fold is None:
         near = conv if conv is not None else start
-        mid = model.configuration(0.5 * (near.y + best[1].y), 0.5 * (near.theta + theta0))
-        for seed in (mid, best[1]):
+        mid = model.configuration(0.5 * (near.y + best[0].y), 0.5 * (near.theta + theta0))
+        for seed in (mid, best[0]):
             fold = nearest_singular(model, seed, backend)
             if fold is not None:
                 break
@@ -525,7 +522,7 @@ def _across_by_modes(
             tried.append("every real solution at theta0: no singular surface located between")
             return None
     crossing = _on_path(fold, start, theta0)
-    return _result(model, best[1].y, theta0, (crossing,), "divergent", -sign, start, None)
+    return _result(model, best[0].y, theta0, (crossing,), "divergent", -sign, start, None)
 
 
 def _same_configuration(model: Model, a, b) -> bool:
