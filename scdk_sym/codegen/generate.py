@@ -229,6 +229,8 @@ def _generate(
         **_rule_constants(),
         **_follower_constants(),
         "PERIODIC": _periodic(model),
+        "ROTATION": ", ".join(str(i) for idx in model.chart.rotations for i in idx) or "0",
+        "NROT_ALLOC": str(max(1, 3 * len(model.chart.rotations))),
     }
     header = templates.fill(templates.template(templates.HEADER), values)
     source = templates.fill(templates.template(templates.SOURCE), values)

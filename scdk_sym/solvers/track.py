@@ -49,7 +49,11 @@ R2. *Cheap continuation.* First (``n >= 1``) ``y_f``: Newton from ``y_pred``, ``
     iterate). It is the answer, without any other candidate, if every evaluation was finite
     with ``J_p`` regular, ``max|g| <= tol`` at the last iterate, Newton moved ``y_pred`` by
     at most ``0.05 |y_f - y_k| + 10 tol`` (the extrapolated motion was as accurate as the RK4
-    point below must be) and by at most ``ACCEPT L + 10 tol``, ``d = det J_p`` at the last
+    point below must be) and by at most ``ACCEPT L + 10 tol``, ``y_f`` lies within ``0.05
+    |y_f - y_k| + 10 tol`` of the Euler point ``y_e = y_k + J_p^-1 J_s dtheta`` (``J_p``, ``J_s``
+    and the chart of the last evaluation of ``J_p`` at sample ``k``, ``y_e`` moved into the
+    chart of ``y_k``: ``y_f`` is the continuation of ``y_k``, not a root the prediction happened
+    to lie next to), ``d = det J_p`` at the last
     iterate (kept as the sample's ``det``) and ``det J_p`` at ``y_pred`` (the first) have the
     non-zero sign of ``det_k``, ``2 det_k - det_(k-1)`` has that sign and ``|d| >= |det_k -
     d|``: the conditions of the cheap continuation below, checked at ``y_f``. Else ``y_c``:
@@ -295,17 +299,27 @@ class _Tracker:
         y, c = model.chart.to_local(start.y)
         self.y, self.c = self._recentre(y, c)
         self.theta = np.array(start.theta, dtype=float)
-        self.det = self._det(self.y, self.theta)
+        self.jac_next: tuple[np.ndarray, np.ndarray] | None = None
+        self.det = self._det(self.y, self.theta, keep=True)
+        self.jac = _Jacobian(*self.jac_next, self.y.copy()) if self.jac_next else None
         self.det_prev = self.det
         self.d: list[np.ndarray] = []  # motion increments, most recent first
         self.n = 0
 
     # -- kernels
-    def _det(self, y, theta) -> float:
-        Jp = self.K.jac(y, theta, self.c)[0]
+    def _det(self, y, theta, keep: bool = False) -> float:
+        """det J_p at (y, theta); keep: J_p and J_s there become ``jac_next`` (None if J_p is
+        not finite or singular)."""
+        Jp, Js = self.K.jac(y, theta, self.c)
+        if keep:
+            self.jac_next = None
         if not np.all(np.isfinite(Jp)):
             return math.nan
-        return float(np.linalg.det(Jp.reshape(self.m, self.m, order="F")))
+        Jp = Jp.reshape(self.m, self.m, order="F")
+        det = float(np.linalg.det(Jp))
+        if keep and det != 0.0 and np.all(np.isfinite(Js)):
+            self.jac_next = (Jp.copy(), Js.reshape(self.m, -1, order="F").copy())
+        return det
 
     def _recentre(self, y, c):
         if not self.model.chart.rotations:
@@ -332,12 +346,15 @@ class _Tracker:
         ``FAST_ITERATIONS`` times: every evaluation is followed by the Newton correction, and the
         iteration stops after the first one at which max|g| <= 1e-3 tol. Returns (y, max|g| at
         the last iterate, det J_p at the start, det J_p at the last iterate); y None if an
-        evaluation was not finite or J_p singular."""
+        evaluation was not finite or J_p singular. J_p and J_s of the last evaluation become
+        ``jac_next`` (the sample's, if y is taken)."""
         m = self.m
         y = np.array(y, dtype=float)
         res = d0 = d1 = math.nan
+        self.jac_next = None
         for it in range(FAST_ITERATIONS):
-            Jp = self.K.jac(y, theta, self.c)[0].reshape(m, m, order="F")
+            Jp, Js = self.K.jac(y, theta, self.c)
+            Jp = Jp.reshape(m, m, order="F")
             g = self.K.g(y, theta, self.c)[0]
             with np.errstate(all="ignore"):
                 res, d1 = _inf(g), float(np.linalg.det(Jp))
@@ -348,7 +365,23 @@ class _Tracker:
             y = y - np.linalg.solve(Jp, g)
             if res <= 1e-3 * self.tol:
                 break
+        if np.all(np.isfinite(Js)):
+            self.jac_next = (Jp.copy(), Js.reshape(m, -1, order="F").copy())
         return y, res, d0, d1
+
+    def _euler(self, theta) -> np.ndarray | None:
+        """R2: the Euler point ``y_k + J_p^-1 J_s (theta - theta_k)`` of the continuation of
+        y_k, from J_p and J_s of the last evaluation at sample k, in the chart of y_k (None if
+        they are not known)."""
+        jac = self.jac
+        if jac is None:
+            return None
+        try:
+            with np.errstate(all="ignore"):
+                delta = np.linalg.solve(jac.jp, jac.js @ (theta - self.theta))
+        except np.linalg.LinAlgError:
+            return None
+        return euler_point(self.y, jac.at, delta, self.model.chart.rotations)
 
     def _polish(self, y, theta) -> np.ndarray | None:
         """R3: a candidate polished, its revolute angles within pi of y_k (None: not a
@@ -444,6 +477,9 @@ class _Tracker:
             return None, 0.0, 0
         if not moved <= ACCEPT * pred.step + 10.0 * self.tol:
             return None, 0.0, 0
+        e = self._euler(theta)
+        if e is None or not _inf(y - e) <= 0.05 * _inf(y - self.y) + 10.0 * self.tol:
+            return None, 0.0, 0
         if _sign(d1) != s0 or _sign(d0) != s0:
             return None, 0.0, 0
         if _sign(2.0 * self.det - self.det_prev) != s0:
@@ -464,7 +500,7 @@ class _Tracker:
         if not moved <= 0.05 * _inf(y - self.y) + 10.0 * self.tol:
             return None, 0.0, 0
         self.y_cheap = y
-        d1 = self._det(y, theta)
+        d1 = self._det(y, theta, keep=True)
         s0 = _sign(self.det)
         if _sign(d1) == 0 or _sign(d1) != s0:
             return None, 0.0, 0
@@ -562,9 +598,15 @@ class _Tracker:
         self.d = [y - self.y, *self.d[:2]]
         self.n = min(self.n + 1, 3)
         self.theta = np.array(theta, dtype=float)
+        at = np.array(y, dtype=float)  # J_p, J_s of the taken step (R2) were evaluated here
         self.y, self.c = self._recentre(y, self.c)
         self.det_prev = self.det
-        self.det = det if det != 0.0 else self._det(self.y, self.theta)
+        if det == 0.0:  # evaluated at the sample, in its own chart
+            det = self._det(self.y, self.theta, keep=True)
+            at = self.y.copy()
+        self.det = det
+        self.jac = _Jacobian(*self.jac_next, at) if self.jac_next else None
+        self.jac_next = None
 
 
 def choose(
@@ -588,6 +630,44 @@ def choose(
     e2 = miss[order[1]] if len(order) > 1 else math.inf
     agrees = e1 <= ACCEPT * step + 10.0 * tol or order[0] == regular
     return order, bool(agrees and e2 > MARGIN * max(e1, accuracy) + 10.0 * tol)
+
+
+@dataclass(frozen=True)
+class _Jacobian:
+    """J_p and J_s of the last evaluation at a sample, and the sample in that evaluation's
+    chart."""
+
+    jp: np.ndarray  # (m, m)
+    js: np.ndarray  # (m, k)
+    at: np.ndarray  # (m,) the sample, in the chart of the evaluation
+
+
+def euler_point(y: np.ndarray, at: np.ndarray, delta: np.ndarray, rotations) -> np.ndarray:
+    """``y + delta`` with ``delta`` an increment at ``at`` in another chart, moved into the chart
+    centred on ``y`` (R2's Euler point).
+
+    ``at`` is ``y`` in the chart the increment was computed in (its rotation coordinates are
+    Gibbs parameters ``a``, zero when it is ``y``'s own chart); the rotation coordinates of
+    ``y`` are 0. Each rotation ``cayley(a + delta_r)`` of that chart is, in the chart of ``y``,
+    ``cayley(-a) cayley(a + delta_r)``, whose Gibbs parameters are ``(b - a - a x b) / (1 + a .
+    b)`` with ``b = a + delta_r``; the other coordinates are ``y + delta``.
+
+    Args:
+        y: (m,) the sample in its own chart [model length unit, rad].
+        at: (m,) the sample in the chart of the increment.
+        delta: (m,) the increment.
+        rotations: index triples of the rotation coordinates (:attr:`Chart.rotations`).
+
+    Returns:
+        (m,) the point in the chart of ``y``.
+    """
+    e = y + delta
+    for idx in rotations:
+        ii = list(idx)
+        a = at[ii]
+        b = a + delta[ii]
+        e[ii] = (b - a - np.cross(a, b)) / (1.0 + float(a @ b))
+    return e
 
 
 @dataclass(frozen=True)
