@@ -301,7 +301,9 @@ class _Tracker:
         self.theta = np.array(start.theta, dtype=float)
         self.jac_next: tuple[np.ndarray, np.ndarray] | None = None
         self.det = self._det(self.y, self.theta, keep=True)
-        self.jac = _Jacobian(*self.jac_next, self.y.copy()) if self.jac_next else None
+        self.jac: _Jacobian | None = None  # J_p, J_s of the last evaluation at the sample (R2)
+        if self.jac_next is not None:
+            self.jac = _Jacobian(*self.jac_next, self.y.copy())
         self.det_prev = self.det
         self.d: list[np.ndarray] = []  # motion increments, most recent first
         self.n = 0
