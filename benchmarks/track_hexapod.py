@@ -3,7 +3,9 @@
 On the same trajectory (every pose coordinate a sine of its own frequency, leg lengths from the
 closed-form inverse kinematics), prints microseconds per step, the median over repeats, the
 speed-up over the numpy baseline measured in the same run (its time / the tracker's time) and
-the time ratio to the plain-C Newton tracker of the same run (the tracker's time / its time):
+the time ratio to the plain-C Newton tracker of the same run (the tracker's time / its time;
+the C tracker, ``track(backend="c")`` and the plain-C Newton are timed in turn within each
+repeat):
 
 - the generated C tracker (:mod:`scdk_sym.codegen`), the whole trajectory in one ctypes call
   (and :func:`scdk_sym.solvers.track_c.track_c`, which adds the conversion of the charts and
@@ -184,12 +186,19 @@ def cvodes_tracker(model, thetas: np.ndarray, start) -> np.ndarray:
 
 def per_step(fn, n: int, repeat: int) -> float:
     """Median over repeats of the time of fn() divided by n [us]."""
-    times = []
+    return interleaved([fn], n, repeat)[0]
+
+
+def interleaved(fns, n: int, repeat: int) -> list[float]:
+    """Median over repeats of the time of each fn() divided by n [us], the functions called in
+    turn within each repeat (a change of the machine's load affects them alike)."""
+    times = [[] for _ in fns]
     for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return 1e6 * float(np.median(times)) / n
+        for fn, out in zip(fns, times, strict=True):
+            t = time.perf_counter()
+            fn()
+            out.append(time.perf_counter() - t)
+    return [1e6 * float(np.median(t)) / n for t in times]
 
 
 def main() -> None:
@@ -222,10 +231,16 @@ def main() -> None:
     x_cvodes = cvodes_tracker(model, thetas[:nc], start)
     first_cvodes = 1e6 * (time.perf_counter() - t0) / nc
 
-    t_c = per_step(lambda: lib.track(y0, c0, start.theta, thetas), n, args.repeat)
-    t_track_c = per_step(lambda: sc.track(model, thetas, start=start, backend="c"), n, args.repeat)
+    t_c, t_track_c, t_newton_c = interleaved(
+        [
+            lambda: lib.track(y0, c0, start.theta, thetas),
+            lambda: sc.track(model, thetas, start=start, backend="c"),
+            lambda: newton_in_c(A, B, start.x, thetas),
+        ],
+        n,
+        args.repeat,
+    )
     t_newton = per_step(lambda: newton_tracker(A, B, start.x, thetas), n, max(3, args.repeat // 4))
-    t_newton_c = per_step(lambda: newton_in_c(A, B, start.x, thetas), n, args.repeat)
     t_cvodes = first_cvodes
     if args.repeat_cvodes > 1:
         t_cvodes = per_step(

@@ -158,6 +158,46 @@ def test_regular_motion_matches_newton_and_truth():
     assert jumps(newton, np.array([c.platform_pose for c in truth])) == 0
 
 
+@pytest.mark.parametrize("count", [27, 61])
+def test_fast_continuation_on_regular_samples_never_across_the_fold(monkeypatch, count):
+    """R2's Newton from the prediction answers the regular samples where the Euler step from
+    the previous sample is accurate, never where it is not, and never the reading where the
+    motion crosses the singular manifold (the inverse-kinematics truth)."""
+    from scdk_sym.solvers import track as rule
+
+    model = shipped("planar_hexa")
+    phis, thetas, truth = seed_path(model, count)
+    taken: list[bool] = []
+    fast = rule._Tracker._fast
+
+    def record(self, theta, pred):
+        out = fast(self, theta, pred)
+        taken.append(out[0] is not None)
+        return out
+
+    monkeypatch.setattr(rule._Tracker, "_fast", record)
+    result = sc.track(model, thetas, start=truth[0])
+    # sample 0 is the start's reading (R0: no call); taken[i - 1] is sample i
+    assert len(taken) == count - 1
+    assert np.max(np.abs(result.x - np.array([c.x for c in truth]))) < 1e-9
+    across = int(np.nonzero(phis > SINGULAR_PHI)[0][0])  # first sample past the singularity
+    assert not taken[across - 1]
+    assert not taken[0]  # sample 1: no motion known yet, no prediction to start from
+    # the Euler step's miss of the truth, relative to the step: y_e = y_(i-1) + J_p^-1 J_s
+    # dtheta at the true previous sample (a model without floating joints: one chart)
+    ys = np.array([c.y for c in truth])
+    euler = np.full(count, np.inf)
+    for i in range(1, count):
+        Jp, Js = (np.array(J) for J in model.kernels.jac(ys[i - 1], thetas[i - 1], []))
+        y_e = ys[i - 1] + np.linalg.solve(Jp, Js @ (thetas[i] - thetas[i - 1]))
+        euler[i] = np.max(np.abs(ys[i] - y_e)) / np.max(np.abs(ys[i] - ys[i - 1]))
+    # elsewhere, away from the fold, the fast continuation answers where that miss is below
+    # the 5 % R2 allows (with a margin for the chart and the sample's Newton residual)
+    far = [i for i in range(2, count) if abs(phis[i] - SINGULAR_PHI) > 0.1 and euler[i] < 0.04]
+    assert len(far) >= count // 4 and all(taken[i - 1] for i in far)
+    assert not any(taken[i - 1] for i in range(2, count) if euler[i] > 0.06)
+
+
 def test_first_sample_solved_from_start_and_standing_still():
     model = shipped("planar_hexa")
     a = model.inverse_kinematics([0.0, 0.0, 0.30])
@@ -228,3 +268,61 @@ def test_the_choice_rule_orders_by_miss_and_refuses_near_ties():
     # no motion known (infinite step): nearest to the previous sample, if clearly nearest
     assert choose([0.2, 0.01], np.inf, 0.0, tol) == ([1, 0], True)
     assert choose([0.7], 0.1, 0.0, tol) == ([0], False)
+
+
+def _newton_root(model: sc.Model, y: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """Plain Newton on g(y, theta) = 0 from canonical y (a root to 1e-13)."""
+    for _ in range(50):
+        y_loc, c = model.chart.to_local(y)
+        g = np.array(model.kernels.g(y_loc, theta, c)).ravel()
+        Jp = np.array(model.kernels.jac(y_loc, theta, c)[0])
+        y = model.chart.to_canonical(y_loc - np.linalg.solve(Jp, g), c)
+        if np.max(np.abs(g)) < 1e-13:
+            return y
+    raise AssertionError("Newton did not converge")
+
+
+def test_fast_continuation_never_takes_another_root_next_to_the_prediction():
+    """A prediction lying on another root with the sign of det J_p (a poorly extrapolated
+    motion) must not be taken by R2's Newton from y_pred: the fast step is tied to y_k by the
+    Euler point, the rule falls through, and R4 refuses (the prediction is as inaccurate as
+    the step). A prediction next to the continuation is taken, and equals the continuation
+    (Newton along the reading's homotopy in 50 steps, independent of the tracker)."""
+    from scdk_sym.errors import TrackError
+    from scdk_sym.solvers import track as rule
+
+    model = hexapod()
+    theta_k = model.home.theta
+    # two roots at theta_k with det J_p of one sign (home and the platform turned over)
+    y_k = _newton_root(model, np.array([0.286, 0.0, -0.4, 0.0, 1.465, 0.0]), theta_k)
+    other = _newton_root(model, model.home.y, theta_k)
+    rng = np.random.default_rng(7)
+    theta = theta_k + 2e-3 * rng.uniform(-1.0, 1.0, model.k)
+    # the continuation of y_k and the other root, at the new reading
+    cont = y_k.copy()
+    for s in np.linspace(0.0, 1.0, 51)[1:]:
+        cont = _newton_root(model, cont, theta_k + s * (theta - theta_k))
+    jump = _newton_root(model, other, theta)
+    assert np.max(np.abs(jump - cont)) > 0.5  # far apart: taking one for the other is a jump
+
+    def tracker():
+        t = rule._Tracker(model, model.configuration(y_k, theta_k))
+        t.n, t.d = 1, [np.zeros(model.m)]
+        return t
+
+    t = tracker()
+    assert np.sign(t._det(t.local(jump), theta)) == np.sign(t.det) != 0
+    step = rule._inf(t.local(jump) - t.y)
+    on_other = rule._Prediction(t.local(jump), step, step, step)
+    assert t._fast(theta, on_other)[0] is None
+    t._prediction = lambda w: on_other
+    with pytest.raises(TrackError) as err:
+        t.step(theta, 5)
+    assert err.value.status == rule.ERR_UNDECIDABLE and err.value.index == 5
+    # a prediction next to the continuation is taken: it is the continuation
+    t = tracker()
+    near = t.local(cont) + 1e-6 * rng.uniform(-1.0, 1.0, model.m)
+    pred = rule._Prediction(near, rule._inf(near - t.y), 0.0, 1.0)
+    y, det, code = t._fast(theta, pred)
+    assert y is not None and code == rule.OK
+    np.testing.assert_allclose(model.chart.to_canonical(y, t.c), cont, rtol=0, atol=1e-10)

@@ -31,8 +31,10 @@ from . import templates
 from .kernels import UNOPTIMISED, build_tracker_kernels
 
 #: Flags compiling each source of the shared library built for Python (the optimisation
-#: level of :mod:`scdk_sym.kernels.compile`).
-COMPILE_FLAGS = ("-std=c99", OPT, "-Wall", "-fPIC")
+#: level of :mod:`scdk_sym.kernels.compile`; ``-fno-semantic-interposition``: the kernels'
+#: helpers such as ``casadi_sq``, global functions, are inlined as in a static build instead
+#: of called, since ``-Bsymbolic`` binds them inside the library anyway).
+COMPILE_FLAGS = ("-std=c99", OPT, "-Wall", "-fPIC", "-fno-semantic-interposition")
 #: Flags linking it (``-Bsymbolic``: the tracker calls its own kernels even if another library
 #: of the process exports the same names).
 LINK_FLAGS = ("-shared", "-Wl,-Bsymbolic")
@@ -227,6 +229,8 @@ def _generate(
         **_rule_constants(),
         **_follower_constants(),
         "PERIODIC": _periodic(model),
+        "ROTATION": ", ".join(str(i) for idx in model.chart.rotations for i in idx) or "0",
+        "NROT_ALLOC": str(max(1, 3 * len(model.chart.rotations))),
     }
     header = templates.fill(templates.template(templates.HEADER), values)
     source = templates.fill(templates.template(templates.SOURCE), values)
@@ -287,8 +291,8 @@ def _rule_constants() -> dict[str, str]:
     from ..solvers import track as rule
 
     floats = ("ACCEPT", "MARGIN", "BUDGET", "SMOOTH", "PARTNER_STEP")
-    ints = ("NEWTON_CALLS", "PREDICTED_CALLS", "PARTNER_ITERATIONS", "HITS_PER_DIRECTION",
-            "MAX_STEPS")  # fmt: skip
+    ints = ("FAST_ITERATIONS", "NEWTON_CALLS", "PREDICTED_CALLS", "PARTNER_ITERATIONS",
+            "HITS_PER_DIRECTION", "MAX_STEPS")  # fmt: skip
     return _c_literals(rule, floats, ints)
 
 

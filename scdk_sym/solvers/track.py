@@ -43,17 +43,31 @@ R1. *Prediction.* With ``lin = |d_k - d_(k-1)|`` (``n >= 2``, else 0) and ``quad
     unknown (infinite), ``E = 0``, and ``ell = 1 / |t_s|`` with ``t`` the unit tangent of the
     curve at ``(y_k, 0)`` in the metric ``|dy|_2^2 + (|dtheta|_2 ds)^2``, clamped to
     ``[|dtheta|_2, 1e3 max(1, length scale)]``.
-R2. *Cheap continuation* ``y_c``: one RK4 step of ``dy/ds = J_p^-1 J_s dtheta`` from ``s = 0``
-    to 1, then Newton (``NEWTON_CALLS`` calls of the 2-iteration kernel, stopping once
-    ``max|g| <= 1e-3 tol``). *Valid* if finite, ``max|g| <= tol`` and Newton moved the RK4
-    point by at most ``0.05 |y_c - y_k| + 10 tol``. It is the answer, without any other
-    candidate, if valid and ``det J_p(y_c, theta)`` has the non-zero sign of ``det_k``, and:
-    with ``n >= 1``, ``|y_c - y_pred| <= ACCEPT L + 10 tol``, ``2 det_k - det_(k-1)`` has that
-    sign, ``|det J_p(y_c)| >= |det_k - det J_p(y_c)|`` and ``det J_p(y_pred, theta)`` has that
-    sign (nothing hints at a crossing of ``det J_p = 0`` between the samples or within the
-    next step; ``y_c`` is *regular* if all but the first of these hold); with ``n = 0``, its
-    fold partner (see R3), polished, is not a solution other than ``y_c`` within ``MARGIN
-    |y_c - y_k| + 10 tol`` of ``y_k``.
+R2. *Cheap continuation.* First (``n >= 1``) ``y_f``: Newton from ``y_pred``, ``g`` and
+    ``J_p`` evaluated at every iterate (at most ``FAST_ITERATIONS`` times, each evaluation
+    followed by its correction, the last one that after which ``max|g| <= 1e-3 tol`` at the
+    iterate). It is the answer, without any other candidate, if every evaluation was finite
+    with ``J_p`` regular, ``max|g| <= tol`` at the last iterate, Newton moved ``y_pred`` by
+    at most ``0.05 |y_f - y_k| + 10 tol`` (the extrapolated motion was as accurate as the RK4
+    point below must be) and by at most ``ACCEPT L + 10 tol``, ``y_f`` lies within ``0.05
+    |y_f - y_k| + 10 tol`` of the Euler point ``y_e = y_k + J_p^-1 J_s dtheta`` (``J_p``, ``J_s``
+    and the chart of the last evaluation of ``J_p`` at sample ``k``, ``y_e`` moved into the
+    chart of ``y_k``: ``y_f`` is the continuation of ``y_k``, not a root the prediction happened
+    to lie next to), ``d = det J_p`` at the last
+    iterate (kept as the sample's ``det``) and ``det J_p`` at ``y_pred`` (the first) have the
+    non-zero sign of ``det_k``, ``2 det_k - det_(k-1)`` has that sign and ``|d| >= |det_k -
+    d|``: the conditions of the cheap continuation below, checked at ``y_f``. Else ``y_c``:
+    one RK4 step of ``dy/ds = J_p^-1 J_s dtheta`` from ``s = 0`` to 1, then Newton
+    (``NEWTON_CALLS`` calls of the 2-iteration kernel, stopping once ``max|g| <= 1e-3 tol``).
+    *Valid* if finite, ``max|g| <= tol`` and Newton moved the RK4 point by at most ``0.05
+    |y_c - y_k| + 10 tol``. It is the answer, without any other candidate, if valid and ``det
+    J_p(y_c, theta)`` has the non-zero sign of ``det_k``, and: with ``n >= 1``, ``|y_c -
+    y_pred| <= ACCEPT L + 10 tol``, ``2 det_k - det_(k-1)`` has that sign, ``|det J_p(y_c)|
+    >= |det_k - det J_p(y_c)|`` and ``det J_p(y_pred, theta)`` has that sign (nothing hints
+    at a crossing of ``det J_p = 0`` between the samples or within the next step; ``y_c`` is
+    *regular* if all but the first of these hold); with ``n = 0``, its fold partner (see R3),
+    polished, is not a solution other than ``y_c`` within ``MARGIN |y_c - y_k| + 10 tol`` of
+    ``y_k``.
 R3. *Candidates* (R2 not taken), in this order: ``y_c`` if valid; Newton from ``y_pred``; the
     *fold partner* of each of these two that was kept; the first ``HITS_PER_DIRECTION``
     crossings of ``s = 1`` of the SC curve from ``(y_k, 0)`` in each direction (convergent,
@@ -106,7 +120,7 @@ import numpy as np
 
 from ..backends import resolve
 from ..errors import InputError, PathError, TrackError
-from ..kernels.fastcall import Buffered
+from ..kernels.fastcall import Buffered, model_calls
 from ..model.rotations import gibbs, rot_exp
 from ..products import TRACK_KERNELS
 from ..results import Configuration, Crossing, TrackResult
@@ -123,6 +137,8 @@ MARGIN = 3.0
 SMOOTH = 0.5
 #: R3: arc length followed along the curve in each direction, in units of ``ell``.
 BUDGET = 40.0
+#: R2: evaluations of g and J_p (Newton iterations + 1) of the fast continuation.
+FAST_ITERATIONS = 4
 #: R2: Newton calls of the cheap continuation.
 NEWTON_CALLS = 3
 #: R3: Newton calls from the prediction and of the polish of each candidate.
@@ -232,6 +248,7 @@ class _Kernels:
     predict: Buffered
     newton: Buffered
     jac: Buffered
+    g: Buffered
     recentre: Buffered
 
 
@@ -241,7 +258,7 @@ def _kernels(model: Model) -> _Kernels:
 
         kern = build_tracker_kernels(model.symbolic, model.chart.rotations, "scdk")
         return _Kernels(
-            Buffered(kern.predict), Buffered(kern.newton), Buffered(kern.jac),
+            Buffered(kern.predict), Buffered(kern.newton), Buffered(kern.jac), Buffered(kern.g),
             Buffered(kern.recentre),
         )  # fmt: skip
 
@@ -282,17 +299,29 @@ class _Tracker:
         y, c = model.chart.to_local(start.y)
         self.y, self.c = self._recentre(y, c)
         self.theta = np.array(start.theta, dtype=float)
-        self.det = self._det(self.y, self.theta)
+        self.jac_next: tuple[np.ndarray, np.ndarray] | None = None
+        self.det = self._det(self.y, self.theta, keep=True)
+        self.jac: _Jacobian | None = None  # J_p, J_s of the last evaluation at the sample (R2)
+        if self.jac_next is not None:
+            self.jac = _Jacobian(*self.jac_next, self.y.copy())
         self.det_prev = self.det
         self.d: list[np.ndarray] = []  # motion increments, most recent first
         self.n = 0
 
     # -- kernels
-    def _det(self, y, theta) -> float:
-        Jp = self.K.jac(y, theta, self.c)[0]
+    def _det(self, y, theta, keep: bool = False) -> float:
+        """det J_p at (y, theta); keep: J_p and J_s there become ``jac_next`` (None if J_p is
+        not finite or singular)."""
+        Jp, Js = self.K.jac(y, theta, self.c)
+        if keep:
+            self.jac_next = None
         if not np.all(np.isfinite(Jp)):
             return math.nan
-        return float(np.linalg.det(Jp.reshape(self.m, self.m, order="F")))
+        Jp = Jp.reshape(self.m, self.m, order="F")
+        det = float(np.linalg.det(Jp))
+        if keep and det != 0.0 and np.all(np.isfinite(Js)):
+            self.jac_next = (Jp.copy(), Js.reshape(self.m, -1, order="F").copy())
+        return det
 
     def _recentre(self, y, c):
         if not self.model.chart.rotations:
@@ -313,6 +342,48 @@ class _Tracker:
             if res <= 1e-3 * self.tol:
                 break
         return y, res, _inf(y - y0)
+
+    def _newton_lu(self, y, theta) -> tuple[np.ndarray | None, float, float, float]:
+        """R2: Newton from y with g and J_p evaluated at every iterate, at most
+        ``FAST_ITERATIONS`` times: every evaluation is followed by the Newton correction, and the
+        iteration stops after the first one at which max|g| <= 1e-3 tol. Returns (y, max|g| at
+        the last iterate, det J_p at the start, det J_p at the last iterate); y None if an
+        evaluation was not finite or J_p singular. J_p and J_s of the last evaluation become
+        ``jac_next`` (the sample's, if y is taken)."""
+        m = self.m
+        y = np.array(y, dtype=float)
+        res = d0 = d1 = math.nan
+        self.jac_next = None
+        for it in range(FAST_ITERATIONS):
+            Jp, Js = self.K.jac(y, theta, self.c)
+            Jp = Jp.reshape(m, m, order="F")
+            g = self.K.g(y, theta, self.c)[0]
+            with np.errstate(all="ignore"):
+                res, d1 = _inf(g), float(np.linalg.det(Jp))
+            if not (math.isfinite(res) and math.isfinite(d1)) or d1 == 0.0:
+                return None, math.nan, math.nan, math.nan
+            if it == 0:
+                d0 = d1
+            y = y - np.linalg.solve(Jp, g)
+            if res <= 1e-3 * self.tol:
+                break
+        if np.all(np.isfinite(Js)):
+            self.jac_next = (Jp.copy(), Js.reshape(m, -1, order="F").copy())
+        return y, res, d0, d1
+
+    def _euler(self, theta) -> np.ndarray | None:
+        """R2: the Euler point ``y_k + J_p^-1 J_s (theta - theta_k)`` of the continuation of
+        y_k, from J_p and J_s of the last evaluation at sample k, in the chart of y_k (None if
+        they are not known)."""
+        jac = self.jac
+        if jac is None:
+            return None
+        try:
+            with np.errstate(all="ignore"):
+                delta = np.linalg.solve(jac.jp, jac.js @ (theta - self.theta))
+        except np.linalg.LinAlgError:
+            return None
+        return euler_point(self.y, jac.at, delta, self.model.chart.rotations)
 
     def _polish(self, y, theta) -> np.ndarray | None:
         """R3: a candidate polished, its revolute angles within pi of y_k (None: not a
@@ -371,7 +442,9 @@ class _Tracker:
             self.n = 0
             return OK
         pred = self._prediction(w)
-        y, det, code = self._cheap(theta, pred)
+        y, det, code = self._fast(theta, pred)
+        if y is None:
+            y, det, code = self._cheap(theta, pred)
         if y is None:
             y, code = self._path(theta, dtheta, w, pred, index)
             det = 0.0
@@ -393,6 +466,30 @@ class _Tracker:
         ell = math.sqrt(w * w + float(D @ D))
         return _Prediction(self.y + D, _inf(D), E, ell)
 
+    def _fast(self, theta, pred):
+        """R2: the fast continuation, (y_f, det J_p there, OK) if taken, else (None, 0, 0)."""
+        s0 = _sign(self.det)
+        if pred is None or s0 == 0:
+            return None, 0.0, 0
+        y, res, d0, d1 = self._newton_lu(pred.y, theta)
+        if y is None or not res <= self.tol:
+            return None, 0.0, 0
+        moved = _inf(y - pred.y)
+        if not moved <= 0.05 * _inf(y - self.y) + 10.0 * self.tol:
+            return None, 0.0, 0
+        if not moved <= ACCEPT * pred.step + 10.0 * self.tol:
+            return None, 0.0, 0
+        e = self._euler(theta)
+        if e is None or not _inf(y - e) <= 0.05 * _inf(y - self.y) + 10.0 * self.tol:
+            return None, 0.0, 0
+        if _sign(d1) != s0 or _sign(d0) != s0:
+            return None, 0.0, 0
+        if _sign(2.0 * self.det - self.det_prev) != s0:
+            return None, 0.0, 0
+        if abs(d1) < abs(self.det - d1):
+            return None, 0.0, 0
+        return y, d1, OK
+
     def _cheap(self, theta, pred):
         """R2: (y_c, det J_p there, OK) if taken, else (None, 0, 0); keeps a valid y_c."""
         self.y_cheap, self.cheap_regular = None, False
@@ -405,7 +502,7 @@ class _Tracker:
         if not moved <= 0.05 * _inf(y - self.y) + 10.0 * self.tol:
             return None, 0.0, 0
         self.y_cheap = y
-        d1 = self._det(y, theta)
+        d1 = self._det(y, theta, keep=True)
         s0 = _sign(self.det)
         if _sign(d1) == 0 or _sign(d1) != s0:
             return None, 0.0, 0
@@ -503,9 +600,15 @@ class _Tracker:
         self.d = [y - self.y, *self.d[:2]]
         self.n = min(self.n + 1, 3)
         self.theta = np.array(theta, dtype=float)
+        at = np.array(y, dtype=float)  # J_p, J_s of the taken step (R2) were evaluated here
         self.y, self.c = self._recentre(y, self.c)
         self.det_prev = self.det
-        self.det = det if det != 0.0 else self._det(self.y, self.theta)
+        if det == 0.0:  # evaluated at the sample, in its own chart
+            det = self._det(self.y, self.theta, keep=True)
+            at = self.y.copy()
+        self.det = det
+        self.jac = _Jacobian(*self.jac_next, at) if self.jac_next else None
+        self.jac_next = None
 
 
 def choose(
@@ -529,6 +632,44 @@ def choose(
     e2 = miss[order[1]] if len(order) > 1 else math.inf
     agrees = e1 <= ACCEPT * step + 10.0 * tol or order[0] == regular
     return order, bool(agrees and e2 > MARGIN * max(e1, accuracy) + 10.0 * tol)
+
+
+@dataclass(frozen=True)
+class _Jacobian:
+    """J_p and J_s of the last evaluation at a sample, and the sample in that evaluation's
+    chart."""
+
+    jp: np.ndarray  # (m, m)
+    js: np.ndarray  # (m, k)
+    at: np.ndarray  # (m,) the sample, in the chart of the evaluation
+
+
+def euler_point(y: np.ndarray, at: np.ndarray, delta: np.ndarray, rotations) -> np.ndarray:
+    """``y + delta`` with ``delta`` an increment at ``at`` in another chart, moved into the chart
+    centred on ``y`` (R2's Euler point).
+
+    ``at`` is ``y`` in the chart the increment was computed in (its rotation coordinates are
+    Gibbs parameters ``a``, zero when it is ``y``'s own chart); the rotation coordinates of
+    ``y`` are 0. Each rotation ``cayley(a + delta_r)`` of that chart is, in the chart of ``y``,
+    ``cayley(-a) cayley(a + delta_r)``, whose Gibbs parameters are ``(b - a - a x b) / (1 + a .
+    b)`` with ``b = a + delta_r``; the other coordinates are ``y + delta``.
+
+    Args:
+        y: (m,) the sample in its own chart [model length unit, rad].
+        at: (m,) the sample in the chart of the increment.
+        delta: (m,) the increment.
+        rotations: index triples of the rotation coordinates (:attr:`Chart.rotations`).
+
+    Returns:
+        (m,) the point in the chart of ``y``.
+    """
+    e = y + delta
+    for idx in rotations:
+        ii = list(idx)
+        a = at[ii]
+        b = a + delta[ii]
+        e[ii] = (b - a - np.cross(a, b)) / (1.0 + float(a @ b))
+    return e
 
 
 @dataclass(frozen=True)
@@ -606,12 +747,15 @@ def crossings(
     if dets.size == 0:
         return ()
     y_loc0, c0 = model.chart.to_local(start.y)
-    det0 = float(np.linalg.det(np.array(model.kernels.jac(y_loc0, start.theta, c0)[0])))
+    det0 = float(np.linalg.det(model_calls(model).jac(y_loc0, start.theta, c0)[0]))
     dd = np.concatenate([[det0], dets])
+    changes = np.flatnonzero(np.sign(dd[:-1]) * np.sign(dd[1:]) < 0)
+    if changes.size == 0:
+        return ()
     ys = np.vstack([start.y, y])
     ths = np.vstack([start.theta, thetas])
     out = []
-    for j in np.flatnonzero(np.sign(dd[:-1]) * np.sign(dd[1:]) < 0):
+    for j in changes:
         out.append(locate(model, ys[j], ys[j + 1], ths[j], ths[j + 1], float(dd[j]), j - 1))
     return tuple(out)
 

@@ -127,6 +127,8 @@ def _canonical(model: Model, y: np.ndarray, c: np.ndarray) -> np.ndarray:
     y = np.array(y, dtype=float)
     for i, rot in enumerate(model.chart.rotations):
         idx = list(rot)
-        R_ref = c[:, 9 * i : 9 * i + 9].reshape(-1, 3, 3).transpose(0, 2, 1)  # column-major
-        y[:, idx] = rot_log(R_ref @ cayley(y[:, idx]))
+        R = c[:, 9 * i : 9 * i + 9].reshape(-1, 3, 3).transpose(0, 2, 1)  # column-major
+        if np.any(y[:, idx]):  # re-centred charts (the tracker's) have rho = 0: cayley = I
+            R = R @ cayley(y[:, idx])
+        y[:, idx] = rot_log(R)
     return y
