@@ -267,6 +267,19 @@ def test_random_6_6_root_count_40_real_set_equals_reference(seed):
     assert_certified(model, sols, root_count=40)
 
 
+@SLOW
+def test_a_6_6_start_system_short_of_40_roots_is_never_certified():
+    # random platform #16: monodromy stops at 38 roots, and a rational fit of the trace on a
+    # circle of the pencil once passed on them; only a proof may certify
+    A, B, L = random_platform(16)
+    model = sc.builders.stewart_gough(A, B)
+    sols = sc.assembly_modes(model, L)
+    assert sols.root_count == 40 or not sols.certified, sols.report
+    ref = stewart_reference(A, B, L, 3000, 16)
+    if sols.certified:
+        assert_same_stewart_poses(list(sols), ref)
+
+
 # ---------------------------------------------------------------------------- robot_delta
 
 
