@@ -218,6 +218,26 @@ DIVERGENT_CASES = [
         [0.7495199989419495, 1.2204410238051715, -0.6046490816562436],
         [0.022852615620816856, -0.023782880885495076, -0.15947167968993983],
     ),
+    # robot_delta: answered only among every real solution, once its set is certified
+    (
+        "robot_delta",
+        "near_singular",
+        [-0.2712319004065245, 0.24073596300123942],
+        (
+            [
+                -0.05947128883342338,
+                -0.03626225400395153,
+                0.21969113794958267,
+                -1.24952565016219,
+                0.11392177577713958,
+                0.2537062988879371,
+                -0.7021103121162282,
+                1.469216788111859,
+                1.487475628579034,
+            ],
+            [-0.17135461400634186, -0.05947128883339328],
+        ),
+    ),
     # nor from the midpoint of the two answers (sigma_min is locally least at home): the
     # singular configuration by Gauss-Newton onto the singular manifold; answer above the base
     (
