@@ -1348,8 +1348,10 @@ def _track_errors(ref: Reference, model, tr: Track, res) -> np.ndarray:
 # ------------------------------------------------------- the curve of a convergent solve
 
 #: Budgets of :func:`line_curve_reaches`: steps and arc length [reference coordinates, s].
-LINE_STEPS = 4000
+LINE_STEPS = 20000
 LINE_ARC = 200.0
+#: Largest corrector move of :func:`line_curve_reaches`, relative to the step.
+LINE_CORRECTION = 0.05
 
 
 def _free(ref: Reference, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -1407,7 +1409,12 @@ def line_curve_reaches(ref: Reference, u0, theta1, theta0) -> bool | None:
             if float(np.abs(r).max()) <= 1e-11:
                 break
             w = w - np.linalg.solve(np.vstack([J(w), t]), r)
-        ok = float(np.abs(F(w)).max()) <= 1e-10 and float(np.linalg.norm(w - v)) <= 2 * h
+        # the corrector moved little from the prediction: still on the curve followed (a
+        # larger move may land on another curve passing near, e.g. past a fold)
+        ok = (
+            float(np.abs(F(w)).max()) <= 1e-10
+            and float(np.linalg.norm(w - (v + h * t))) <= LINE_CORRECTION * h
+        )
         if not ok:
             h *= 0.5
             if h < 1e-9:
