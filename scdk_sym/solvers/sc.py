@@ -484,7 +484,7 @@ def _across_by_modes(
 
     try:
         # the default (generated C where a compiler is found) whatever the solve's kernels:
-        # the first call per model computes its start system (seconds; about 2.5 min for
+        # the first call per model computes its start system (seconds: about 9 s for
         # Gepetto's robot_delta), cached on disk, proven or not
         sols = assembly_modes(model, theta0)
     except ScdkError as exc:
