@@ -131,6 +131,13 @@ def test_cayley_is_exp_of_the_gibbs_angle_and_gibbs_inverts_it():
     assert np.all(~np.isfinite(rot.gibbs(Rz(math.pi))))  # a half turn has no Gibbs vector
 
 
+def test_gibbs_product_is_the_product_of_the_cayley_rotations():
+    rng = np.random.default_rng(RNG_SEED)
+    for a, b in rng.normal(scale=0.5, size=(5, 2, 3)):
+        ref = rot.gibbs(rot.cayley(a) @ rot.cayley(b))
+        np.testing.assert_allclose(rot.gibbs_product(a, b), ref, atol=1e-12)
+
+
 def test_axis_rotation_numeric_and_symbolic():
     rng = np.random.default_rng(RNG_SEED)
     for axis, a in zip(random_axes(5, rng), rng.uniform(-3, 3, 5), strict=True):

@@ -152,6 +152,13 @@ def gibbs(R: np.ndarray) -> np.ndarray:
         return vee(R) / (1.0 + np.trace(R, axis1=-2, axis2=-1))[..., None]
 
 
+def gibbs_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Gibbs parameters of ``cayley(a) @ cayley(b)``: ``(a + b + a x b) / (1 - a . b)``
+    (Rodrigues' composition; ``(3,)`` each)."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return (a + b + np.cross(a, b)) / (1.0 - float(a @ b))
+
+
 def axis_rotation(axis: np.ndarray, c: Any, s: Any) -> Any:
     """``I + s K + (1 - c) K^2`` with ``K = skew(axis)``: the rotation about a unit ``axis``
     whose angle has cosine ``c`` and sine ``s`` (numbers or CasADi expressions)."""

@@ -121,7 +121,7 @@ import numpy as np
 from ..backends import resolve
 from ..errors import InputError, PathError, TrackError
 from ..kernels.fastcall import Buffered, model_calls
-from ..model.rotations import gibbs, rot_exp
+from ..model.rotations import gibbs, gibbs_product, rot_exp
 from ..products import TRACK_KERNELS
 from ..results import Configuration, Crossing, TrackResult
 from ..robot import Model
@@ -651,8 +651,8 @@ def euler_point(y: np.ndarray, at: np.ndarray, delta: np.ndarray, rotations) -> 
     ``at`` is ``y`` in the chart the increment was computed in (its rotation coordinates are
     Gibbs parameters ``a``, zero when it is ``y``'s own chart); the rotation coordinates of
     ``y`` are 0. Each rotation ``cayley(a + delta_r)`` of that chart is, in the chart of ``y``,
-    ``cayley(-a) cayley(a + delta_r)``, whose Gibbs parameters are ``(b - a - a x b) / (1 + a .
-    b)`` with ``b = a + delta_r``; the other coordinates are ``y + delta``.
+    ``cayley(-a) cayley(a + delta_r)``, whose Gibbs parameters are ``gibbs_product(-a, b)``
+    with ``b = a + delta_r``; the other coordinates are ``y + delta``.
 
     Args:
         y: (m,) the sample in its own chart [model length unit, rad].
@@ -668,7 +668,7 @@ def euler_point(y: np.ndarray, at: np.ndarray, delta: np.ndarray, rotations) -> 
         ii = list(idx)
         a = at[ii]
         b = a + delta[ii]
-        e[ii] = (b - a - np.cross(a, b)) / (1.0 + float(a @ b))
+        e[ii] = gibbs_product(-a, b)
     return e
 
 
