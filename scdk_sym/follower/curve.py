@@ -411,6 +411,23 @@ def follow(
     skip_level_at_start = True
     backup_left = 0
     hist = [q.copy()]  # the last accepted points (same chart), for extrapolation
+
+    def add_hit(y_hit, level, arc, before, s_a, s_b) -> None:
+        """Record the solution ``y_hit`` (chart ``c``) at ``s = level``, met at arc length
+        ``arc`` on a stretch from ``s_a`` to ``s_b`` whose singular points start at index
+        ``before`` (a solution met before marks the walk repeated instead)."""
+        nonlocal f_hits
+        f_hit = local_features(model, y_hit, c)[None]
+        if f_hits.size and np.min(np.max(np.abs(f_hits - f_hit), axis=1)) <= 1e-6 * scale:
+            out.repeated = True
+            return
+        f_hits = np.vstack([f_hits, f_hit]) if f_hits.size else f_hit
+        crossings = _met_before(out.singular, before, float(s_a), float(level))
+        arriving = 1.0 if s_b > s_a else -1.0
+        out.hits.append(
+            Hit(model.chart.to_canonical(y_hit, c), float(level), arc, crossings, arriving)
+        )
+
     advancing = False  # the last call accepted some steps
     turns = 0  # loop iterations: every one either advances, shrinks h or stops
     while out.arc < budget and out.steps < max_steps:
@@ -418,6 +435,13 @@ def follow(
         if turns > LOOP_FACTOR * max_steps:
             out.stalled = True
             break
+        if backup is not None and (halvings >= STALL_HALVINGS or h < h_min):
+            # CVODES creeps (its error control, not the curve, may be at fault): explicit
+            # steps from here; only their stall is a point to step over
+            pred, backup = backup, None
+            h, halvings = max(h_good, h_first), 0
+            reject_limit = max(reject_limit, out.rejected + CVODES_REJECTIONS)
+            continue
         if halvings >= STALL_HALVINGS or h < h_min:
             # the step keeps shrinking (next to crossing branches no tangent field is smooth
             # and the predictors creep towards the point): step over it
@@ -439,10 +463,29 @@ def follow(
                 if stepped[2] * det < 0:
                     cr = _locate_bifurcation(model, kern, line, p, weight, q, stepped[0], c, det)
             q_new, t_new, det_new, length = stepped[:4]
+            # no step passes a level without finishing it there (a solution it skipped
+            # would be lost, or a later one taken for the first)
+            passed = [
+                L
+                for L in levels
+                if (q[-1] - L) * (q_new[-1] - L) <= 0 and q_new[-1] != q[-1]
+                and not (skip_level_at_start and q[-1] == L)
+            ]  # fmt: skip
+            finished = [
+                (L, _finish(model, kern, line, q, q_new, t, t_new, length, L, c, tol))
+                for L in passed
+            ]
+            if any(y_hit is None for _L, y_hit in finished):
+                out.stalled = True
+                break
             out.step_overs += 1
+            before = len(out.singular)
             if cr is not None:
                 out.singular.append(cr)
                 out.singular_arcs.append(out.arc + 0.5 * length)
+            for L, y_hit in finished:
+                if len(out.hits) < max_hits:
+                    add_hit(y_hit, L, out.arc + 0.5 * length, before, q[-1], q_new[-1])
             q, t, det = q_new, t_new, det_new
             hist = [*hist[-2:], q.copy()]
             out.arc += length
@@ -452,6 +495,8 @@ def follow(
             skip_level_at_start = False
             if record:
                 _record(rec, q, c, det, out.arc)
+            if out.repeated or len(out.hits) >= max_hits or len(out.singular) >= max_singular:
+                break
             continue
         if out.rejected > reject_limit:
             out.stalled = True
@@ -584,21 +629,7 @@ def follow(
                         refine_at = j
                         break
                     continue
-                y_can = model.chart.to_canonical(y_hit, c)
-                f_hit = local_features(model, y_hit, c)[None]
-                if f_hits.size and np.min(np.max(np.abs(f_hits - f_hit), axis=1)) <= 1e-6 * scale:
-                    out.repeated = True
-                    continue
-                f_hits = np.vstack([f_hits, f_hit]) if f_hits.size else f_hit
-                out.hits.append(
-                    Hit(
-                        y_can,
-                        float(L),
-                        out.arc + h * (j + 0.5),
-                        _met_before(out.singular, before_segment, float(Q[-1, j]), float(L)),
-                        1.0 if Q[-1, j + 1] > Q[-1, j] else -1.0,
-                    )
-                )
+                add_hit(y_hit, L, out.arc + h * (j + 0.5), before_segment, Q[-1, j], Q[-1, j + 1])
                 if len(out.hits) >= max_hits:
                     break
             if refine_at is not None:
