@@ -57,9 +57,13 @@ def test_hexapod_equals_the_cvodes_solve():
 def test_other_branches_and_refusals_fall_back():
     model = shipped("planar_hexa")
     start = model.inverse_kinematics(SEED_X1)
-    res = sc.solve(model, SEED_THETA0, start=start, branch="divergent", backend="c")
-    ref = sc.solve(model, SEED_THETA0, start=start, branch="divergent", backend="compiled")
-    np.testing.assert_allclose(res.x, ref.x, rtol=0, atol=1e-12)
+    # an explicit b and an explicit arc budget are solved by the compiled solve
+    for kw in ({"b": -1.0}, {"b": 1.0}, {"branch": "divergent", "max_arc": 50.0}):
+        res = sc.solve(model, SEED_THETA0, start=start, backend="c", record_path=False, **kw)
+        ref = sc.solve(model, SEED_THETA0, start=start, backend="compiled", record_path=False,
+                       **kw)  # fmt: skip
+        np.testing.assert_allclose(res.x, ref.x, rtol=0, atol=1e-12)
+        assert res.b == ref.b and len(res.crossings) == len(ref.crossings)
     assert res.x[2] == pytest.approx(0.9999, abs=1e-4) and len(res.crossings) == 1
     # behind the start on the line: the convergent curve turns at a fold before any s = 1
     # crossing, so the C call refuses and the fallback says what the reference says
@@ -74,3 +78,84 @@ def test_other_branches_and_refusals_fall_back():
         sc.solve(model, behind, start=start, backend="c")
     moved = lib.solve_convergent(y1 + 0.01, c1, start.theta, SEED_THETA0)
     assert moved.status == clib.ERR_NOT_ASSEMBLED and np.all(np.isnan(moved.y))
+    moved = lib.solve_divergent(y1 + 0.01, c1, start.theta, SEED_THETA0)
+    assert moved.status == clib.ERR_NOT_ASSEMBLED and np.isnan(moved.fold_s)
+
+
+def compare_divergent(model, start, targets):
+    """solve(branch="divergent", backend="c") against the compiled solve at each target: the
+    same answer (1e-9) and the same crossings (kind, s, x, y, theta, index); where the C call
+    itself solved, its raw answer and fold too. Returns the raw C statuses."""
+    lib = clib.tracker_library(model)
+    y1, c1 = model.chart.to_local(start.y)
+    kw = {"start": start, "branch": "divergent", "record_path": False}
+    statuses = []
+    for theta0 in targets:
+        out = lib.solve_divergent(y1, c1, start.theta, theta0)
+        statuses.append(out.status)
+        try:
+            ref = sc.solve(model, theta0, backend="compiled", **kw)
+        except sc.ScdkError as exc:
+            assert out.status != clib.OK_PATH, theta0
+            with pytest.raises(type(exc)):
+                sc.solve(model, theta0, backend="c", **kw)
+            continue
+        res = sc.solve(model, theta0, backend="c", **kw)
+        np.testing.assert_allclose(res.x, ref.x, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(res.y, ref.y, rtol=0, atol=1e-9)
+        assert res.residual <= model.tolerance and res.status == ref.status
+        assert res.b == ref.b and res.branch == "divergent"
+        assert [c.kind for c in res.crossings] == [c.kind for c in ref.crossings]
+        for a, b in zip(res.crossings, ref.crossings, strict=True):
+            assert a.s == pytest.approx(b.s, abs=1e-9) and a.index == b.index
+            for name in ("x", "y", "theta"):
+                np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=0, atol=1e-9)
+        if out.status == clib.OK_PATH:
+            np.testing.assert_allclose(out.x, ref.x, rtol=0, atol=1e-9)
+            assert out.det * ref.b > 0 and out.residual <= model.tolerance
+            assert len(ref.crossings) == 1 and ref.crossings[0].kind == "fold"
+            assert out.fold_s == pytest.approx(ref.crossings[0].s, abs=1e-9)
+            np.testing.assert_allclose(out.fold_x, ref.crossings[0].x, rtol=0, atol=1e-9)
+    return statuses
+
+
+def test_divergent_seed_example_is_one_c_call():
+    model = shipped("planar_hexa")
+    start = model.inverse_kinematics(SEED_X1)
+    assert compare_divergent(model, start, [SEED_THETA0]) == [clib.OK_PATH]
+    res = sc.solve(model, SEED_THETA0, start=start, branch="divergent", backend="c",
+                   record_path=False)  # fmt: skip
+    conv = sc.solve(model, SEED_THETA0, start=start, backend="c", record_path=False)
+    # the paper's divergent answer, across the fold the path turns at behind the start
+    assert res.x[2] == pytest.approx(0.9999, abs=1e-4) and res.b == -conv.b
+    assert [c.kind for c in res.crossings] == ["fold"]
+    assert res.crossings[0].s == pytest.approx(-0.2782, abs=1e-4)
+
+
+def test_divergent_seed_robot_equals_the_compiled_solve():
+    model = shipped("planar_hexa")
+    start = model.inverse_kinematics(SEED_X1)
+    rng = np.random.default_rng(31)
+    targets = SEED_THETA0 + rng.normal(scale=0.5, size=(16, 3))
+    statuses = compare_divergent(model, start, targets)
+    assert statuses.count(clib.OK_PATH) >= 6, statuses
+    # the paths the C walk does not decide (e.g. s = -1 reached before a fold) fall back
+    assert statuses.count(clib.ERR_SINGULAR_PATH) >= 3, statuses
+
+
+def test_divergent_3rpr_equals_the_compiled_solve():
+    model = shipped("planar_3rpr")
+    rng = np.random.default_rng(32)
+    targets = model.home.theta + rng.normal(scale=0.1, size=(16, 3))
+    statuses = compare_divergent(model, model.home, targets)
+    assert statuses.count(clib.OK_PATH) >= 2, statuses
+
+
+def test_divergent_hexapod_equals_the_compiled_solve():
+    # a floating platform (the answer and the fold in the start's chart); the first two paths
+    # meet more singular points after the fold: the C call refuses, the compiled solve decides
+    model = shipped("stewart_gough")
+    rng = np.random.default_rng(7)
+    targets = model.home.theta + rng.normal(scale=0.3, size=(3, 6))  # m
+    statuses = compare_divergent(model, model.home, targets)
+    assert statuses == [clib.ERR_SINGULAR_PATH, clib.ERR_SINGULAR_PATH, clib.OK_PATH]

@@ -10,10 +10,11 @@ without compiling.
 from __future__ import annotations
 
 import ctypes
+import math
 import os
 import shutil
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -179,6 +180,9 @@ class CTracker:
             _dp, ctypes.c_int, _dp, ctypes.c_int, _dp, ctypes.c_int, _dp,
             ctypes.POINTER(Options), _dp, _dp, _dp, _dp, _dp,
         ]  # fmt: skip
+        self._solve_divergent = getattr(lib, f"{p}_solve_divergent")
+        self._solve_divergent.restype = ctypes.c_int
+        self._solve_divergent.argtypes = [*self._solve.argtypes, _dp]
 
     def default_options(self) -> Options:
         """The library's default options (tolerance, budgets)."""
@@ -259,6 +263,28 @@ class CTracker:
             theta0: (k,) target actuated values.
             options: tracker options (default: the library's).
         """
+        return self._call_solve(self._solve, y1, c1, theta1, theta0, options)
+
+    def solve_divergent(
+        self,
+        y1: np.ndarray,
+        c1: np.ndarray,
+        theta1: np.ndarray,
+        theta0: np.ndarray,
+        options: Options | None = None,
+    ) -> SolveOutput:
+        """The divergent solution at ``theta0`` along the paper's divergent path, in one call
+        into C (``<prefix>_solve_divergent``: the straight line's curve followed where ``s``
+        decreases, through exactly one fold and back through ``s = 0`` on the other sheet, to
+        its first ``s = 1`` crossing; refused with status -10 where the walk meets what it
+        does not decide). The same arguments as :meth:`solve_convergent`; the output's ``y``
+        is in the chart ``c``, its ``fold_y`` in the chart ``fold_c`` (the walk re-centres
+        its chart).
+        """
+        return self._call_solve(self._solve_divergent, y1, c1, theta1, theta0, options,
+                                fold=True)  # fmt: skip
+
+    def _call_solve(self, fn, y1, c1, theta1, theta0, options, fold=False) -> SolveOutput:
         y1, c1, theta1, theta0 = (
             np.ascontiguousarray(a, dtype=float) for a in (y1, c1, theta1, theta0)
         )
@@ -266,18 +292,25 @@ class CTracker:
         c = np.full(max(1, self.nc), np.nan)
         x = np.full(self.n, np.nan)
         res, det = ctypes.c_double(np.nan), ctypes.c_double(np.nan)
-        status = self._solve(
+        extra = np.full(1 + self.m + self.n + self.nc, np.nan) if fold else None
+        status = fn(
             _ptr(y1), y1.size, _ptr(c1) if c1.size else _ptr(np.zeros(1)), c1.size,
             _ptr(theta1), theta1.size, _ptr(theta0) if theta0.size == self.k else None,
             ctypes.byref(options) if options is not None else None,
             _ptr(y), _ptr(c), _ptr(x), ctypes.byref(res), ctypes.byref(det),
+            *(() if extra is None else (_ptr(extra),)),
         )  # fmt: skip
-        return SolveOutput(int(status), y, c[: self.nc], x, float(res.value), float(det.value))
+        out = SolveOutput(int(status), y, c[: self.nc], x, float(res.value), float(det.value))
+        if extra is None:
+            return out
+        m, n = self.m, self.n
+        return replace(out, fold_s=float(extra[0]), fold_y=extra[1 : 1 + m],
+                       fold_x=extra[1 + m : 1 + m + n], fold_c=extra[1 + m + n :])  # fmt: skip
 
 
 @dataclass(frozen=True)
 class SolveOutput:
-    """Raw output of one call of ``<prefix>_solve_convergent``.
+    """Raw output of one call of ``<prefix>_solve_convergent`` or ``<prefix>_solve_divergent``.
 
     Attributes:
         status: 1 (solved along the curve) or an error code (see :data:`STATUS`).
@@ -286,6 +319,10 @@ class SolveOutput:
         x: (n,) workspace coordinates.
         residual: max |closure row| at the solution [model length unit].
         det: ``det J_p`` at the solution.
+        fold_s: the divergent solve's fold: its ``s`` on the line (NaN otherwise).
+        fold_y: (m,) its unknowns in the chart ``fold_c`` (divergent solve only).
+        fold_x: (n,) its workspace coordinates (divergent solve only).
+        fold_c: (nc,) the chart of ``fold_y`` (divergent solve only).
     """
 
     status: int
@@ -294,6 +331,10 @@ class SolveOutput:
     x: np.ndarray
     residual: float
     det: float
+    fold_s: float = math.nan
+    fold_y: np.ndarray | None = None
+    fold_x: np.ndarray | None = None
+    fold_c: np.ndarray | None = None
 
 
 def _ptr(a: np.ndarray):

@@ -148,8 +148,8 @@ def solve(
             ``branch`` (the literal algorithm).
         backend: a name of :mod:`scdk_sym.backends` that solve offers
             (``backends.offered("solve")``): "cvodes" (default), "compiled", "c" (the
-            convergent solve in one call of the generated C follower,
-            :mod:`scdk_sym.solvers.solve_c`) or "auto".
+            convergent solve, and the divergent one along the paper's divergent path, in one
+            call of the generated C follower, :mod:`scdk_sym.solvers.solve_c`) or "auto".
         max_arc: arc-length budget of the path (see :func:`trace`).
         record_path: keep the sampled curve in ``result.path`` (for plots).
         fast: for a convergent solve without ``record_path``, first try one call of the warm

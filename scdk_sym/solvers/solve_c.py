@@ -1,16 +1,27 @@
-"""The convergent direct kinematics in one call of the generated C follower.
+"""The direct kinematics in one call of the generated C follower (``backend="c"``).
 
-:func:`solve_c` runs ``<prefix>_solve_convergent`` of the model's C tracker library
-(:mod:`scdk_sym.codegen.library`, compiled once and cached): from the assembled start it
-follows the singularity-consistent curve of the straight line ``theta1 + s (theta0 -
-theta1)`` in the convergent direction (``s`` increasing, ``b det J_p > 0``) with the tracker's
-follower (the RK4 predictor-corrector steps of :mod:`scdk_sym.follower.kernels`, the step
-control of ``scdk_sym.follower.curve.follow(predictor="rk4")``) to its first crossing of
-``s = 1``. The C call refuses a path that meets a turn of ``s`` or a sign change of
-``det J_p`` before the solution (it locates no crossing) and a path without a crossing within
-its arc budget; those cases, the divergent branch, an explicit ``b`` and a recorded path are
-solved by :func:`scdk_sym.solvers.sc.solve` with the compiled kernels. The answer is verified
-in Python (:func:`scdk_sym.solvers.sc.solve`'s own check), so nothing unverified is returned.
+:func:`solve_c` runs ``<prefix>_solve_convergent`` or ``<prefix>_solve_divergent`` of the
+model's C tracker library (:mod:`scdk_sym.codegen.library`, compiled once and cached). From the
+assembled start both follow the singularity-consistent curve of the straight line
+``theta1 + s (theta0 - theta1)`` with the tracker's follower (the RK4 predictor-corrector steps
+of :mod:`scdk_sym.follower.kernels`, the step control of
+``scdk_sym.follower.curve.follow(predictor="rk4")``):
+
+- the convergent solve in the convergent direction (``s`` increasing, ``b det J_p > 0``) to
+  its first crossing of ``s = 1``; it refuses a path that meets a turn of ``s`` or a sign
+  change of ``det J_p`` before the solution (it locates no crossing);
+- the divergent solve where it is the first way of :func:`scdk_sym.solvers.sc._divergent`,
+  the paper's divergent path: in the direction where ``s`` decreases, through exactly one
+  fold (located, reported as the answer's one crossing) back through ``s = 0`` on the other
+  sheet, then to the first crossing of ``s = 1`` without another singular point; it refuses
+  every other walk (a bifurcation, a second fold, ``s = -1`` first, ...).
+
+Both refuse a path without an answer within their arc budgets. Those cases, an explicit ``b``,
+a recorded path and an explicit ``max_arc`` are solved by :func:`scdk_sym.solvers.sc.solve`
+with the compiled kernels, as is a divergent answer that is singular or fails its checks. The
+answer is verified in Python (:func:`scdk_sym.solvers.sc.solve`'s own residual check, and the
+parity of ``det J_p`` after the crossings of :func:`scdk_sym.follower.finish.parity_checked`),
+so nothing unverified is returned.
 """
 
 from __future__ import annotations
@@ -18,8 +29,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import NotAssembledError, SolveError
-from ..results import Configuration, SolveResult
+from ..errors import NotAssembledError, PathError, SolveError, VerificationError
+from ..results import Configuration, Crossing, SolveResult
 from ..robot import Model, as_vector
 
 __all__ = ["solve_c"]
@@ -39,11 +50,12 @@ def solve_c(
         model: the model.
         theta0: (k,) actuated joint values [rad or model length unit].
         start: assembled start configuration (default: ``model.home``).
-        branch: "convergent" is solved in one C call where the C follower can; "divergent"
-            (and every case the C call refuses) by ``solve(..., backend="compiled")``.
+        branch: "convergent" or "divergent", each solved in one C call where the C follower
+            can (see the module documentation), else by ``solve(..., backend="compiled")``.
         b: the paper's signed scalar (solved by ``solve(..., backend="compiled")``).
         **kwargs: the other keywords of :func:`scdk_sym.solvers.sc.solve`; ``record_path``
-            (the sampled curve) is solved by ``solve(..., backend="compiled")``.
+            (the sampled curve) and ``max_arc`` are solved by
+            ``solve(..., backend="compiled")``.
 
     Returns:
         A verified :class:`~scdk_sym.results.SolveResult`, the same as ``solve``'s (equal to
@@ -59,17 +71,23 @@ def solve_c(
         STATUS,
         tracker_library,
     )
-    from .sc import _result, solve, validate_start
+    from .sc import solve, validate_start
 
     kwargs.pop("backend", None)
     fallback = dict(kwargs, backend="compiled")
-    if b is not None or branch != "convergent" or kwargs.get("record_path", False):
+    if (
+        b is not None
+        or branch not in ("convergent", "divergent")
+        or kwargs.get("record_path", False)
+        or kwargs.get("max_arc") is not None
+    ):
         return solve(model, theta0, start, branch, b, **fallback)
     th0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
     start = validate_start(model, start, check_residual=False)
     lib = tracker_library(model)
     y1, c1 = model.chart.to_local(start.y)
-    out = lib.solve_convergent(y1, c1, start.theta, th0)
+    call = lib.solve_convergent if branch == "convergent" else lib.solve_divergent
+    out = call(y1, c1, start.theta, th0)
     if out.status in (ERR_SINGULAR_PATH, ERR_NO_SOLUTION):
         return solve(model, th0, start, branch, b, **fallback)
     if out.status == ERR_NOT_ASSEMBLED:
@@ -85,4 +103,34 @@ def solve_c(
             f"(status {out.status}); try backend='compiled'"
         )
     y = model.chart.to_canonical(out.y, out.c)
-    return _result(model, y, th0, (), "convergent", float(np.sign(out.det)), start, None)
+    if branch == "convergent":
+        from .sc import _result
+
+        return _result(model, y, th0, (), "convergent", float(np.sign(out.det)), start, None)
+    res = _divergent_result(model, th0, start, y, out)
+    if res is None:
+        return solve(model, th0, start, branch, b, **fallback)
+    return res
+
+
+def _divergent_result(model: Model, theta0: np.ndarray, start: Configuration, y: np.ndarray,
+                      out) -> SolveResult | None:  # fmt: skip
+    """The verified answer of ``<prefix>_solve_divergent`` (its output ``out``, the answer's
+    canonical ``y``), with the fold crossed as its one crossing, as the first way of
+    :func:`scdk_sym.solvers.sc._divergent` reports it; None where the answer is singular or
+    fails its residual or parity check (the compiled solve decides those)."""
+    from ..follower.finish import parity_checked
+    from ..follower.singular import _det_sign
+    from .sc import _result
+
+    sign0 = _det_sign(model, start)
+    theta_f = start.theta + out.fold_s * (theta0 - start.theta)
+    y_f = model.chart.to_canonical(out.fold_y, out.fold_c)
+    fold = Crossing(out.fold_s, out.fold_x, y_f, theta_f, kind="fold")
+    try:
+        res = _result(model, y, theta0, (fold,), "divergent", -sign0, start, None)
+        if res.status == "singular":
+            return None
+        return parity_checked(model, res, sign0)
+    except (VerificationError, PathError):
+        return None
