@@ -1,11 +1,11 @@
 """Time per solve of the paper's example (planar HEXA-type robot, section 5).
 
 Prints the median time per solve of both branches with the CasADi SX Functions, with the
-compiled (generated C) kernels and with ``backend="c"`` (the convergent solve in one call of
-the generated C follower; its divergent branch is the compiled solve), for both modelings, and
-the ratio to a baseline measured in the same run: a plain numpy Newton iteration (x in R^3,
-the reduced model's closed-form residual) from the same start, which finds one solution and
-has no branch control.
+compiled (generated C) kernels and with ``backend="c"`` (each branch in one call of the
+generated C follower where that call decides it, else the compiled solve: column ``via``), for
+both modelings, and the ratio to a baseline measured in the same run: a plain numpy Newton
+iteration (x in R^3, the reduced model's closed-form residual) from the same start, which finds
+one solution and has no branch control.
 
     python benchmarks/seed_example.py [--repeat 200] [--clock cpu]
 
@@ -24,6 +24,7 @@ import numpy as np
 
 import scdk_sym as sc
 from scdk_sym.builders.planar import seed_geometry
+from scdk_sym.codegen.library import OK_PATH, tracker_library
 from scdk_sym.solvers.sc import solve
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -54,6 +55,17 @@ def newton_baseline(theta0: np.ndarray, x: np.ndarray) -> np.ndarray:
 CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
 
 
+def via(model, start, branch: str, backend: str) -> str:
+    """What answers a solve: "C call" (one call of the generated C follower), "fallback" (the
+    compiled solve, where that call refuses) or "-" (not ``backend="c"``)."""
+    if backend != "c":
+        return "-"
+    lib = tracker_library(model)
+    y1, c1 = model.chart.to_local(start.y)
+    call = lib.solve_convergent if branch == "convergent" else lib.solve_divergent
+    return "C call" if call(y1, c1, start.theta, THETA0).status == OK_PATH else "fallback"
+
+
 def median_time(fn, repeat: int, clock=time.perf_counter) -> float:
     fn()  # warm up
     times = []
@@ -73,7 +85,10 @@ def main() -> None:
     base = median_time(lambda: newton_baseline(THETA0, X1.copy()), args.repeat, clock)
     print(f"baseline numpy Newton (one solution, no branch control): {base * 1e3:.3f} ms/solve")
     print(f"({args.clock} clock, medians of {args.repeat})")
-    print(f"{'model':<22}{'backend':<10}{'branch':<12}{'phi':>9}{'ms/solve':>10}{'ratio':>8}")
+    print(
+        f"{'model':<22}{'backend':<10}{'branch':<12}{'via':<10}{'phi':>9}{'ms/solve':>10}"
+        f"{'ratio':>8}"
+    )
     for name in ("planar_hexa", "planar_hexa_reduced"):
         model = sc.load_model(ROOT / "models" / name)
         start = model.inverse_kinematics(X1)
@@ -92,9 +107,10 @@ def main() -> None:
                     )
 
                 t = median_time(run, args.repeat, clock)
+                how = via(model, start, branch, backend)
                 print(
-                    f"{name:<22}{backend:<10}{branch:<12}{res.x[2]:>9.4f}{t * 1e3:>10.3f}"
-                    f"{t / base:>8.1f}"
+                    f"{name:<22}{backend:<10}{branch:<12}{how:<10}{res.x[2]:>9.4f}"
+                    f"{t * 1e3:>10.3f}{t / base:>8.2f}"
                 )
 
 
