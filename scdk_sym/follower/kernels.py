@@ -40,6 +40,21 @@ PLANE_STEPS = 8
 FOLD_STEPS = 8
 #: Newton iterations of the ``newton`` kernel (its callers call it again if needed).
 NEWTON_ITERATIONS = 2
+#: The compiled backend's library (:func:`follower_kernels`), one source per group compiled in
+#: parallel: the kernels that call the closure Function (its one copy; the steps, called at
+#: every predictor-corrector chunk, are the hot kernel), then the locators called a few times
+#: per singular point or projection (the plane, the fold, the singular-manifold Newton data).
+COMPILED_GROUPS = (
+    ("steps", "step", "tangent", "polish", "newton", "predict"),
+    ("plane",),
+    ("fold",),
+    ("singular",),
+)
+#: Kernels of :data:`COMPILED_GROUPS` compiled at ``-O0``: called once or twice per singular
+#: point, their optimisation costs more compile time than it saves (the fold's Newton step
+#: holds the Jacobian of the symbolic bordered solve, half of the library's C; the singular
+#: kernel, called at every step of the descent to the singular manifold, stays optimised).
+UNOPTIMISED = ("plane", "fold")
 
 
 @dataclass(frozen=True)
@@ -290,7 +305,7 @@ def build_follower_kernels(
     Args:
         sym: the model's symbolic system.
         inline: False to build the kernels from calls of their inner Functions (the closure
-            system and its Jacobians, tangent, corrector, Newton step, residual, ``dy/ds``)
+            system and its Jacobians, tangent, corrector, Newton steps, residual, ``dy/ds``)
             instead of inlined copies: the same operations, several times less generated C to
             compile (the C tracker's choice).
         closure: with ``inline`` False, the :func:`closure_function` every kernel calls
@@ -376,10 +391,16 @@ def build_follower_kernels(
     # the curve point on the plane through q0 normal to v
     qa = ca.SX.sym("q0", m + 1)
     rowv = (weight * v).T
+    gk, Hk = f_gH(qc, p, c)
+    plane1 = ca.Function(
+        "scdk_plane1",
+        [qc, qa, v, p, c],
+        [qc - ca.solve(ca.vertcat(Hk, rowv), ca.vertcat(gk, rowv @ (qc - qa)))],
+        opts,
+    )
     qk = qa
     for _ in range(PLANE_STEPS):
-        gk, Hk = f_gH(qk, p, c)
-        qk = qk - ca.solve(ca.vertcat(Hk, rowv), ca.vertcat(gk, rowv @ (qk - qa)))
+        qk = plane1(qk, qa, v, p, c)
     f_plane = ca.Function(
         "scdk_follow_plane",
         [qa, v, p, c],
@@ -461,13 +482,17 @@ def follower_kernels(model, backend: str = "cvodes") -> FollowerKernels:
     backend = resolve(backend, "kernels")
 
     def build() -> FollowerKernels:
-        kern = build_follower_kernels(model.symbolic)
-        if backend == "compiled":
-            from ..kernels.compile import OPT, cached_library
+        if backend != "compiled":
+            return build_follower_kernels(model.symbolic)
+        from ..kernels.compile import model_library
 
-            target = cached_library(kern.all(), "scdk_follow", announce_as=model.name, opt=OPT)
-            kern = FollowerKernels(*(ca.external(f.name(), str(target)) for f in kern.all()))
-        return kern
+        # calls of one closure Function and of each Newton step: the same operations as the
+        # inlined kernels, several times less C to compile
+        kern = build_follower_kernels(model.symbolic, inline=False)
+        groups = [[getattr(kern, name) for name in group] for group in COMPILED_GROUPS]
+        cold = [getattr(kern, name).name() for name in UNOPTIMISED]
+        target = model_library(model, "scdk_follow", groups, unoptimised=cold)
+        return FollowerKernels(*(ca.external(f.name(), str(target)) for f in kern.all()))
 
     return model.products.get(FOLLOWER_KERNELS, build, backend)
 
