@@ -51,6 +51,27 @@ def test_compiled_kernels_equal_the_sx_functions(make):
     assert path.name.endswith(f"_{comp.compiler_tag()}.so")
 
 
+def test_compiled_field_integrates_as_the_sx_one_without_its_jacobian():
+    """No Jacobian of the field is compiled: CVODES's functional iteration never evaluates the
+    one CasADi builds (by finite differences) and the chunk equals the SX engine's."""
+    from scdk_sym.follower.cvodes import engine
+
+    model = shipped("planar_hexa")
+    y, c = model.chart.to_local(model.home.y)
+    rng = np.random.default_rng(7)
+    for _ in range(3):
+        dtheta = rng.normal(scale=0.1, size=model.k)
+        v = np.r_[np.zeros(model.m), 1.0]
+        p = np.r_[model.home.theta, dtheta, v, 0.05 / np.linalg.norm(dtheta), 5.0, c]
+        chunks = []
+        for backend in ("cvodes", "compiled"):
+            integ = engine(model, backend).integrator.function
+            chunks.append(np.array(integ(x0=np.r_[y, 0.0], p=p)["xf"]))
+            assert integ.stats()["n_call_jacF"] == 0 and integ.stats()["nfevals"] > 0
+        assert np.ptp(chunks[0][-1]) > 1e-3  # s moved along the chunk
+        np.testing.assert_allclose(chunks[1], chunks[0], rtol=1e-12, atol=1e-12)
+
+
 def test_missing_compiler_is_a_build_error(monkeypatch):
     monkeypatch.setenv("CC", "")
     monkeypatch.setattr(comp.shutil, "which", lambda name: None)
