@@ -102,7 +102,7 @@ def cpu():
 
 
 model = sc.load_model({str(MODEL)!r})
-theta0 = model.home.theta + 0.01 * np.arange(1, model.k + 1)
+theta0 = model.home.theta + 0.003 * np.arange(1, model.k + 1)
 out = {{}}
 for branch in ("convergent", "divergent"):
     events.clear()
