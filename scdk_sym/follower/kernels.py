@@ -44,12 +44,8 @@ NEWTON_ITERATIONS = 2
 #: parallel: the kernels that call the closure Function (its one copy; the steps, called at
 #: every predictor-corrector chunk, are the hot kernel), then the locators called a few times
 #: per singular point or projection (the plane, the fold, the singular-manifold Newton data).
-COMPILED_GROUPS = (
-    ("steps", "step", "tangent", "polish", "newton", "predict"),
-    ("plane",),
-    ("fold",),
-    ("singular",),
-)
+#: ``newton`` and ``predict``, which only the C tracker calls, are not compiled.
+COMPILED_GROUPS = (("steps", "step", "tangent", "polish"), ("plane",), ("fold",), ("singular",))
 #: Kernels of :data:`COMPILED_GROUPS` compiled at ``-O0``: called once or twice per singular
 #: point, their optimisation costs more compile time than it saves (the fold's Newton step
 #: holds the Jacobian of the symbolic bordered solve, half of the library's C; the singular
@@ -473,7 +469,8 @@ def follower_kernels(model, backend: str = "cvodes") -> FollowerKernels:
     Args:
         model: the model.
         backend: "cvodes" (SX virtual machine) or "compiled" (generated C compiled with the
-            system compiler once, cached on disk by content hash); see :mod:`scdk_sym.backends`.
+            system compiler once, cached on disk by content hash: the kernels of
+            :data:`COMPILED_GROUPS`, the others SX Functions); see :mod:`scdk_sym.backends`.
 
     Raises:
         InputError: a backend the kernel builders do not offer.
@@ -492,7 +489,10 @@ def follower_kernels(model, backend: str = "cvodes") -> FollowerKernels:
         groups = [[getattr(kern, name) for name in group] for group in COMPILED_GROUPS]
         cold = [getattr(kern, name).name() for name in UNOPTIMISED]
         target = model_library(model, "scdk_follow", groups, unoptimised=cold)
-        return FollowerKernels(*(ca.external(f.name(), str(target)) for f in kern.all()))
+        compiled = {f.name() for group in groups for f in group}
+        return FollowerKernels(
+            *(ca.external(f.name(), str(target)) if f.name() in compiled else f for f in kern.all())
+        )
 
     return model.products.get(FOLLOWER_KERNELS, build, backend)
 

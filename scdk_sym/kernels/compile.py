@@ -207,11 +207,10 @@ def compile_parallel(
     return Path(target)
 
 
-#: The compiled backend's kernels (:func:`compiled_kernels`), one source per group compiled in
-#: parallel: those that call the closure Function (its one copy; the warm kernel, the SC field
-#: CVODES integrates and its probe), then the others. The inverse kinematics, which no
-#: compiled solve calls, stays the SX Function.
-KERNEL_GROUPS = (("warm", "field", "probe"), ("g", "check", "jac", "pose"))
+#: The kernels of the compiled backend's library (:func:`compiled_kernels`): those its solvers
+#: call (the warm kernel, the SC field CVODES integrates and its probe), in one source (they
+#: call one closure Function, its one copy); the others stay the SX Functions.
+KERNEL_GROUPS = (("warm", "field", "probe"),)
 
 
 def cached_library(
@@ -369,28 +368,22 @@ def model_library(
 
 
 def compiled_kernels(model) -> Kernels:
-    """The model's kernels compiled to C and loaded with ``casadi.external``.
+    """The model's kernels, those of :data:`KERNEL_GROUPS` compiled to C and loaded with
+    ``casadi.external`` (the others: ``model.kernels``'s SX Functions).
 
-    The field, its probe and the warm kernel call one Function of the closures
-    (:func:`~scdk_sym.follower.kernels.closure_function`); the sources are
-    :data:`KERNEL_GROUPS`, compiled by :func:`model_library` (cached on disk: only the first
-    call for a model generates and compiles, seconds). The field is loaded with finite
-    differences for its derivatives: CVODES's functional iteration
-    (:data:`~scdk_sym.follower.cvodes.CVODES_OPTIONS`) never evaluates the Jacobian that
-    CasADi builds at the integrator's creation, so none is compiled.
+    The compiled ones call one Function of the closures
+    (:func:`~scdk_sym.follower.kernels.closure_function`); :func:`model_library` compiles
+    them (cached on disk: only the first call for a model generates and compiles, seconds).
+    The field is loaded with finite differences for its derivatives: CVODES's functional
+    iteration (:data:`~scdk_sym.follower.cvodes.CVODES_OPTIONS`) never evaluates the Jacobian
+    that CasADi builds at the integrator's creation, so none is compiled.
     """
     from ..follower.kernels import closure_function
 
-    sx = model.kernels
     kern = build_kernels(model.symbolic, closure=closure_function(model.symbolic))
     target = model_library(model, "kernels", kernel_groups(kern))
-    compiled = {name for group in KERNEL_GROUPS for name in group}
-    loaded = {}
-    for f in fields(kern):
-        fun = getattr(kern, f.name)
-        if f.name not in compiled:
-            loaded[f.name] = getattr(sx, f.name)
-        else:
-            opts = {"enable_fd": True} if f.name == "field" else {}
-            loaded[f.name] = ca.external(fun.name(), str(target), opts)
+    loaded = {f.name: getattr(model.kernels, f.name) for f in fields(kern)}
+    for name in (name for group in KERNEL_GROUPS for name in group):
+        opts = {"enable_fd": True} if name == "field" else {}
+        loaded[name] = ca.external(getattr(kern, name).name(), str(target), opts)
     return Kernels(**loaded)
