@@ -294,7 +294,10 @@ def rk4_in_s(
 
 
 def build_follower_kernels(
-    sym, inline: bool = True, closure: ca.Function | None = None
+    sym,
+    inline: bool = True,
+    closure: ca.Function | None = None,
+    solver_calls: bool | None = None,
 ) -> FollowerKernels:
     """Build the follower's Functions from a model's symbolic system (``model.symbolic``).
 
@@ -306,7 +309,12 @@ def build_follower_kernels(
             compile (the C tracker's choice).
         closure: with ``inline`` False, the :func:`closure_function` every kernel calls
             (default: a new one; pass the one other kernels call for one copy in C).
+        solver_calls: the tangent's and the corrector's bordered solves by calls of
+            :func:`linear_solver` (one copy in C) instead of written out in each; default:
+            ``not inline``. With ``inline`` False and written-out solves (the compiled
+            backend's choice) the steps take the time of the inlined ones for a tenth more C.
     """
+    solve_inline = not solver_calls if solver_calls is not None else inline
     opts = _options(inline)
     if inline:
         closure = None
@@ -334,7 +342,7 @@ def build_follower_kernels(
     else:
         # one copy of the tangent: the exported kernel calls the Function the step calls
         gH = tuple(closure(y, theta1 + s * dtheta, c))
-        tc = bordered_tangent(gH[1], gH[2], dtheta, v, inline=False)[0]
+        tc = bordered_tangent(gH[1], gH[2], dtheta, v, inline=solve_inline)[0]
         f_tan_call = ca.Function(
             "scdk_follow_tangent_call", [q, v, p, c], [tc, ca.vec(gH[1])], opts
         )
@@ -364,7 +372,7 @@ def build_follower_kernels(
     f_corr = ca.Function(
         "scdk_follow_correct",
         [qc, qp, t1, p, c],
-        [-_solve(ca.vertcat(Hk, row), ca.vertcat(gk, row @ (qc - qp)), inline)],
+        [-_solve(ca.vertcat(Hk, row), ca.vertcat(gk, row @ (qc - qp)), solve_inline)],
         opts,
     )
     qk = q_pred
@@ -484,8 +492,9 @@ def follower_kernels(model, backend: str = "cvodes") -> FollowerKernels:
         from ..kernels.compile import model_library
 
         # calls of one closure Function and of each Newton step: the same operations as the
-        # inlined kernels, several times less C to compile
-        kern = build_follower_kernels(model.symbolic, inline=False)
+        # inlined kernels, several times less C to compile; the bordered solves written out
+        # (calls of one solver cost the steps, the hot kernel, 4-9% of their time)
+        kern = build_follower_kernels(model.symbolic, inline=False, solver_calls=False)
         groups = [[getattr(kern, name) for name in group] for group in COMPILED_GROUPS]
         cold = [getattr(kern, name).name() for name in UNOPTIMISED]
         target = model_library(model, "scdk_follow", groups, unoptimised=cold)
