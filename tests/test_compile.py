@@ -153,7 +153,7 @@ def package_copy(tmp_path, monkeypatch):
 
 SOURCES = [
     "model/rotations.py", "model/chart.py", "model/urdf.py", "symbolic/system.py",
-    "symbolic/kinematics.py", "kernels/functions.py", "follower/kernels.py",
+    "symbolic/kinematics.py", "kernels/functions.py", "kernels/compile.py", "follower/kernels.py",
 ]  # fmt: skip
 
 

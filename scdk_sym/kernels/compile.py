@@ -41,8 +41,15 @@ LINK_FLAGS = ("-shared",)
 CFLAGS = (*COMPILE_FLAGS, *LINK_FLAGS)
 #: Package sources a model's kernels are built from (a folder: every module in it): the
 #: description layer (URDF and spec parsing, chart, rotations), the symbolic layer, the kernel
-#: definitions and the follower's SC field they inline.
-KERNEL_SOURCES = ("model", "symbolic", "kernels/functions.py", "follower/kernels.py")
+#: definitions, the follower's kernels they call and this module (which of them it builds,
+#: and how).
+KERNEL_SOURCES = (
+    "model",
+    "symbolic",
+    "kernels/functions.py",
+    "kernels/compile.py",
+    "follower/kernels.py",
+)
 #: Root of the package, the folder the source lists are relative to.
 PACKAGE_ROOT = Path(__file__).resolve().parents[1]
 
