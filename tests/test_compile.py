@@ -5,12 +5,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from factories import MODELS, hexapod, needs_compiler, shipped
+from factories import MODELS, SEED_THETA0, hexapod, needs_compiler, shipped
 
 import scdk_sym as sc
 from scdk_sym.errors import BuildError
+from scdk_sym.follower.kernels import closure_function
 from scdk_sym.kernels import compile as comp
 from scdk_sym.kernels.cache import cache_dir
+from scdk_sym.kernels.functions import build_kernels
 
 pytestmark = needs_compiler()
 
@@ -19,21 +21,96 @@ pytestmark = needs_compiler()
     "make", [lambda: shipped("planar_hexa"), hexapod], ids=["planar", "hexapod"]
 )
 def test_compiled_kernels_equal_the_sx_functions(make):
+    """Near home (y, theta, chart), other inputs random: far from the closures the warm
+    kernel's Newton iterations overflow, where inlined and called closures differ in NaN."""
     model = make()
     sx = model.kernels
     c_k = comp.compiled_kernels(model)
     rng = np.random.default_rng(3)
+    y, c = model.chart.to_local(model.home.y)
+    near = {"y": y, "y1": y, "theta": model.home.theta, "theta1": model.home.theta}
+    near.update(theta0=model.home.theta, c=c, q=np.r_[y, 0.5])
     for f in fields(sx):
         f_sx, f_c = getattr(sx, f.name), getattr(c_k, f.name)
         assert f_c.n_in() == f_sx.n_in() and f_c.n_out() == f_sx.n_out()
         for _ in range(3):
-            args = [rng.normal(scale=0.3, size=f_sx.size_in(i)) for i in range(f_sx.n_in())]
+            args = [
+                near[name] + rng.normal(scale=0.03, size=np.shape(near[name]))
+                if name in near
+                else rng.normal(scale=0.3, size=f_sx.size_in(i))
+                for i, name in enumerate(f_sx.name_in())
+            ]
             for a, b in zip(f_sx.call(args), f_c.call(args), strict=True):
                 a, b = np.array(a), np.array(b)
                 size = np.abs(a[np.isfinite(a)]).max(initial=0.0)
                 np.testing.assert_allclose(b, a, rtol=1e-10, atol=1e-10 * (1 + size))
-    # cached: the library exists under the model's key and is reused
-    assert (cache_dir() / f"kernels_{comp.cache_key(model)}_{comp.compiler_tag()}.so").exists()
+    for name in (name for group in comp.KERNEL_GROUPS for name in group):
+        assert getattr(c_k, name).class_name() == "External"  # compiled, not the SX Function
+    # cached: the library exists under the model's key (kernels built again: the same key)
+    kern = build_kernels(model.symbolic, closure=closure_function(model.symbolic))
+    path = comp.library_path(model, "kernels", comp.kernel_groups(kern))
+    assert path.parent == cache_dir() and path.exists()
+    assert path.name.endswith(f"_{comp.compiler_tag()}.so")
+
+
+def test_compiled_field_integrates_as_the_sx_one_without_its_jacobian():
+    """No Jacobian of the field is compiled: CVODES's functional iteration never evaluates the
+    one CasADi builds (by finite differences) and the chunk equals the SX engine's."""
+    from scdk_sym.follower.cvodes import engine
+
+    model = shipped("planar_hexa")
+    y, c = model.chart.to_local(model.home.y)
+    rng = np.random.default_rng(7)
+    for _ in range(3):
+        dtheta = rng.normal(scale=0.1, size=model.k)
+        v = np.r_[np.zeros(model.m), 1.0]
+        p = np.r_[model.home.theta, dtheta, v, 0.05 / np.linalg.norm(dtheta), 5.0, c]
+        chunks = []
+        for backend in ("cvodes", "compiled"):
+            integ = engine(model, backend).integrator.function
+            chunks.append(np.array(integ(x0=np.r_[y, 0.0], p=p)["xf"]))
+            assert integ.stats()["n_call_jacF"] == 0 and integ.stats()["nfevals"] > 0
+        assert np.ptp(chunks[0][-1]) > 1e-3  # s moved along the chunk
+        np.testing.assert_allclose(chunks[1], chunks[0], rtol=1e-12, atol=1e-12)
+
+
+def test_compiled_follower_kernels_equal_the_sx_functions():
+    """The curve follower's compiled kernels (closure calls, the plane and the fold at -O0)
+    against its SX Functions near the fold that the seed example's divergent path crosses, to
+    1e-13 relative (the same operations; the order of a few sums may differ)."""
+    from scdk_sym.follower.kernels import COMPILED_GROUPS, follower_kernels
+
+    model = shipped("planar_hexa")
+    start = model.inverse_kinematics([0.0, 0.0, 0.4])
+    fold = sc.solve(model, SEED_THETA0, start=start, branch="divergent").crossings[0]
+    assert fold.kind == "fold"
+    sx, c_k = follower_kernels(model), follower_kernels(model, "compiled")
+    y, c = model.chart.to_local(fold.y)
+    rng = np.random.default_rng(11)
+    for _ in range(3):
+        dtheta = rng.normal(scale=0.05, size=model.k)
+        p = np.r_[fold.theta - 0.5 * dtheta, dtheta]
+        q = np.r_[y + rng.normal(scale=1e-3, size=model.m), 0.5]
+        t = np.array(sx.tangent(q, np.r_[np.zeros(model.m), 1.0], p, c)[0]).ravel()
+        args = {
+            "steps": (np.r_[q, t], 0.01, p, c),
+            "step": (np.r_[q, t], 0.01, p, c),
+            "tangent": (q, t, p, c),
+            "plane": (q, t, p, c),
+            "fold": (q, t, p, c),
+            "polish": (q[:-1], fold.theta, c),
+            "singular": (q[:-1], fold.theta, c),
+        }
+        for name in (name for group in COMPILED_GROUPS for name in group):
+            assert getattr(c_k, name).class_name() == "External"
+            expected, got = (getattr(k, name).call(list(args[name])) for k in (sx, c_k))
+            for a, b in zip(expected, got, strict=True):
+                a, b = np.array(a), np.array(b)
+                assert np.all(np.isfinite(a))
+                np.testing.assert_allclose(b, a, rtol=1e-13, atol=1e-13 * (1 + np.abs(a).max()))
+        # the fold kernel converged onto the fold crossed by the solve
+        q_fold = np.array(c_k.fold(*args["fold"])).ravel()
+        np.testing.assert_allclose(q_fold[:-1], y, atol=1e-8)
 
 
 def test_missing_compiler_is_a_build_error(monkeypatch):
@@ -76,7 +153,7 @@ def package_copy(tmp_path, monkeypatch):
 
 SOURCES = [
     "model/rotations.py", "model/chart.py", "model/urdf.py", "symbolic/system.py",
-    "symbolic/kinematics.py", "kernels/functions.py", "follower/kernels.py",
+    "symbolic/kinematics.py", "kernels/functions.py", "kernels/compile.py", "follower/kernels.py",
 ]  # fmt: skip
 
 

@@ -40,6 +40,17 @@ PLANE_STEPS = 8
 FOLD_STEPS = 8
 #: Newton iterations of the ``newton`` kernel (its callers call it again if needed).
 NEWTON_ITERATIONS = 2
+#: The compiled backend's library (:func:`follower_kernels`), one source per group compiled in
+#: parallel: the kernels that call the closure Function (its one copy; the steps, called at
+#: every predictor-corrector chunk, are the hot kernel), then the locators called a few times
+#: per singular point or projection (the plane, the fold, the singular-manifold Newton data).
+#: ``newton`` and ``predict``, which only the C tracker calls, are not compiled.
+COMPILED_GROUPS = (("steps", "step", "tangent", "polish"), ("plane",), ("fold",), ("singular",))
+#: Kernels of :data:`COMPILED_GROUPS` compiled at ``-O0``: called once or twice per singular
+#: point, their optimisation costs more compile time than it saves (the fold's Newton step
+#: holds the Jacobian of the symbolic bordered solve, half of the library's C; the singular
+#: kernel, called at every step of the descent to the singular manifold, stays optimised).
+UNOPTIMISED = ("plane", "fold")
 
 
 @dataclass(frozen=True)
@@ -283,19 +294,27 @@ def rk4_in_s(
 
 
 def build_follower_kernels(
-    sym, inline: bool = True, closure: ca.Function | None = None
+    sym,
+    inline: bool = True,
+    closure: ca.Function | None = None,
+    solver_calls: bool | None = None,
 ) -> FollowerKernels:
     """Build the follower's Functions from a model's symbolic system (``model.symbolic``).
 
     Args:
         sym: the model's symbolic system.
         inline: False to build the kernels from calls of their inner Functions (the closure
-            system and its Jacobians, tangent, corrector, Newton step, residual, ``dy/ds``)
+            system and its Jacobians, tangent, corrector, Newton steps, residual, ``dy/ds``)
             instead of inlined copies: the same operations, several times less generated C to
             compile (the C tracker's choice).
         closure: with ``inline`` False, the :func:`closure_function` every kernel calls
             (default: a new one; pass the one other kernels call for one copy in C).
+        solver_calls: the tangent's and the corrector's bordered solves by calls of
+            :func:`linear_solver` (one copy in C) instead of written out in each; default:
+            ``not inline``. With ``inline`` False and written-out solves (the compiled
+            backend's choice) the steps take the time of the inlined ones for a tenth more C.
     """
+    solve_inline = not solver_calls if solver_calls is not None else inline
     opts = _options(inline)
     if inline:
         closure = None
@@ -323,7 +342,7 @@ def build_follower_kernels(
     else:
         # one copy of the tangent: the exported kernel calls the Function the step calls
         gH = tuple(closure(y, theta1 + s * dtheta, c))
-        tc = bordered_tangent(gH[1], gH[2], dtheta, v, inline=False)[0]
+        tc = bordered_tangent(gH[1], gH[2], dtheta, v, inline=solve_inline)[0]
         f_tan_call = ca.Function(
             "scdk_follow_tangent_call", [q, v, p, c], [tc, ca.vec(gH[1])], opts
         )
@@ -353,7 +372,7 @@ def build_follower_kernels(
     f_corr = ca.Function(
         "scdk_follow_correct",
         [qc, qp, t1, p, c],
-        [-_solve(ca.vertcat(Hk, row), ca.vertcat(gk, row @ (qc - qp)), inline)],
+        [-_solve(ca.vertcat(Hk, row), ca.vertcat(gk, row @ (qc - qp)), solve_inline)],
         opts,
     )
     qk = q_pred
@@ -376,10 +395,16 @@ def build_follower_kernels(
     # the curve point on the plane through q0 normal to v
     qa = ca.SX.sym("q0", m + 1)
     rowv = (weight * v).T
+    gk, Hk = f_gH(qc, p, c)
+    plane1 = ca.Function(
+        "scdk_plane1",
+        [qc, qa, v, p, c],
+        [qc - ca.solve(ca.vertcat(Hk, rowv), ca.vertcat(gk, rowv @ (qc - qa)))],
+        opts,
+    )
     qk = qa
     for _ in range(PLANE_STEPS):
-        gk, Hk = f_gH(qk, p, c)
-        qk = qk - ca.solve(ca.vertcat(Hk, rowv), ca.vertcat(gk, rowv @ (qk - qa)))
+        qk = plane1(qk, qa, v, p, c)
     f_plane = ca.Function(
         "scdk_follow_plane",
         [qa, v, p, c],
@@ -452,7 +477,8 @@ def follower_kernels(model, backend: str = "cvodes") -> FollowerKernels:
     Args:
         model: the model.
         backend: "cvodes" (SX virtual machine) or "compiled" (generated C compiled with the
-            system compiler once, cached on disk by content hash); see :mod:`scdk_sym.backends`.
+            system compiler once, cached on disk by content hash: the kernels of
+            :data:`COMPILED_GROUPS`, the others SX Functions); see :mod:`scdk_sym.backends`.
 
     Raises:
         InputError: a backend the kernel builders do not offer.
@@ -461,13 +487,21 @@ def follower_kernels(model, backend: str = "cvodes") -> FollowerKernels:
     backend = resolve(backend, "kernels")
 
     def build() -> FollowerKernels:
-        kern = build_follower_kernels(model.symbolic)
-        if backend == "compiled":
-            from ..kernels.compile import OPT, cached_library
+        if backend != "compiled":
+            return build_follower_kernels(model.symbolic)
+        from ..kernels.compile import model_library
 
-            target = cached_library(kern.all(), "scdk_follow", announce_as=model.name, opt=OPT)
-            kern = FollowerKernels(*(ca.external(f.name(), str(target)) for f in kern.all()))
-        return kern
+        # calls of one closure Function and of each Newton step: the same operations as the
+        # inlined kernels, several times less C to compile; the bordered solves written out
+        # (calls of one solver cost the steps, the hot kernel, 4-9% of their time)
+        kern = build_follower_kernels(model.symbolic, inline=False, solver_calls=False)
+        groups = [[getattr(kern, name) for name in group] for group in COMPILED_GROUPS]
+        cold = [getattr(kern, name).name() for name in UNOPTIMISED]
+        target = model_library(model, "scdk_follow", groups, unoptimised=cold)
+        compiled = {f.name() for group in groups for f in group}
+        return FollowerKernels(
+            *(ca.external(f.name(), str(target)) if f.name() in compiled else f for f in kern.all())
+        )
 
     return model.products.get(FOLLOWER_KERNELS, build, backend)
 

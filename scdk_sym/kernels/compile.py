@@ -1,10 +1,13 @@
 """Code generation: kernels -> C sources -> shared library (gcc), cached by content hash.
 
-The generated C of every kernel (``casadi.CodeGenerator``, one source file per kernel) is
-compiled once, the files in parallel (:func:`compile_parallel`), into the cache directory and
-loaded with ``casadi.external``; the result is a
-:class:`~scdk_sym.kernels.functions.Kernels` with the same signatures. The first compilation
-for a model prints ``compiling kernels for MODEL...`` to stderr (:func:`announce`).
+The generated C of a model's kernels (``casadi.CodeGenerator``, one source file per group of
+kernels, :func:`model_library`) is compiled once, the files in parallel
+(:func:`compile_parallel`), into the cache directory and loaded with ``casadi.external``;
+:func:`compiled_kernels` returns a :class:`~scdk_sym.kernels.functions.Kernels` with the same
+signatures. The kernels of one source that evaluate the closures call one Function of them
+(:func:`~scdk_sym.follower.kernels.closure_function`), written once in it. The first
+compilation for a model prints ``compiling kernels for MODEL...`` to stderr
+(:func:`announce`).
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import fields
 from pathlib import Path
@@ -25,7 +28,7 @@ import casadi as ca
 
 from ..errors import BuildError
 from .cache import cache_dir
-from .functions import Kernels
+from .functions import Kernels, build_kernels
 
 #: Optimisation level of every compiled library (``-O1``: the generated kernels are
 #: straight-line code that ``-O2``/``-O3`` do not make measurably faster, at several times the
@@ -38,8 +41,15 @@ LINK_FLAGS = ("-shared",)
 CFLAGS = (*COMPILE_FLAGS, *LINK_FLAGS)
 #: Package sources a model's kernels are built from (a folder: every module in it): the
 #: description layer (URDF and spec parsing, chart, rotations), the symbolic layer, the kernel
-#: definitions and the follower's SC field they inline.
-KERNEL_SOURCES = ("model", "symbolic", "kernels/functions.py", "follower/kernels.py")
+#: definitions, the follower's kernels they call and this module (which of them it builds,
+#: and how).
+KERNEL_SOURCES = (
+    "model",
+    "symbolic",
+    "kernels/functions.py",
+    "kernels/compile.py",
+    "follower/kernels.py",
+)
 #: Root of the package, the folder the source lists are relative to.
 PACKAGE_ROOT = Path(__file__).resolve().parents[1]
 
@@ -204,15 +214,10 @@ def compile_parallel(
     return Path(target)
 
 
-def kernel_functions(kernels: Kernels) -> list[ca.Function]:
-    """Every Function compiled for a model: its kernels and ``jac_<field>`` (CVODES asks for
-    the Jacobian of the field it integrates)."""
-    return [*kernels.all(), kernels.field.jacobian()]
-
-
-def generate_c(kernels: Kernels, name: str, directory: Path, with_header: bool = True) -> Path:
-    """Write the C source (and header) of all kernels of a model; returns the source path."""
-    return write_c(kernel_functions(kernels), name, directory, with_header)
+#: The kernels of the compiled backend's library (:func:`compiled_kernels`): those its solvers
+#: call (the warm kernel, the SC field CVODES integrates and its probe), in one source (they
+#: call one closure Function, its one copy); the others stay the SX Functions.
+KERNEL_GROUPS = (("warm", "field", "probe"),)
 
 
 def cached_library(
@@ -253,10 +258,13 @@ def _compile_into(source: Path, target: Path) -> None:
 
 
 def _compile_parts_into(
-    sources: Sequence[Path], target: Path, flags: Sequence[str] = COMPILE_FLAGS
+    sources: Sequence[Path],
+    target: Path,
+    flags: Sequence[str] = COMPILE_FLAGS,
+    unoptimised: Sequence[Path] = (),
 ) -> None:
     partial = target.with_suffix(f".{os.getpid()}.tmp")
-    compile_parallel(sources, partial, flags)
+    compile_parallel(sources, partial, flags, unoptimised=unoptimised)
     os.replace(partial, target)  # atomic: concurrent processes never load a partial file
 
 
@@ -303,18 +311,86 @@ def cache_key(model) -> str:
     return h.hexdigest()[:24]
 
 
-def compiled_kernels(model) -> Kernels:
-    """The model's kernels compiled to C and loaded with ``casadi.external``.
+def kernel_groups(kernels: Kernels) -> list[list[ca.Function]]:
+    """The Functions of each source of the compiled kernels' library (:data:`KERNEL_GROUPS`)."""
+    return [[getattr(kernels, name) for name in group] for group in KERNEL_GROUPS]
 
-    The shared library is cached on disk (:func:`~scdk_sym.kernels.cache.cache_dir`) under
-    :func:`cache_key`; only the first call for a model generates and compiles (seconds).
+
+def library_path(
+    model,
+    name: str,
+    groups: Sequence[Sequence[ca.Function]],
+    unoptimised: Collection[str] = (),
+) -> Path:
+    """Where :func:`model_library` keeps a library of a model's kernels (same arguments).
+
+    The file name carries :func:`cache_key`, the layout of the sources (the Functions of each
+    and whether it is compiled at ``-O0``) and :func:`compiler_tag`.
     """
-    kern = model.kernels
-    target = cache_dir() / f"kernels_{cache_key(model)}_{compiler_tag()}.so"
+    h = hashlib.sha256(cache_key(model).encode())
+    for group in groups:
+        names = [f.name() for f in group]
+        cold = all(n in unoptimised for n in names)
+        h.update((" ".join(names) + (" -O0" if cold else "") + "\n").encode())
+    return cache_dir() / f"{name}_{h.hexdigest()[:24]}_{compiler_tag()}.so"
+
+
+def model_library(
+    model,
+    name: str,
+    groups: Sequence[Sequence[ca.Function]],
+    unoptimised: Collection[str] = (),
+) -> Path:
+    """A shared library of some of a model's kernels, compiled once into the cache directory.
+
+    Each group of Functions is written into one source (the inner Functions they call written
+    once in it, :func:`write_c_parts`), and the sources compile in parallel
+    (:func:`compile_parallel`); the first compilation for a model is announced
+    (:func:`announce`). Keyed by :func:`library_path`: a cached library is found without
+    generating any C.
+
+    Args:
+        model: the model whose kernels ``groups`` are (they must be built by the package
+            sources that :func:`cache_key` hashes).
+        name: prefix of the library's file name and of its sources.
+        groups: the Functions of each source.
+        unoptimised: names of Functions whose source, if it holds nothing else, compiles at
+            ``-O0``.
+
+    Raises:
+        BuildError: see :func:`run_compiler`.
+    """
+    target = library_path(model, name, groups, unoptimised)
     if not target.exists():
         announce(model.name)
         with tempfile.TemporaryDirectory() as tmp:
-            sources, _ = write_c_parts(kernel_functions(kern), "scdk_kernels", Path(tmp))
-            _compile_parts_into(sources, target)
-    loaded = {f.name: ca.external(getattr(kern, f.name).name(), str(target)) for f in fields(kern)}
+            sources, _ = write_c_parts(groups, name, Path(tmp))
+            cold = [
+                src
+                for src, group in zip(sources, groups, strict=True)
+                if all(f.name() in unoptimised for f in group)
+            ]
+            _compile_parts_into(sources, target, unoptimised=cold)
+    return target
+
+
+def compiled_kernels(model) -> Kernels:
+    """The model's kernels, those of :data:`KERNEL_GROUPS` compiled to C and loaded with
+    ``casadi.external`` (the others: ``model.kernels``'s SX Functions).
+
+    The compiled ones call one Function of the closures
+    (:func:`~scdk_sym.follower.kernels.closure_function`); :func:`model_library` compiles
+    them (cached on disk: only the first call for a model generates and compiles, seconds).
+    The field is loaded with finite differences for its derivatives: CVODES's functional
+    iteration (:data:`~scdk_sym.follower.cvodes.CVODES_OPTIONS`) never evaluates the Jacobian
+    that CasADi builds at the integrator's creation, so none is compiled.
+    """
+    from ..follower.kernels import closure_function
+
+    kern = build_kernels(model.symbolic, closure=closure_function(model.symbolic))
+    target = model_library(model, "kernels", kernel_groups(kern))
+    loaded = {f.name: getattr(model.kernels, f.name) for f in fields(kern)}
+    for name in (name for group in KERNEL_GROUPS for name in group):
+        opts = {"enable_fd": True} if name == "field" else {}
+        loaded[name] = ca.external(getattr(kern, name).name(), str(target), opts)
     return Kernels(**loaded)

@@ -67,8 +67,9 @@ class Kernels:
         return [getattr(self, f.name) for f in fields(self)]
 
 
-def _sc_parts(sym: Symbolic):
-    """The SC tangent and the stabilising correction, by the follower's bordered solve."""
+def _sc_parts(sym: Symbolic, closure: ca.Function | None = None):
+    """The SC tangent and the stabilising correction, by the follower's bordered solve (the
+    closures evaluated by calls of ``closure`` when given)."""
     m, k = sym.m, sym.k
     s = ca.SX.sym("s")
     theta1 = ca.SX.sym("theta1", k)
@@ -76,15 +77,27 @@ def _sc_parts(sym: Symbolic):
     v = ca.SX.sym("v", m + 1)
     scale = ca.SX.sym("scale")
     gain = ca.SX.sym("K")
-    g, Jp, Js = ca.substitute([sym.g, sym.J_p, sym.J_s], [sym.theta], [theta1 + s * dtheta])
+    if closure is None:
+        g, Jp, Js = ca.substitute([sym.g, sym.J_p, sym.J_s], [sym.theta], [theta1 + s * dtheta])
+    else:
+        g, Jp, Js = closure(sym.y, theta1 + s * dtheta, sym.c)
     tangent, _t_hat, _w, corr = bordered_tangent(Jp, Js, dtheta, v, -g)
     q = ca.vertcat(sym.y, s)
     p = ca.vertcat(theta1, dtheta, v, scale, gain)
     return q, p, Jp, tangent, corr, scale, gain, theta1, dtheta, s
 
 
-def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
-    """Build every kernel of a model (a few milliseconds for m <= 6)."""
+def build_kernels(sym: Symbolic, name: str = "scdk", closure: ca.Function | None = None) -> Kernels:
+    """Build every kernel of a model (a few milliseconds for m <= 6).
+
+    Args:
+        sym: the model's symbolic system (``model.symbolic``).
+        name: prefix of the Functions' names.
+        closure: the :func:`~scdk_sym.follower.kernels.closure_function` that the field, the
+            probe and the warm kernel call to evaluate the closures and their Jacobians
+            (the same operations, one copy of them in generated C: the compiled backend's
+            choice); default: written out in each.
+    """
     y, theta, c = sym.y, sym.theta, sym.c
     m, _k = sym.m, sym.k
     yt = ["y", "theta", "c"]
@@ -93,7 +106,7 @@ def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
     f_jac = ca.Function(f"{name}_jac", [y, theta, c], [sym.J_p, sym.J_s], yt, ["J_p", "J_s"])
     f_pose = ca.Function(f"{name}_pose", [y, theta, c], [sym.pose, sym.x], yt, ["T", "x"])
 
-    q, p, Jp, tangent, corr, scale, gain, theta1, dtheta, s = _sc_parts(sym)
+    q, p, Jp, tangent, corr, scale, gain, theta1, dtheta, s = _sc_parts(sym, closure)
     dq = scale * tangent + gain * corr
     f_field = ca.Function(f"{name}_field", [q, p, c], [dq], ["q", "p", "c"], ["dq"])
     x_s = ca.substitute(sym.x, sym.theta, theta1 + s * dtheta)
@@ -105,11 +118,12 @@ def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
         ["tangent", "J_p", "x"],
     )
 
-    newton = newton_correction(sym)
+    inline = closure is None
+    newton = newton_correction(sym, inline, closure)
 
     def rk_newton(y_a, s_a, th1, dth, rk_steps: int, newton_steps: int):
         """RK4 in s from (y_a, s_a) to s = 1, then Newton at th1 + dth; (y, max|correction|)."""
-        y_pred = rk4_in_s(sym, y_a, s_a, 1.0, th1, dth, rk_steps)
+        y_pred = rk4_in_s(sym, y_a, s_a, 1.0, th1, dth, rk_steps, inline=inline, closure=closure)
         yk = y_pred
         for _ in range(newton_steps):
             yk = yk - newton(yk, th1 + dth, c)
@@ -137,7 +151,8 @@ def build_kernels(sym: Symbolic, name: str = "scdk") -> Kernels:
     th1 = ca.SX.sym("theta1", sym.k)
     th0 = ca.SX.sym("theta0", sym.k)
     y0, corr = rk_newton(y1, 0.0, th1, th0 - th1, WARM_RK_STEPS, NEWTON_STEPS)
-    at = ca.Function("at", [y, theta, c], [ca.norm_inf(sym.g_check), ca.vec(sym.J_p)])
+    Jp_at = sym.J_p if closure is None else closure(y, theta, c)[1]
+    at = ca.Function("at", [y, theta, c], [ca.norm_inf(sym.g_check), ca.vec(Jp_at)])
     res1, J1 = at(y1, th1, c)
     res0, J0 = at(y0, th0, c)
     T0, x0 = f_pose(y0, th0, c)
