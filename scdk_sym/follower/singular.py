@@ -36,6 +36,9 @@ LEG_ARC = 10.0
 #: fixed distances [model sizes], beyond the fold along the null vector of J_p.
 REFLECTIONS = (1.0, 2.0, 4.0)
 RADII = (1e-3, 3e-3, 1e-2, 3e-2, 0.1)
+#: More polishes of a reflected guess whose residual is still falling (Newton from a point
+#: far from the solution takes more than one polish's steps to reach the tolerance).
+POLISH_AGAIN = 3
 #: Relative tilt of each aim (a fixed random direction, see :func:`_descent`).
 TILT = 0.05
 TILT_SEED = 20240501
@@ -495,9 +498,14 @@ def across_fold(
     scale = max(1.0, float(model.length_scale))
     radii = [a * abs(t_s) for a in REFLECTIONS if a * abs(t_s) > 0] + [r * scale for r in RADII]
     signs = (-1.0, 1.0) if t_s == 0 else (-math.copysign(1.0, t_s),)
+    tol = float(model.tolerance)
     for sgn in signs:
         for r in radii:
-            y, _res = kern.polish(base + sgn * r * u, theta0, c)
+            y, res = kern.polish(base + sgn * r * u, theta0, c)
+            for _ in range(POLISH_AGAIN):  # from afar Newton may still be converging
+                if not 0.1 * tol < float(res) < 1.0:
+                    break
+                y, res = kern.polish(np.array(y).ravel(), theta0, c)
             y = np.array(y).ravel()
             if np.all(np.isfinite(y)) and float(np.max(np.abs(y - y_f))) <= 10.0 * scale:
                 candidates.append((model.chart.to_canonical(y, c), []))
