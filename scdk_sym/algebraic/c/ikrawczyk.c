@@ -65,7 +65,9 @@ static double max4(double a, double b, double c, double d) {
     return x > y ? x : y;
 }
 
-/* Finite operands only (the tape stops at the first non-finite bound): no 0 * inf. */
+/* Finite operands only (every caller checks them): no 0 * inf, and no NaN that the
+ * comparisons of min4 and max4 would drop. An overflow gives an infinite product, whose
+ * outward step is NaN or infinite: the caller's finiteness check rejects it. */
 static ival imul(ival a, ival b) {
     const double p1 = a.lo * b.lo, p2 = a.lo * b.hi, p3 = a.hi * b.lo, p4 = a.hi * b.hi;
     ival r = {down(min4(p1, p2, p3, p4)), up(max4(p1, p2, p3, p4))};
@@ -212,7 +214,7 @@ typedef struct {
     const scdk_tape *value, *jacobian;
     int64_t n;
     const ival *P;
-    ival *w, *out, *X, *mid, *newton, *C, *K;
+    ival *w, *out, *X, *mid, *newton, *C, *K, *D; /* D = B - c */
     double *A, *Y;
 } work;
 
@@ -250,12 +252,16 @@ static int krawczyk_operator(work *s, const ival *B, const double *c) {
             ival acc = point(i == j ? 1.0 : 0.0);
             for (int64_t l = 0; l < n; ++l)
                 acc = isub(acc, pmul(s->Y[i * n + l], s->out[l * n + j]));
+            if (!finite(acc)) return 1; /* imul below takes finite operands only */
             s->C[i * n + j] = acc;
         }
+    for (int64_t j = 0; j < n; ++j) {
+        s->D[j] = isub(B[j], point(c[j]));
+        if (!finite(s->D[j])) return 1;
+    }
     for (int64_t i = 0; i < n; ++i) {
         ival acc = s->newton[i];
-        for (int64_t j = 0; j < n; ++j)
-            acc = iadd(acc, imul(s->C[i * n + j], isub(B[j], point(c[j]))));
+        for (int64_t j = 0; j < n; ++j) acc = iadd(acc, imul(s->C[i * n + j], s->D[j]));
         if (!finite(acc)) return 1;
         s->K[i] = acc;
     }
@@ -310,7 +316,7 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
     s.jacobian = jacobian;
     s.n = n;
     ival *P = malloc((size_t)(k + 1) * sizeof(ival));
-    ival *iv = malloc((size_t)(W + 1 + n * n + 5 * n + n * n) * sizeof(ival));
+    ival *iv = malloc((size_t)(W + 1 + n * n + 6 * n + n * n) * sizeof(ival));
     double *dv = malloc((size_t)(2 * n * n + n) * sizeof(double));
     if (!P || !iv || !dv) {
         free(P);
@@ -330,7 +336,8 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
     s.newton = s.mid + n;
     s.K = s.newton + n;
     ival *B = s.K + n;
-    s.C = B + n;
+    s.D = B + n;
+    s.C = s.D + n;
     s.A = dv;
     s.Y = s.A + n * n;
     double *c = s.Y + n * n;
