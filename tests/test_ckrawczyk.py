@@ -103,11 +103,6 @@ def _rational_system(rng: np.random.Generator, n: int) -> tuple[ca.Function, np.
     return ca.Function("f", [x, p], [ca.vertcat(*rows)]), r
 
 
-def _arb_only(monkeypatch) -> None:
-    """Certificates from the Arb test alone (the C test switched off)."""
-    monkeypatch.setattr(certify_module, "_fast", lambda sq, ms, b, t: [None] * len(ms))
-
-
 def _c_only(f: ca.Function, xs: np.ndarray, p: list) -> list:
     """The certificates of the C test alone (None where it proves nothing)."""
     sq = certify_module._SQUARES(f)
@@ -117,7 +112,7 @@ def _c_only(f: ca.Function, xs: np.ndarray, p: list) -> list:
 
 
 @pytest.mark.parametrize("n", [1, 3, 6])
-def test_rational_systems_are_proven_around_the_known_root_as_by_arb(n, monkeypatch):
+def test_rational_systems_are_proven_around_the_known_root_as_by_arb(n):
     rng = np.random.default_rng(n)
     for _ in range(5):
         f, r = _rational_system(rng, n)
@@ -126,9 +121,7 @@ def test_rational_systems_are_proven_around_the_known_root_as_by_arb(n, monkeypa
         assert fast is not None and fast.proven and fast.contains(r), fast
         assert fast.radius <= 1e-13
         assert np.all(fast.domain[:, 0] < r) and np.all(r < fast.domain[:, 1])
-        with monkeypatch.context() as m:
-            _arb_only(m)
-            slow = krawczyk(f, x, [1.0])
+        slow = krawczyk(f, x, [1.0], arithmetic="arb")
         assert slow.proven and slow.contains(r)
         # the same uniqueness box (from the same Newton point, up to the rounding floor)
         assert np.allclose(fast.domain, slow.domain, rtol=0, atol=1e-13)
@@ -156,7 +149,7 @@ def test_a_double_root_is_not_proven():
     assert not krawczyk(f, [1.0 + 1e-9, 2.0], [2.0]).proven
 
 
-def test_dietmaier_assembly_modes_c_and_arb_certificates_agree(monkeypatch):
+def test_dietmaier_assembly_modes_c_and_arb_certificates_agree():
     model = sc.builders.stewart_gough(DIETMAIER_BASE, DIETMAIER_PLATFORM)
     sols = sc.assembly_modes(model, DIETMAIER_LENGTHS)
     ys = np.vstack([s.y for s in sols])
@@ -165,9 +158,7 @@ def test_dietmaier_assembly_modes_c_and_arb_certificates_agree(monkeypatch):
     local = np.vstack([c.x for c in fast.certificates])
     c_only = _c_only(closure_function(model), local, q)
     assert sum(c is not None for c in c_only) >= 38  # nearly all proven in C
-    with monkeypatch.context() as m:
-        _arb_only(m)
-        slow = certify_configurations(model, ys, DIETMAIER_LENGTHS)
+    slow = certify_configurations(model, ys, DIETMAIER_LENGTHS, arithmetic="arb")
     assert fast.proven and slow.proven and fast.count == slow.count == 40
     for a, b in zip(fast.certificates, slow.certificates, strict=True):
         assert np.all(a.box[:, 0] <= b.box[:, 1]) and np.all(b.box[:, 0] <= a.box[:, 1])
@@ -181,3 +172,5 @@ def test_certify_all_checks_every_row_and_counts_distinct_zeros():
     assert not s.proven and s.count == 1 and s.duplicates == ((0, 1),), s.reason
     with pytest.raises(InputError, match="x must be 2"):
         certify_all(f, np.array([[0.0, np.nan]]), [1.0])
+    with pytest.raises(InputError, match="unknown arithmetic"):
+        certify_all(f, np.vstack([r]), [1.0], arithmetic="float")

@@ -63,6 +63,9 @@ MAX_CONDITION = 1e14
 TINY = 1e-300
 #: Most Krawczyk steps that shrink a proven enclosure (see :func:`krawczyk`).
 TIGHTEN = 8
+#: Arithmetics of the tests: ``"auto"`` (the first box of a rational system in binary64
+#: intervals in C where a compiler is present, then Arb) or ``"arb"`` (Arb only).
+ARITHMETICS = ("auto", "arb")
 EPS = float(np.finfo(float).eps)
 
 
@@ -338,11 +341,22 @@ def _tighten(sq: _Square, K: list[arb], P: list[arb], p_mid: np.ndarray, steps: 
     return K
 
 
-def _fast(sq: _Square, ms: np.ndarray, bounds: np.ndarray, tighten: int) -> list:
+def _checked(tries: int, tighten: int, arithmetic: str) -> None:
+    if tries < 1 or tighten < 0:
+        raise InputError(f"tries >= 1 and tighten >= 0 required, got {tries}, {tighten}")
+    if arithmetic not in ARITHMETICS:
+        raise InputError(
+            f"unknown arithmetic {arithmetic!r}; arithmetics: {', '.join(ARITHMETICS)}"
+        )
+
+
+def _fast(
+    sq: _Square, ms: np.ndarray, bounds: np.ndarray, tighten: int, arithmetic: str = "auto"
+) -> list:
     """Certificates of the points (N, n) the binary64 interval test proves, ``None`` for the
     others (and for all when the test does not apply: see :mod:`.ckrawczyk`; Arb at another
     precision than binary64's 53 bits asks for its own arithmetic)."""
-    if sq.fast is None or ctx.prec != 53 or not len(ms):
+    if arithmetic != "auto" or sq.fast is None or ctx.prec != 53 or not len(ms):
         return [None] * len(ms)
     proven, r, box = sq.fast.test(ms, bounds, tighten, TINY, MAX_CONDITION)
     return [
@@ -368,6 +382,7 @@ def krawczyk(
     *,
     tries: int = TRIES,
     tighten: int = TIGHTEN,
+    arithmetic: str = "auto",
 ) -> Certificate:
     """Prove (or fail to prove) that one zero of ``f(., p)`` lies in a small box around ``x``.
 
@@ -381,21 +396,24 @@ def krawczyk(
         tighten: at most this many Krawczyk steps shrink a proven enclosure wider than a few
             ulps (from a rough ``x``), each centred on the previous enclosure; they stop when
             the enclosure stops shrinking.
+        arithmetic: ``"auto"``: the first box in binary64 interval arithmetic in C where ``f``
+            is rational (:mod:`scdk_sym.algebraic.ckrawczyk`), Arb balls if it proves
+            nothing; ``"arb"``: Arb balls only (see :data:`ARITHMETICS`).
 
     Returns:
         The :class:`Certificate` (``proven`` False with a ``reason`` where the test fails: a
         singular Jacobian at ``x``, or ``K(X)`` not inside ``X`` for every box tried).
 
     Raises:
-        InputError: ``f`` is not a square system, or ``x``/``p`` have the wrong size.
+        InputError: ``f`` is not a square system, ``x``/``p`` have the wrong size, or an
+            unknown ``arithmetic``.
         IntervalError: ``f`` uses an operation without an interval counterpart.
     """
-    if tries < 1 or tighten < 0:
-        raise InputError(f"tries >= 1 and tighten >= 0 required, got {tries}, {tighten}")
+    _checked(tries, tighten, arithmetic)
     sq: _Square = _SQUARES(f)
     m = _vector(x, sq.n, "x")
     P, p_mid, bounds = _parameters(p, sq.n_params)
-    fast = _fast(sq, m[None], bounds, tighten)[0]
+    fast = _fast(sq, m[None], bounds, tighten, arithmetic)[0]
     return fast if fast is not None else _krawczyk(sq, m, P, p_mid, tries, tighten)
 
 
@@ -477,6 +495,7 @@ def certify_all(
     *,
     tries: int = TRIES,
     tighten: int = TIGHTEN,
+    arithmetic: str = "auto",
 ) -> CertificateSet:
     """Certify several approximate zeros of one system and check that they are distinct.
 
@@ -486,6 +505,8 @@ def certify_all(
         p: parameters (see :func:`krawczyk`), shared by every solution.
         tries: boxes tried per solution.
         tighten: Krawczyk steps that shrink each proven enclosure.
+        arithmetic: see :func:`krawczyk` (``"auto"``: every point's first box in one C
+            call).
 
     Returns:
         The :class:`CertificateSet`: ``proven`` when every solution is proven and every pair
@@ -494,12 +515,11 @@ def certify_all(
     xs = _real(xs, "xs")
     if xs.ndim != 2:
         raise InputError(f"xs must be (N, n) approximate zeros, got shape {xs.shape}")
-    if tries < 1 or tighten < 0:
-        raise InputError(f"tries >= 1 and tighten >= 0 required, got {tries}, {tighten}")
+    _checked(tries, tighten, arithmetic)
     sq: _Square = _SQUARES(f)
     ms = np.array([_vector(x, sq.n, "x") for x in xs]).reshape(len(xs), sq.n)
     P, p_mid, bounds = _parameters(p, sq.n_params)
-    fast = _fast(sq, ms, bounds, tighten)  # all points in one call
+    fast = _fast(sq, ms, bounds, tighten, arithmetic)  # all points in one call
     certs = tuple(
         c if c is not None else _krawczyk(sq, m, P, p_mid, tries, tighten)
         for c, m in zip(fast, ms, strict=True)
@@ -605,6 +625,7 @@ def certify_configurations(
     *,
     tries: int = TRIES,
     tighten: int = TIGHTEN,
+    arithmetic: str = "auto",
 ) -> CertificateSet:
     """Certify several solutions of the closure system of ``model`` at one ``theta``.
 
@@ -619,6 +640,7 @@ def certify_configurations(
             turned by a half turn relative to it.
         tries: boxes tried per solution.
         tighten: Krawczyk steps that shrink each proven enclosure.
+        arithmetic: see :func:`krawczyk`.
 
     Returns:
         The :class:`CertificateSet` (boxes in the local coordinates of the common chart).
@@ -645,4 +667,6 @@ def certify_configurations(
             f"pass a chart c nearer to them (e.g. certify them in separate sets)"
         )
     q = np.concatenate([theta, c])
-    return certify_all(closure_function(model), local, q, tries=tries, tighten=tighten)
+    return certify_all(
+        closure_function(model), local, q, tries=tries, tighten=tighten, arithmetic=arithmetic
+    )
