@@ -19,9 +19,10 @@ a rough ``x``) is shrunk by Krawczyk steps centred on its midpoint (the zero sta
 ``K(X) & X``); the uniqueness box stays the ``X`` that was proven.
 
 The first box of each point is tested in binary64 interval arithmetic in C when the system
-is rational (:mod:`scdk_sym.algebraic.ckrawczyk`: the same box, operator and tightening,
-every bound rounded outward, all points in one call); the points it does not prove go
-through the ``arb`` test above, which alone tries more boxes and says why a test fails.
+is rational (:mod:`scdk_sym.algebraic.ckrawczyk`: the box built the same way, the same
+operator and tightening, every bound rounded outward, all points in one call); the points
+it does not prove go through the ``arb`` test above, which alone tries more boxes and says
+why a test fails.
 
 :func:`certify_all` certifies a list of solutions and checks that their boxes are pairwise
 disjoint: each proven box then holds a different zero. :func:`closure_function` and

@@ -5,11 +5,10 @@ Functions on intervals ``[lo, hi]`` of binary64 numbers: each operation rounds t
 and moves each bound one binary64 number outward, which encloses the exact result of the
 operations IEEE 754 rounds correctly (``+ - * /``, and squares, negation, doubling,
 reciprocal and ``|.|`` built from them; the sign function is exact). The test itself is the
-first box of :func:`scdk_sym.algebraic.certify.krawczyk` (same box, same operator, same
-tightening), so a point proven here is proven by the same theorem; a point it does not prove
-(or a Function with other operations, or no C compiler) goes to the ``arb`` test, which tries
-more boxes and says why it fails. It is some twenty times faster than the ``arb`` replay per
-point.
+first box of :func:`scdk_sym.algebraic.certify.krawczyk` (the box built the same way from the
+Newton correction at the point, the same operator and tightening), so a point proven here is
+proven by the same theorem; a point it does not prove (or a Function with other operations,
+or no C compiler) goes to the ``arb`` test, which tries more boxes and says why it fails.
 
 The library is compiled once and cached (:func:`~scdk_sym.algebraic.ctracker.source_library`)
 with flags that keep every operation as written: no contraction into fused multiply-adds, no
