@@ -384,7 +384,7 @@ def homotopy_modes(
     Args:
         model: the model.
         theta0: (k,) actuated joint values [rad or model length unit].
-        seed: seed of the start system and of the homotopy's gamma.
+        seed: seed of the start system and of the gammas of the homotopy's retries.
         progress: progress bar while the start system is computed (first call per model).
         backend: ``"auto"`` (generated C when a C compiler is found), ``"cvodes"`` (SX
             kernels) or ``"compiled"``; see :mod:`scdk_sym.backends`.
