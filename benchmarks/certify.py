@@ -1,10 +1,11 @@
-"""Time to certify one solution (Krawczyk test in ``arb``) against one float Newton step.
+"""Time to certify one solution (Krawczyk test) against one float Newton step.
 
 For models/stewart_gough (a pose from inverse kinematics) and models/planar_hexa (the
 paper's example, convergent branch), prints the median time of:
 
 - ``krawczyk`` on the closure system at the solution (replay translated once, then cached;
-  the first call, which translates, is printed apart);
+  the first call, which translates, is printed apart), with ``arithmetic="auto"`` (binary64
+  intervals in C for a rational system: stewart_gough's) and ``"arb"`` (Arb balls only);
 - its parts: the interval replay of ``g`` at the point and of ``J`` over the box;
 - the baseline in the same run: one float evaluation of ``g`` and ``J`` (CasADi, through
   preallocated buffers) and one LU solve ``J \\ g`` (numpy),
@@ -26,6 +27,7 @@ import casadi as ca
 import numpy as np
 
 import scdk_sym as sc
+from scdk_sym.algebraic import certify as certify_module
 from scdk_sym.algebraic.certify import closure_function, krawczyk
 from scdk_sym.algebraic.interval import balls, interval_function
 from scdk_sym.kernels.fastcall import Buffered
@@ -90,6 +92,10 @@ def main() -> None:
         assert cert.proven, cert.reason
         t_cert = median_time(lambda f=f, y=y, q=q: krawczyk(f, y, q), a.repeat, a.number)
         w_cert = median_wall(lambda f=f, y=y, q=q: krawczyk(f, y, q), a.repeat * a.number)
+        t_arb = median_time(
+            lambda f=f, y=y, q=q: krawczyk(f, y, q, arithmetic="arb"), a.repeat, a.number
+        )
+        fast = certify_module._SQUARES(f).fast is not None
 
         s = model.symbolic
         qs = ca.vertcat(s.theta, s.c)
@@ -116,11 +122,14 @@ def main() -> None:
             f"{cert.radius:.1e}\n"
             f"  (CPU time per call; in brackets the median wall time of single calls)\n"
             f"  certificate      {t_cert * 1e3:8.3f} ms  [{w_cert * 1e3:.3f}]  (first call, "
-            f"translating: {first * 1e3:.1f} ms wall)\n"
+            f"translating: {first * 1e3:.1f} ms wall; "
+            f"{'binary64 intervals in C' if fast else 'Arb: not rational'})\n"
+            f"  certificate, Arb {t_arb * 1e3:8.3f} ms\n"
             f"    replay g(m)    {t_g * 1e3:8.3f} ms\n"
             f"    replay J(X)    {t_J * 1e3:8.3f} ms\n"
             f"  float g, J + LU  {t_float * 1e3:8.4f} ms  [{w_float * 1e3:.4f}]\n"
-            f"  ratio            {t_cert / t_float:8.0f} x  [{w_cert / w_float:.0f}]"
+            f"  ratio            {t_cert / t_float:8.0f} x  [{w_cert / w_float:.0f}]; Arb "
+            f"{t_arb / t_float:.0f} x"
         )
 
 

@@ -18,6 +18,12 @@ at the given point (plus the rounding floor of the interval Newton point), and w
 a rough ``x``) is shrunk by Krawczyk steps centred on its midpoint (the zero stays in
 ``K(X) & X``); the uniqueness box stays the ``X`` that was proven.
 
+The first box of each point is tested in binary64 interval arithmetic in C when the system
+is rational (:mod:`scdk_sym.algebraic.ckrawczyk`: the box built the same way, the same
+operator and tightening, every bound rounded outward, all points in one call); the points
+it does not prove go through the ``arb`` test above, which alone tries more boxes and says
+why a test fails.
+
 :func:`certify_all` certifies a list of solutions and checks that their boxes are pairwise
 disjoint: each proven box then holds a different zero. :func:`closure_function` and
 :func:`certify_solution` apply the test to the closure system ``g(y, theta) = 0`` of a loaded
@@ -42,6 +48,7 @@ from ..errors import InputError
 from ..kernels.fastcall import Buffered
 from ..model.rotations import gibbs, rot_exp
 from ..results import _frozen
+from .ckrawczyk import IntervalKrawczyk, interval_krawczyk
 from .interval import FunctionCache, IntervalFunction, as_sx_function, interval_function
 
 if TYPE_CHECKING:
@@ -57,6 +64,9 @@ MAX_CONDITION = 1e14
 TINY = 1e-300
 #: Most Krawczyk steps that shrink a proven enclosure (see :func:`krawczyk`).
 TIGHTEN = 8
+#: Arithmetics of the tests: ``"auto"`` (the first box of a rational system in binary64
+#: intervals in C where a compiler is present, then Arb) or ``"arb"`` (Arb only).
+ARITHMETICS = ("auto", "arb")
 EPS = float(np.finfo(float).eps)
 
 
@@ -133,6 +143,7 @@ class _Square:
     jacobian_t: IntervalFunction  # (x, p) -> J^T, dense column-major = J row-major
     numeric: Buffered  # (x, p) -> (f, J column-major) in binary64
     identity: arb_mat
+    fast: IntervalKrawczyk | None  # the binary64 interval test (rational systems)
 
 
 def _build_square(f: ca.Function) -> _Square:
@@ -157,13 +168,16 @@ def _build_square(f: ca.Function) -> _Square:
             f"select as many rows as unknowns"
         )
     J = ca.jacobian(g, x)
+    value = ca.Function(f"{name}_value", [x, p], [g])
+    jacobian_t = ca.Function(f"{name}_jacobian", [x, p], [J.T])
     return _Square(
         n=n,
         n_params=n_params,
-        value=interval_function(ca.Function(f"{name}_value", [x, p], [g])),
-        jacobian_t=interval_function(ca.Function(f"{name}_jacobian", [x, p], [J.T])),
+        value=interval_function(value),
+        jacobian_t=interval_function(jacobian_t),
         numeric=Buffered(ca.Function(f"{name}_newton", [x, p], [g, ca.densify(J)])),
         identity=arb_mat(n, n, [1.0 if i == j else 0.0 for i in range(n) for j in range(n)]),
+        fast=interval_krawczyk(value, jacobian_t, n, n_params),
     )
 
 
@@ -193,8 +207,9 @@ def _vector(value: ArrayLike, size: int, what: str) -> np.ndarray:
     return v
 
 
-def _parameters(p: ArrayLike, size: int) -> tuple[list[arb], np.ndarray]:
-    """Parameter balls and their binary64 midpoints from (k,) exact values or (k, 2) bounds."""
+def _parameters(p: ArrayLike, size: int) -> tuple[list[arb], np.ndarray, np.ndarray]:
+    """Parameter balls, their binary64 midpoints and (k, 2) bounds from (k,) exact values or
+    (k, 2) bounds."""
     a = _real(p, "parameters p")
     if a.ndim == 2 and a.shape == (size, 2):
         if not np.all(np.isfinite(a)) or np.any(a[:, 0] > a[:, 1]):
@@ -202,9 +217,9 @@ def _parameters(p: ArrayLike, size: int) -> tuple[list[arb], np.ndarray]:
                 "parameter bounds must be finite with lo <= hi per row; pass (k, 2) [lo, hi]"
             )
         balls = [arb(lo).union(arb(hi)) for lo, hi in a]
-        return balls, a.mean(axis=1)
+        return balls, a.mean(axis=1), a.copy()
     v = _vector(a, size, "parameters p")
-    return [arb(float(t)) for t in v], v
+    return [arb(float(t)) for t in v], v, np.stack([v, v], axis=1)
 
 
 def _down(a: arb) -> float:
@@ -327,6 +342,40 @@ def _tighten(sq: _Square, K: list[arb], P: list[arb], p_mid: np.ndarray, steps: 
     return K
 
 
+def _checked(tries: int, tighten: int, arithmetic: str) -> None:
+    if tries < 1 or tighten < 0:
+        raise InputError(f"tries >= 1 and tighten >= 0 required, got {tries}, {tighten}")
+    if arithmetic not in ARITHMETICS:
+        raise InputError(
+            f"unknown arithmetic {arithmetic!r}; arithmetics: {', '.join(ARITHMETICS)}"
+        )
+
+
+def _fast(
+    sq: _Square, ms: np.ndarray, bounds: np.ndarray, tighten: int, arithmetic: str = "auto"
+) -> list:
+    """Certificates of the points (N, n) the binary64 interval test proves, ``None`` for the
+    others (and for all when the test does not apply: see :mod:`.ckrawczyk`; Arb at another
+    precision than binary64's 53 bits asks for its own arithmetic)."""
+    if arithmetic != "auto" or sq.fast is None or ctx.prec != 53 or not len(ms):
+        return [None] * len(ms)
+    proven, r, box = sq.fast.test(ms, bounds, tighten, TINY, MAX_CONDITION)
+    return [
+        _result(
+            True,
+            box[i],
+            ms[i],
+            f"K(X) lies in the interior of X (radius {float(np.max(r[i])):.1e}): "
+            f"exactly one zero in X",
+            1,
+            _inward(ms[i], r[i]),  # inside X = [m - r, m + r] rounded outward
+        )
+        if proven[i]
+        else None
+        for i in range(len(ms))
+    ]
+
+
 def krawczyk(
     f: ca.Function,
     x: ArrayLike,
@@ -334,6 +383,7 @@ def krawczyk(
     *,
     tries: int = TRIES,
     tighten: int = TIGHTEN,
+    arithmetic: str = "auto",
 ) -> Certificate:
     """Prove (or fail to prove) that one zero of ``f(., p)`` lies in a small box around ``x``.
 
@@ -347,21 +397,32 @@ def krawczyk(
         tighten: at most this many Krawczyk steps shrink a proven enclosure wider than a few
             ulps (from a rough ``x``), each centred on the previous enclosure; they stop when
             the enclosure stops shrinking.
+        arithmetic: ``"auto"``: the first box in binary64 interval arithmetic in C where ``f``
+            is rational (:mod:`scdk_sym.algebraic.ckrawczyk`), Arb balls if it proves
+            nothing; ``"arb"``: Arb balls only (see :data:`ARITHMETICS`).
 
     Returns:
         The :class:`Certificate` (``proven`` False with a ``reason`` where the test fails: a
         singular Jacobian at ``x``, or ``K(X)`` not inside ``X`` for every box tried).
 
     Raises:
-        InputError: ``f`` is not a square system, or ``x``/``p`` have the wrong size.
+        InputError: ``f`` is not a square system, ``x``/``p`` have the wrong size, or an
+            unknown ``arithmetic``.
         IntervalError: ``f`` uses an operation without an interval counterpart.
     """
-    if tries < 1 or tighten < 0:
-        raise InputError(f"tries >= 1 and tighten >= 0 required, got {tries}, {tighten}")
+    _checked(tries, tighten, arithmetic)
     sq: _Square = _SQUARES(f)
+    m = _vector(x, sq.n, "x")
+    P, p_mid, bounds = _parameters(p, sq.n_params)
+    fast = _fast(sq, m[None], bounds, tighten, arithmetic)[0]
+    return fast if fast is not None else _krawczyk(sq, m, P, p_mid, tries, tighten)
+
+
+def _krawczyk(
+    sq: _Square, m: np.ndarray, P: list[arb], p_mid: np.ndarray, tries: int, tighten: int
+) -> Certificate:
+    """The test of :func:`krawczyk` in ``arb`` ball arithmetic, box after box."""
     n = sq.n
-    m = _vector(x, n, "x")
-    P, p_mid = _parameters(p, sq.n_params)
     Y, why = _inverse(sq, m, p_mid)
     if Y is None:
         return _result(False, np.full((n, 2), np.nan), m, why, 0)
@@ -435,6 +496,7 @@ def certify_all(
     *,
     tries: int = TRIES,
     tighten: int = TIGHTEN,
+    arithmetic: str = "auto",
 ) -> CertificateSet:
     """Certify several approximate zeros of one system and check that they are distinct.
 
@@ -444,6 +506,8 @@ def certify_all(
         p: parameters (see :func:`krawczyk`), shared by every solution.
         tries: boxes tried per solution.
         tighten: Krawczyk steps that shrink each proven enclosure.
+        arithmetic: see :func:`krawczyk` (``"auto"``: every point's first box in one C
+            call).
 
     Returns:
         The :class:`CertificateSet`: ``proven`` when every solution is proven and every pair
@@ -452,19 +516,32 @@ def certify_all(
     xs = _real(xs, "xs")
     if xs.ndim != 2:
         raise InputError(f"xs must be (N, n) approximate zeros, got shape {xs.shape}")
-    certs = tuple(krawczyk(f, x, p, tries=tries, tighten=tighten) for x in xs)
+    _checked(tries, tighten, arithmetic)
+    sq: _Square = _SQUARES(f)
+    ms = np.array([_vector(x, sq.n, "x") for x in xs]).reshape(len(xs), sq.n)
+    P, p_mid, bounds = _parameters(p, sq.n_params)
+    fast = _fast(sq, ms, bounds, tighten, arithmetic)  # all points in one call
+    certs = tuple(
+        c if c is not None else _krawczyk(sq, m, P, p_mid, tries, tighten)
+        for c, m in zip(fast, ms, strict=True)
+    )
     proven = [i for i, c in enumerate(certs) if c.proven]
     overlaps, duplicates = [], []
-    for a, i in enumerate(proven):
-        bi, di = certs[i].box, certs[i].domain
-        for j in proven[a + 1 :]:
-            bj, dj = certs[j].box, certs[j].domain
-            if np.all((bi[:, 0] <= bj[:, 1]) & (bj[:, 0] <= bi[:, 1])):
-                overlaps.append((i, j))
-                inside_j = np.all((dj[:, 0] <= bi[:, 0]) & (bi[:, 1] <= dj[:, 1]))
-                inside_i = np.all((di[:, 0] <= bj[:, 0]) & (bj[:, 1] <= di[:, 1]))
-                if inside_i or inside_j:
-                    duplicates.append((i, j))
+    if len(proven) > 1:
+        box = np.array([certs[i].box for i in proven])  # (P, n, 2)
+        dom = np.array([certs[i].domain for i in proven])
+        meet = np.all(
+            (box[:, None, :, 0] <= box[None, :, :, 1]) & (box[None, :, :, 0] <= box[:, None, :, 1]),
+            axis=2,
+        )
+        for a, b in zip(*np.nonzero(np.triu(meet, 1)), strict=True):
+            i, j = proven[a], proven[b]
+            overlaps.append((i, j))
+            bi, di, bj, dj = box[a], dom[a], box[b], dom[b]
+            inside_j = np.all((dj[:, 0] <= bi[:, 0]) & (bi[:, 1] <= dj[:, 1]))
+            inside_i = np.all((di[:, 0] <= bj[:, 0]) & (bj[:, 1] <= di[:, 1]))
+            if inside_i or inside_j:
+                duplicates.append((i, j))
     roots = _components(len(certs), overlaps)
     count = len({roots[i] for i in proven})
     failed = [i for i, c in enumerate(certs) if not c.proven]
@@ -549,6 +626,7 @@ def certify_configurations(
     *,
     tries: int = TRIES,
     tighten: int = TIGHTEN,
+    arithmetic: str = "auto",
 ) -> CertificateSet:
     """Certify several solutions of the closure system of ``model`` at one ``theta``.
 
@@ -563,6 +641,7 @@ def certify_configurations(
             turned by a half turn relative to it.
         tries: boxes tried per solution.
         tighten: Krawczyk steps that shrink each proven enclosure.
+        arithmetic: see :func:`krawczyk`.
 
     Returns:
         The :class:`CertificateSet` (boxes in the local coordinates of the common chart).
@@ -589,4 +668,6 @@ def certify_configurations(
             f"pass a chart c nearer to them (e.g. certify them in separate sets)"
         )
     q = np.concatenate([theta, c])
-    return certify_all(closure_function(model), local, q, tries=tries, tighten=tighten)
+    return certify_all(
+        closure_function(model), local, q, tries=tries, tighten=tighten, arithmetic=arithmetic
+    )

@@ -60,8 +60,9 @@ def source_dir() -> Path:
     return Path(str(resources.files("scdk_sym.algebraic") / "c"))
 
 
-def tracker_library() -> Path:
-    """The compiled tracker library (cached under the hash of its sources, flags and compiler).
+def source_library(stem: str, flags: tuple[str, ...]) -> Path:
+    """A library compiled from ``c/<stem>.c`` (and ``c/<stem>.h``), cached under the hash of
+    its sources, flags and compiler.
 
     Raises:
         BuildError: no C compiler, or the compilation failed.
@@ -71,16 +72,25 @@ def tracker_library() -> Path:
 
     src = source_dir()
     h = hashlib.sha256()
-    for name in ("ptrack.h", "ptrack.c"):
+    for name in (f"{stem}.h", f"{stem}.c"):
         h.update((src / name).read_bytes())
-    h.update(" ".join(TRACKER_CFLAGS).encode())
+    h.update(" ".join(flags).encode())
     h.update(compiler_tag().encode())
-    target = cache_dir() / f"ptrack_{h.hexdigest()[:20]}.so"
+    target = cache_dir() / f"{stem}_{h.hexdigest()[:20]}.so"
     if not target.exists():
         partial = target.with_suffix(f".{os.getpid()}.tmp")
-        run_compiler([*TRACKER_CFLAGS, str(src / "ptrack.c"), "-o", str(partial), "-lm"])
+        run_compiler([*flags, str(src / f"{stem}.c"), "-o", str(partial), "-lm"])
         os.replace(partial, target)  # atomic: concurrent processes never load a partial file
     return target
+
+
+def tracker_library() -> Path:
+    """The compiled tracker library (cached under the hash of its sources, flags and compiler).
+
+    Raises:
+        BuildError: no C compiler, or the compilation failed.
+    """
+    return source_library("ptrack", TRACKER_CFLAGS)
 
 
 def _form_and_weights(system) -> tuple[object, np.ndarray] | None:

@@ -5,6 +5,14 @@ The family is ``F(z; p, b) = G(z, p) + b`` (``b = 0`` on structural rows). A pat
 the gamma trick ``s(t) = gamma t / (1 + (gamma - 1) t)``, ``t`` real in [0, 1]: for a random
 unit complex ``gamma`` the path ``s`` is a circular arc from 0 to 1 that, with probability
 one, meets no singular member of the family before ``t = 1``.
+
+:func:`solve_homotopy` tracks the straight segment (``gamma = 1``) first: its start
+``(p*, b*)`` is a random complex point, and the parameters where some solution is singular
+or escapes (the discriminant) form a complex hypersurface, of real codimension 2, so for all
+targets but a set of measure zero the real segment from ``(p*, b*)`` meets it at most at
+``t = 1`` (the parameter homotopy of HomotopyContinuation.jl is this segment). It is
+shorter than an arc (about half the steps on 6-6 platforms; an arc with ``gamma`` near -1
+swings far out). A path that fails on it is retried on arcs with random ``gamma``.
 """
 
 from __future__ import annotations
@@ -143,7 +151,7 @@ def track_parameter_homotopy(
     first = segment(z, idx, np.zeros(M), np.full(M, t_split))
     steps = first.steps.copy()
     # before t = 1 a path only diverges by passing close to a solution's escape (probability
-    # zero with the gamma trick): "failed", so that the caller may retry with another gamma
+    # zero for a random start): "failed", so that the caller may retry with another gamma
     if not endgame:
         status[first.status == DIVERGED] = "at_infinity"
     ok1 = np.flatnonzero(first.status == DONE)
@@ -199,9 +207,10 @@ class HomotopyResult:
             then among ``endpoints``.
         start_certified: the start system passed its trace test (``complete`` and this
             together: the list is complete).
-        gamma: the complex gamma of the homotopy.
+        gamma: the complex gamma of the homotopy (1: the straight segment).
         steps: (R,) int tracker step attempts per path.
-        attempts: gammas tried (a new one while a path failed on the way).
+        attempts: homotopies tried (the straight segment, then an arc with a new gamma while a
+            path failed on the way).
     """
 
     endpoints: np.ndarray
@@ -284,17 +293,20 @@ def solve_homotopy(
 ) -> HomotopyResult:
     """Every solution of G(z, p0) = 0 by the parameter homotopy from a start system.
 
-    Tracks all ``start.root_count`` paths from ``(start.p, start.b)`` to ``(p0, b = 0)`` with
-    the gamma trick; paths that do not end regular go through the Cauchy endgame.
+    Tracks all ``start.root_count`` paths from ``(start.p, start.b)`` to ``(p0, b = 0)`` on
+    the straight segment, then, while a path fails on the way, on arcs of the gamma trick
+    (see the module documentation); paths that do not end regular go through the Cauchy
+    endgame.
 
     Args:
         system: the polynomial system the start system was computed for.
         start: a :class:`~scdk_sym.algebraic.monodromy.StartSystem` of ``system``.
         p0: (n_params,) target parameters (real for a physical query; complex allowed).
-        seed: seed of the random gamma.
+        seed: seed of the random gammas of the attempts after the first.
         options: tracker step control.
         real_tol: largest ``max|Im z| / (1 + max|z|)`` of a real solution.
-        attempts: gammas tried while some path fails on the way (each attempt reruns all).
+        attempts: homotopies tried while some path fails on the way (the straight segment,
+            then arcs with random gammas; each attempt reruns all paths).
         tracker: ``"auto"`` (the C tracker for a model's algebraic form when a C compiler is
             present, else numpy), ``"c"`` or ``"python"``.
 
@@ -323,9 +335,9 @@ def solve_homotopy(
     while attempt < attempts:
         attempt += 1
         # a path that fails on the way passed close to a point where its solution escapes to
-        # infinity; another gamma moves every path away from it (all paths are rerun, so
-        # the endpoints stay one arc's complete set)
-        gamma = complex(np.exp(2j * np.pi * rng.uniform()))
+        # infinity; an arc with a random gamma moves every path away from it (all paths are
+        # rerun, so the endpoints stay one arc's complete set)
+        gamma = 1.0 + 0j if attempt == 1 else complex(np.exp(2j * np.pi * rng.uniform()))
         hom = ParameterHomotopy(system, start.p[None], p0[None], start.b[None], b_to[None], [gamma])
         ends = track_parameter_homotopy(
             system, start.solutions, hom, np.zeros(R, dtype=int), options, tracker=tracker

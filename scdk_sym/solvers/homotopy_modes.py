@@ -27,6 +27,7 @@ homotopy attempts, Newton steps).
 
 from __future__ import annotations
 
+import functools
 import os
 from dataclasses import replace
 from typing import Any
@@ -346,17 +347,25 @@ def _common_chart(model: Model, ys: np.ndarray) -> np.ndarray | None:
     rots = model.chart.rotations
     if not rots or not len(ys):
         return None
-    rng = np.random.default_rng(0)
     # (N, F, 3, 3) rotations of the configurations
     R = np.array([[rot_exp(y[list(idx)]) for idx in rots] for y in ys])
-    w = rng.normal(size=(32, len(rots), 3))
-    w *= (np.pi * rng.uniform(size=(32, len(rots), 1))) / np.linalg.norm(w, axis=2, keepdims=True)
-    rand = np.array([[rot_exp(v) for v in row] for row in w])
-    cands = np.concatenate([R, rand])
+    cands = np.concatenate([R, _random_rotations(len(rots))])
     # score[c] = min over configurations and joints of 1 + trace(C^T R)
     score = (1.0 + np.einsum("cfij,nfij->cnf", cands, R)).min(axis=(1, 2))
     best = cands[int(np.argmax(score))]
     return np.concatenate([C.flatten(order="F") for C in best])
+
+
+@functools.cache
+def _random_rotations(count: int) -> np.ndarray:
+    """(32, count, 3, 3) rotations of random axes and angles in [0, pi) (seeded: the same
+    candidates for every query)."""
+    rng = np.random.default_rng(0)
+    w = rng.normal(size=(32, count, 3))
+    w *= (np.pi * rng.uniform(size=(32, count, 1))) / np.linalg.norm(w, axis=2, keepdims=True)
+    rand = np.array([[rot_exp(v) for v in row] for row in w])
+    rand.flags.writeable = False
+    return rand
 
 
 def homotopy_modes(
@@ -375,7 +384,7 @@ def homotopy_modes(
     Args:
         model: the model.
         theta0: (k,) actuated joint values [rad or model length unit].
-        seed: seed of the start system and of the homotopy's gamma.
+        seed: seed of the start system and of the gammas of the homotopy's retries.
         progress: progress bar while the start system is computed (first call per model).
         backend: ``"auto"`` (generated C when a C compiler is found), ``"cvodes"`` (SX
             kernels) or ``"compiled"``; see :mod:`scdk_sym.backends`.

@@ -58,7 +58,8 @@ def assembly_modes(
         model: the model.
         theta0: (k,) actuated joint values [rad or model length unit].
         method: ``"homotopy"`` or ``"curves"``.
-        seed: seed of the random choices (start system and gamma; curve directions and starts).
+        seed: seed of the random choices (start system and retry gammas; curve directions and
+            starts).
         progress: show a progress bar (tqdm) on stderr (the monodromy's loops; the curves).
         backend: a name of :mod:`scdk_sym.backends`: ``"auto"``, ``"cvodes"`` or
             ``"compiled"``; default (``None``): ``"auto"`` for the homotopy (generated C when

@@ -1,0 +1,404 @@
+/* Krawczyk tests of many points at once in binary64 interval arithmetic (see ikrawczyk.h).
+ *
+ * Soundness rests on IEEE 754 binary64 arithmetic in round-to-nearest (the default mode):
+ * +, -, *, / return the exact result correctly rounded, within half a unit in the last place,
+ * so the neighbouring binary64 numbers (nextafter) below and above bound the exact result.
+ * Every interval operation below rounds each bound that way; negation and the choice of
+ * bounds are exact. The library is compiled without contraction into fused multiply-adds
+ * and without value-changing optimisations (ckrawczyk.py's flags). A bound that is not
+ * finite, or a divisor interval holding 0, fails the evaluation: the point is then left
+ * to the ball-arithmetic test (certify.py), never proven here.
+ */
+#include "ikrawczyk.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct {
+    double lo, hi;
+} ival;
+
+/* nextafter(x, -inf) and nextafter(x, +inf) by the ordering of the binary64 encodings
+ * (consecutive magnitudes have consecutive codes); NaN stays NaN, and -inf below / +inf above
+ * give a NaN, which the finiteness checks reject. */
+static inline double down(double x) {
+    uint64_t u;
+    if (x != x) return x;
+    if (x == 0.0) return -4.9406564584124654e-324; /* the largest binary64 below 0 */
+    memcpy(&u, &x, sizeof u);
+    u = x > 0.0 ? u - 1 : u + 1;
+    memcpy(&x, &u, sizeof u);
+    return x;
+}
+
+static inline double up(double x) { return -down(-x); }
+
+static ival point(double x) {
+    ival r = {x, x};
+    return r;
+}
+
+static ival iadd(ival a, ival b) {
+    ival r = {down(a.lo + b.lo), up(a.hi + b.hi)};
+    return r;
+}
+
+static ival isub(ival a, ival b) {
+    ival r = {down(a.lo - b.hi), up(a.hi - b.lo)};
+    return r;
+}
+
+static ival ineg(ival a) {
+    ival r = {-a.hi, -a.lo};
+    return r;
+}
+
+static double min4(double a, double b, double c, double d) {
+    const double x = a < b ? a : b, y = c < d ? c : d;
+    return x < y ? x : y;
+}
+
+static double max4(double a, double b, double c, double d) {
+    const double x = a > b ? a : b, y = c > d ? c : d;
+    return x > y ? x : y;
+}
+
+/* Finite operands only (every caller checks them): no 0 * inf, and no NaN that the
+ * comparisons of min4 and max4 would drop. An overflow gives an infinite product, whose
+ * outward step is NaN or infinite: the caller's finiteness check rejects it. */
+static ival imul(ival a, ival b) {
+    const double p1 = a.lo * b.lo, p2 = a.lo * b.hi, p3 = a.hi * b.lo, p4 = a.hi * b.hi;
+    ival r = {down(min4(p1, p2, p3, p4)), up(max4(p1, p2, p3, p4))};
+    return r;
+}
+
+/* A binary64 number times an interval. */
+static ival pmul(double y, ival a) {
+    ival r;
+    if (y >= 0.0) {
+        r.lo = down(y * a.lo);
+        r.hi = up(y * a.hi);
+    } else {
+        r.lo = down(y * a.hi);
+        r.hi = up(y * a.lo);
+    }
+    return r;
+}
+
+static ival isq(ival a) {
+    ival r;
+    if (a.lo >= 0.0) {
+        r.lo = down(a.lo * a.lo);
+        r.hi = up(a.hi * a.hi);
+    } else if (a.hi <= 0.0) {
+        r.lo = down(a.hi * a.hi);
+        r.hi = up(a.lo * a.lo);
+    } else {
+        const double u = a.lo * a.lo, v = a.hi * a.hi;
+        r.lo = 0.0;
+        r.hi = up(u > v ? u : v);
+    }
+    return r;
+}
+
+static ival iabs(ival a) {
+    if (a.lo >= 0.0) return a;
+    if (a.hi <= 0.0) return ineg(a);
+    ival r = {0.0, -a.lo > a.hi ? -a.lo : a.hi};
+    return r;
+}
+
+/* The sign function over an interval: the hull of its values (exact). */
+static ival isign(ival a) {
+    ival r = {a.lo > 0.0 ? 1.0 : (a.lo < 0.0 ? -1.0 : 0.0), a.hi < 0.0 ? -1.0 : (a.hi > 0.0 ? 1.0 : 0.0)};
+    return r;
+}
+
+/* a / b for b not holding 0 (checked by the caller). */
+static ival idiv(ival a, ival b) {
+    const double q1 = a.lo / b.lo, q2 = a.lo / b.hi, q3 = a.hi / b.lo, q4 = a.hi / b.hi;
+    ival r = {down(min4(q1, q2, q3, q4)), up(max4(q1, q2, q3, q4))};
+    return r;
+}
+
+static int finite(ival a) { return isfinite(a.lo) && isfinite(a.hi); }
+
+/* Replay a tape on x (n) and p (k) intervals into out (n_out); 0 on success. */
+static int replay(const scdk_tape *t, const ival *x, const ival *p, ival *w, ival *out) {
+    for (int64_t i = 0; i < t->n_out; ++i) out[i] = point(0.0);
+    for (int64_t s = 0; s < t->L; ++s) {
+        const int64_t a = t->a[s], b = t->b[s], o = t->o[s];
+        ival r;
+        switch (t->op[s]) {
+        case SCDK_I_CONST: r = point(t->c[s]); break;
+        case SCDK_I_INPUT: r = a == 0 ? x[b] : p[b]; break;
+        case SCDK_I_OUTPUT: out[o] = w[a]; continue;
+        case SCDK_I_ASSIGN: r = w[a]; break;
+        case SCDK_I_NEG: r = ineg(w[a]); break;
+        case SCDK_I_SQ: r = isq(w[a]); break;
+        case SCDK_I_TWICE: r = iadd(w[a], w[a]); break;
+        case SCDK_I_INV:
+            if (w[a].lo <= 0.0 && w[a].hi >= 0.0) return 1;
+            r = idiv(point(1.0), w[a]);
+            break;
+        case SCDK_I_FABS: r = iabs(w[a]); break;
+        case SCDK_I_SIGN: r = isign(w[a]); break;
+        case SCDK_I_ADD: r = iadd(w[a], w[b]); break;
+        case SCDK_I_SUB: r = isub(w[a], w[b]); break;
+        case SCDK_I_MUL: r = imul(w[a], w[b]); break;
+        case SCDK_I_DIV:
+            if (w[b].lo <= 0.0 && w[b].hi >= 0.0) return 1;
+            r = idiv(w[a], w[b]);
+            break;
+        default: return 1;
+        }
+        if (!finite(r)) return 1;
+        w[o] = r;
+    }
+    return 0;
+}
+
+/* Y ~ A^-1 (n x n row-major) by Gauss-Jordan elimination with partial pivoting, and the
+ * infinity-norm condition estimate |A| |Y|; 0 on success. A is overwritten. */
+static int invert(double *A, double *Y, int64_t n, double *cond) {
+    double na = 0.0;
+    for (int64_t i = 0; i < n; ++i) {
+        double s = 0.0;
+        for (int64_t j = 0; j < n; ++j) s += fabs(A[i * n + j]);
+        if (s > na) na = s;
+        for (int64_t j = 0; j < n; ++j) Y[i * n + j] = i == j ? 1.0 : 0.0;
+    }
+    for (int64_t j = 0; j < n; ++j) {
+        int64_t piv = j;
+        for (int64_t i = j + 1; i < n; ++i)
+            if (fabs(A[i * n + j]) > fabs(A[piv * n + j])) piv = i;
+        const double d = A[piv * n + j];
+        if (!(d != 0.0) || !isfinite(d)) return 1;
+        if (piv != j) {
+            for (int64_t c = 0; c < n; ++c) {
+                double t = A[j * n + c];
+                A[j * n + c] = A[piv * n + c];
+                A[piv * n + c] = t;
+                t = Y[j * n + c];
+                Y[j * n + c] = Y[piv * n + c];
+                Y[piv * n + c] = t;
+            }
+        }
+        for (int64_t c = 0; c < n; ++c) {
+            A[j * n + c] /= d;
+            Y[j * n + c] /= d;
+        }
+        for (int64_t i = 0; i < n; ++i) {
+            if (i == j) continue;
+            const double f = A[i * n + j];
+            if (f == 0.0) continue;
+            for (int64_t c = 0; c < n; ++c) {
+                A[i * n + c] -= f * A[j * n + c];
+                Y[i * n + c] -= f * Y[j * n + c];
+            }
+        }
+    }
+    double ny = 0.0;
+    for (int64_t i = 0; i < n; ++i) {
+        double s = 0.0;
+        for (int64_t j = 0; j < n; ++j) s += fabs(Y[i * n + j]);
+        if (s > ny) ny = s;
+    }
+    *cond = na * ny;
+    return isfinite(*cond) ? 0 : 1;
+}
+
+typedef struct {
+    const scdk_tape *value, *jacobian;
+    int64_t n;
+    const ival *P;
+    ival *w, *out, *X, *mid, *newton, *C, *K, *D; /* D = B - c */
+    double *A, *Y;
+} work;
+
+/* Y ~ J(c)^-1 (from the midpoints of the interval Jacobian at the point c); 0 on success. */
+static int inverse_at(work *s, const double *c, double max_cond) {
+    const int64_t n = s->n;
+    for (int64_t i = 0; i < n; ++i) s->mid[i] = point(c[i]);
+    if (replay(s->jacobian, s->mid, s->P, s->w, s->out)) return 1;
+    for (int64_t i = 0; i < n * n; ++i) s->A[i] = 0.5 * s->out[i].lo + 0.5 * s->out[i].hi;
+    double cond;
+    if (invert(s->A, s->Y, n, &cond)) return 1;
+    return cond < max_cond ? 0 : 1;
+}
+
+/* newton = c - Y f(c) into s->newton; 0 on success. */
+static int newton_point(work *s, const double *c) {
+    const int64_t n = s->n;
+    for (int64_t i = 0; i < n; ++i) s->mid[i] = point(c[i]);
+    if (replay(s->value, s->mid, s->P, s->w, s->out)) return 1;
+    for (int64_t i = 0; i < n; ++i) {
+        ival acc = point(c[i]);
+        for (int64_t j = 0; j < n; ++j) acc = isub(acc, pmul(s->Y[i * n + j], s->out[j]));
+        if (!finite(acc)) return 1;
+        s->newton[i] = acc;
+    }
+    return 0;
+}
+
+/* K = newton + (I - Y J(B)) (B - c) over the box B into s->K; 0 on success. */
+static int krawczyk_operator(work *s, const ival *B, const double *c) {
+    const int64_t n = s->n;
+    if (replay(s->jacobian, B, s->P, s->w, s->out)) return 1;
+    for (int64_t i = 0; i < n; ++i)
+        for (int64_t j = 0; j < n; ++j) {
+            ival acc = point(i == j ? 1.0 : 0.0);
+            for (int64_t l = 0; l < n; ++l)
+                acc = isub(acc, pmul(s->Y[i * n + l], s->out[l * n + j]));
+            if (!finite(acc)) return 1; /* imul below takes finite operands only */
+            s->C[i * n + j] = acc;
+        }
+    for (int64_t j = 0; j < n; ++j) {
+        s->D[j] = isub(B[j], point(c[j]));
+        if (!finite(s->D[j])) return 1;
+    }
+    for (int64_t i = 0; i < n; ++i) {
+        ival acc = s->newton[i];
+        for (int64_t j = 0; j < n; ++j) acc = iadd(acc, imul(s->C[i * n + j], s->D[j]));
+        if (!finite(acc)) return 1;
+        s->K[i] = acc;
+    }
+    return 0;
+}
+
+static double largest_radius(const ival *B, int64_t n) {
+    double w = 0.0;
+    for (int64_t i = 0; i < n; ++i) {
+        const double r = 0.5 * (B[i].hi - B[i].lo);
+        if (r > w) w = r;
+    }
+    return w;
+}
+
+/* Shrink the proven enclosure B (n) by Krawczyk steps centred on its midpoint. */
+static void tighten_box(work *s, ival *B, double *c, int64_t steps) {
+    const int64_t n = s->n;
+    const double eps = 2.220446049250313e-16;
+    for (int64_t t = 0; t < steps; ++t) {
+        double big = 0.0;
+        for (int64_t i = 0; i < n; ++i) {
+            c[i] = 0.5 * B[i].lo + 0.5 * B[i].hi;
+            if (c[i] < B[i].lo) c[i] = B[i].lo;
+            if (c[i] > B[i].hi) c[i] = B[i].hi;
+            if (fabs(c[i]) > big) big = fabs(c[i]);
+        }
+        const double width = largest_radius(B, n);
+        if (width <= 64 * eps * (1 + big)) return;
+        if (inverse_at(s, c, INFINITY) || newton_point(s, c) || krawczyk_operator(s, B, c)) return;
+        for (int64_t i = 0; i < n; ++i) { /* the zero lies in B and in K */
+            const double lo = s->K[i].lo > B[i].lo ? s->K[i].lo : B[i].lo;
+            const double hi = s->K[i].hi < B[i].hi ? s->K[i].hi : B[i].hi;
+            if (lo > hi) return;
+            s->K[i].lo = lo;
+            s->K[i].hi = hi;
+        }
+        if (!(largest_radius(s->K, n) < width)) return;
+        for (int64_t i = 0; i < n; ++i) B[i] = s->K[i];
+    }
+}
+
+int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n, int64_t k,
+                   int64_t N, const double *m, const double *p_lo, const double *p_hi,
+                   int64_t tighten, double tiny, double max_cond, int64_t *status, double *r,
+                   double *box) {
+    if (n <= 0 || k < 0 || N < 0 || value->n_out != n || jacobian->n_out != n * n)
+        return SCDK_K_BAD_SIZE;
+    const int64_t W = value->W > jacobian->W ? value->W : jacobian->W;
+    work s;
+    s.value = value;
+    s.jacobian = jacobian;
+    s.n = n;
+    ival *P = malloc((size_t)(k + 1) * sizeof(ival));
+    ival *iv = malloc((size_t)(W + 1 + n * n + 6 * n + n * n) * sizeof(ival));
+    double *dv = malloc((size_t)(2 * n * n + n) * sizeof(double));
+    if (!P || !iv || !dv) {
+        free(P);
+        free(iv);
+        free(dv);
+        return SCDK_K_NO_MEMORY;
+    }
+    for (int64_t i = 0; i < k; ++i) {
+        P[i].lo = p_lo[i];
+        P[i].hi = p_hi[i];
+    }
+    s.P = P;
+    s.w = iv;
+    s.out = s.w + W + 1;
+    s.X = s.out + n * n;
+    s.mid = s.X + n;
+    s.newton = s.mid + n;
+    s.K = s.newton + n;
+    ival *B = s.K + n;
+    s.D = B + n;
+    s.C = s.D + n;
+    s.A = dv;
+    s.Y = s.A + n * n;
+    double *c = s.Y + n * n;
+    for (int64_t q = 0; q < N; ++q) {
+        const double *mq = m + q * n;
+        double *rq = r + q * n, *bq = box + 2 * q * n;
+        status[q] = SCDK_K_NOT_PROVEN;
+        for (int64_t i = 0; i < n; ++i) {
+            rq[i] = NAN;
+            bq[2 * i] = bq[2 * i + 1] = NAN;
+        }
+        if (inverse_at(&s, mq, max_cond) || newton_point(&s, mq)) continue;
+        double delta = 0.0;
+        for (int64_t i = 0; i < n; ++i) {
+            const double d = fabs(0.5 * s.newton[i].lo + 0.5 * s.newton[i].hi - mq[i]);
+            if (d > delta) delta = d;
+        }
+        for (int64_t i = 0; i < n; ++i) {
+            const double ri = 2 * delta + 4 * (0.5 * (s.newton[i].hi - s.newton[i].lo));
+            rq[i] = ri > tiny ? ri : tiny;
+            s.X[i].lo = down(mq[i] - rq[i]);
+            s.X[i].hi = up(mq[i] + rq[i]);
+        }
+        if (krawczyk_operator(&s, s.X, mq)) continue;
+        int inside = 1;
+        for (int64_t i = 0; i < n; ++i)
+            inside = inside && s.K[i].lo > s.X[i].lo && s.K[i].hi < s.X[i].hi;
+        if (!inside) continue;
+        for (int64_t i = 0; i < n; ++i) B[i] = s.K[i];
+        tighten_box(&s, B, c, tighten);
+        status[q] = SCDK_K_PROVEN;
+        for (int64_t i = 0; i < n; ++i) {
+            bq[2 * i] = B[i].lo;
+            bq[2 * i + 1] = B[i].hi;
+        }
+    }
+    free(P);
+    free(iv);
+    free(dv);
+    return SCDK_K_OK;
+}
+
+int scdk_ireplay(const scdk_tape *t, int64_t n, int64_t k, const double *x, const double *p,
+                 double *out) {
+    if (n < 0 || k < 0 || t->W < 0 || t->n_out < 0) return SCDK_K_BAD_SIZE;
+    ival *buf = malloc((size_t)(n + k + t->W + t->n_out + 1) * sizeof(ival));
+    if (!buf) return SCDK_K_NO_MEMORY;
+    ival *X = buf, *P = X + n, *w = P + k, *o = w + t->W;
+    for (int64_t i = 0; i < n; ++i) {
+        X[i].lo = x[2 * i];
+        X[i].hi = x[2 * i + 1];
+    }
+    for (int64_t i = 0; i < k; ++i) {
+        P[i].lo = p[2 * i];
+        P[i].hi = p[2 * i + 1];
+    }
+    const int failed = replay(t, X, P, w, o);
+    for (int64_t i = 0; i < t->n_out; ++i) {
+        out[2 * i] = failed ? NAN : o[i].lo;
+        out[2 * i + 1] = failed ? NAN : o[i].hi;
+    }
+    free(buf);
+    return failed ? SCDK_K_FAILED : SCDK_K_OK;
+}

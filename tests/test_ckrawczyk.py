@@ -1,0 +1,176 @@
+"""The binary64 interval Krawczyk test in C (scdk_sym.algebraic.ckrawczyk).
+
+References are independent of the code under test: the exact results of the operations on
+binary64 endpoints in Arb at 300 bits, roots known exactly in binary64 (every term of the
+system carries a factor ``x - r``), and the Arb test of :mod:`scdk_sym.algebraic.certify`
+(run with the C test switched off).
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import pytest
+from flint import arb, ctx
+from stewart import DIETMAIER_BASE, DIETMAIER_LENGTHS, DIETMAIER_PLATFORM
+
+import scdk_sym as sc
+from scdk_sym.algebraic import certify as certify_module
+from scdk_sym.algebraic import certify_all, certify_configurations, closure_function, krawczyk
+from scdk_sym.algebraic.ckrawczyk import replay, tape
+from scdk_sym.errors import InputError
+
+EPS = float(np.finfo(float).eps)
+
+#: CasADi expression and exact Arb range (from the endpoints: every operation here is
+#: monotone on each sign-definite piece, the pieces meeting at 0) of each supported operation.
+_OPS = {
+    "add": lambda a, b: a + b,
+    "sub": lambda a, b: a - b,
+    "mul": lambda a, b: a * b,
+    "div": lambda a, b: a / b,
+    "sq": lambda a, b: a**2,
+    "neg": lambda a, b: -a,
+    "twice": lambda a, b: 2 * a,
+    "inv": lambda a, b: 1 / b,
+    "fabs": lambda a, b: ca.fabs(a) if isinstance(a, ca.SX) else abs(a),
+    "sign": lambda a, b: ca.sign(a) if isinstance(a, ca.SX) else arb(a.sgn()),
+}
+
+
+def _exact_range(op, a: tuple[float, float], b: tuple[float, float]) -> tuple[arb, arb]:
+    """The exact range of ``op`` over the boxes, at 300 bits (endpoints, and 0 for sq/fabs)."""
+    old = ctx.prec
+    ctx.prec = 300
+    try:
+        pa = [arb(v) for v in a] + ([arb(0)] if a[0] < 0 < a[1] else [])
+        pb = [arb(v) for v in b]
+        values = [_OPS[op](x, y) for x in pa for y in pb]
+        lo, hi = values[0], values[0]
+        for v in values[1:]:
+            lo, hi = (v if v < lo else lo), (v if v > hi else hi)
+        return lo, hi
+    finally:
+        ctx.prec = old
+
+
+@pytest.mark.parametrize("op", sorted(_OPS))
+def test_each_operation_encloses_its_exact_range_within_a_few_ulps(op):
+    a, b = ca.SX.sym("a"), ca.SX.sym("b")
+    t = tape(ca.Function("f", [a, b], [_OPS[op](a, b)]))
+    assert t is not None
+    rng = np.random.default_rng(21)
+    for _ in range(200):
+        # endpoints with many significant bits, of mixed signs and magnitudes
+        ca_, cb = rng.uniform(-3, 3, 2) * 10.0 ** rng.integers(-5, 6, 2)
+        ra, rb = np.abs(rng.normal(size=2)) * 10.0 ** rng.integers(-12, 0, 2) * np.abs([ca_, cb])
+        A, B = (ca_ - ra, ca_ + ra), (cb - rb, cb + rb)
+        if op in ("div", "inv") and B[0] <= 0 <= B[1]:
+            assert replay(t, np.array([A]), np.array([B])) is None  # a divisor holding 0
+            continue
+        out = replay(t, np.array([A]), np.array([B]))[0]
+        lo, hi = _exact_range(op, A, B)
+        assert arb(out[0]) <= lo and hi <= arb(out[1]), (op, A, B, out)
+        # two outward steps at most per bound (a few more for a sum's cancellation)
+        assert out[1] - out[0] <= float(hi - lo) + 8 * EPS * max(abs(out[0]), abs(out[1]))
+
+
+def test_operations_without_correct_rounding_have_no_tape():
+    x, p = ca.SX.sym("x"), ca.SX.sym("p")
+    for expr in (ca.sin(x), ca.sqrt(x), x**3.5, ca.exp(x) + p):
+        assert tape(ca.Function("f", [x, p], [expr])) is None
+    t = tape(ca.Function("f", [x, p], [x * p]))
+    with pytest.raises(InputError, match="takes 1 and 1"):
+        replay(t, np.zeros((2, 2)), np.zeros((1, 2)))
+
+
+def _rational_system(rng: np.random.Generator, n: int) -> tuple[ca.Function, np.ndarray]:
+    """A rational square system (x, p) with the exact binary64 root r at p = 1."""
+    r = rng.uniform(-2, 2, n)
+    A = rng.normal(size=(n, n)) + n * np.eye(n)
+    x, p = ca.SX.sym("x", n), ca.SX.sym("p")
+    u = x - r  # exactly 0 at x = r
+    rows = []
+    for i in range(n):
+        j, k = rng.integers(0, n, 2)
+        b = rng.normal(size=3)
+        rows.append(
+            p * ca.dot(A[i], u)
+            + b[0] * u[j] * u[k]
+            + b[1] * u[j] / (2 + x[k] ** 2)
+            + b[2] * (u[k] ** 2) * ca.fabs(x[j])
+        )
+    return ca.Function("f", [x, p], [ca.vertcat(*rows)]), r
+
+
+def _c_only(f: ca.Function, xs: np.ndarray, p: list) -> list:
+    """The certificates of the C test alone (None where it proves nothing)."""
+    sq = certify_module._SQUARES(f)
+    assert sq.fast is not None  # rational: the C test applies
+    _, _, bounds = certify_module._parameters(p, sq.n_params)
+    return certify_module._fast(sq, np.atleast_2d(xs), bounds, certify_module.TIGHTEN)
+
+
+@pytest.mark.parametrize("n", [1, 3, 6])
+def test_rational_systems_are_proven_around_the_known_root_as_by_arb(n):
+    rng = np.random.default_rng(n)
+    for _ in range(5):
+        f, r = _rational_system(rng, n)
+        x = r + rng.normal(size=n) * 1e-9
+        fast = _c_only(f, x, [1.0])[0]
+        assert fast is not None and fast.proven and fast.contains(r), fast
+        assert fast.radius <= 1e-13
+        assert np.all(fast.domain[:, 0] < r) and np.all(r < fast.domain[:, 1])
+        slow = krawczyk(f, x, [1.0], arithmetic="arb")
+        assert slow.proven and slow.contains(r)
+        # the same uniqueness box (from the same Newton point, up to the rounding floor)
+        assert np.allclose(fast.domain, slow.domain, rtol=0, atol=1e-13)
+        assert np.all(fast.box[:, 0] <= slow.box[:, 1]) and np.all(slow.box[:, 0] <= fast.box[:, 1])
+        again = krawczyk(f, x, [1.0])  # krawczyk takes the C certificate
+        assert np.array_equal(again.box, fast.box) and again.reason == fast.reason
+
+
+def test_a_parameter_box_is_proven_for_every_parameter_in_it():
+    rng = np.random.default_rng(4)
+    f, r = _rational_system(rng, 3)
+    x = r + 1e-9
+    thin, wide = _c_only(f, x, [1.0])[0], _c_only(f, x, [[1.0 - 1e-6, 1.0 + 1e-6]])[0]
+    assert thin is not None and wide is not None and thin.contains(r) and wide.contains(r)
+    assert wide.radius > thin.radius  # the zero is the same for every p, its enclosure wider
+    far = krawczyk(f, r + 0.5, [1.0])  # the C test proves nothing; Arb says why
+    assert _c_only(f, r + 0.5, [1.0]) == [None]
+    assert not far.proven and far.reason
+
+
+def test_a_double_root_is_not_proven():
+    x, p = ca.SX.sym("x", 2), ca.SX.sym("p")
+    f = ca.Function("f", [x, p], [ca.vertcat((x[0] - 1) ** 2, x[1] - p)])
+    assert _c_only(f, [1.0 + 1e-9, 2.0], [2.0]) == [None]
+    assert not krawczyk(f, [1.0 + 1e-9, 2.0], [2.0]).proven
+
+
+def test_dietmaier_assembly_modes_c_and_arb_certificates_agree():
+    model = sc.builders.stewart_gough(DIETMAIER_BASE, DIETMAIER_PLATFORM)
+    sols = sc.assembly_modes(model, DIETMAIER_LENGTHS)
+    ys = np.vstack([s.y for s in sols])
+    fast = certify_configurations(model, ys, DIETMAIER_LENGTHS)
+    q = np.concatenate([DIETMAIER_LENGTHS, model.chart.to_local(ys[0])[1]])
+    local = np.vstack([c.x for c in fast.certificates])
+    c_only = _c_only(closure_function(model), local, q)
+    assert sum(c is not None for c in c_only) >= 38  # nearly all proven in C
+    slow = certify_configurations(model, ys, DIETMAIER_LENGTHS, arithmetic="arb")
+    assert fast.proven and slow.proven and fast.count == slow.count == 40
+    for a, b in zip(fast.certificates, slow.certificates, strict=True):
+        assert np.all(a.box[:, 0] <= b.box[:, 1]) and np.all(b.box[:, 0] <= a.box[:, 1])
+        assert a.radius <= max(1e-12, 8 * b.radius)
+
+
+def test_certify_all_checks_every_row_and_counts_distinct_zeros():
+    rng = np.random.default_rng(12)
+    f, r = _rational_system(rng, 2)
+    s = certify_all(f, np.vstack([r, r + 1e-12]), [1.0])
+    assert not s.proven and s.count == 1 and s.duplicates == ((0, 1),), s.reason
+    with pytest.raises(InputError, match="x must be 2"):
+        certify_all(f, np.array([[0.0, np.nan]]), [1.0])
+    with pytest.raises(InputError, match="unknown arithmetic"):
+        certify_all(f, np.vstack([r]), [1.0], arithmetic="float")
