@@ -238,6 +238,43 @@ DIVERGENT_CASES = [
             [-0.17135461400634186, -0.05947128883339328],
         ),
     ),
+    # Newton from the reflected guesses had not reached the tolerance within one polish
+    (
+        "5bar_linkage_iso6d",
+        "near_singular",
+        [1.161704730072306, -2.0004974584994843],
+        (
+            [
+                0.14511505954882056,
+                0.04147497254450954,
+                1.4319689795921298e-15,
+                0.9797009874363489,
+                -3.352579210973638e-16,
+                1.5707963267948948,
+            ],
+            [-0.19712648208212719, 0.0011889149377191353],
+        ),
+    ),
+    (
+        "stewart_gough",
+        "across",
+        [
+            0.9775064027791656,
+            0.756713735175555,
+            0.9911894366128398,
+            0.6836329235094618,
+            0.8707071358597281,
+            0.7135890845020041,
+        ],
+        [
+            -0.03728108939218255,
+            -0.034367448346293586,
+            0.5834442141275744,
+            -0.1626609008393647,
+            0.11853128562439826,
+            -0.27005882035034195,
+        ],
+    ),
     # nor from the midpoint of the two answers (sigma_min is locally least at home): the
     # singular configuration by Gauss-Newton onto the singular manifold; answer above the base
     (
