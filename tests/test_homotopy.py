@@ -30,7 +30,7 @@ from scdk_sym.algebraic import (
     start_system,
     trace_test,
 )
-from scdk_sym.algebraic.homotopy import ParameterHomotopy, track_parameter_homotopy
+from scdk_sym.algebraic.homotopy import ParameterHomotopy, dedup, track_parameter_homotopy
 from scdk_sym.algebraic.tracker import DONE, STEP_LIMIT, TrackerOptions, track
 from scdk_sym.errors import HomotopyError, InputError, ScdkError
 
@@ -294,6 +294,34 @@ def test_chart_coordinates_have_trace_poles(family_start):
     system, start = family_start
     rng = np.random.default_rng(4)
     assert trace_test(system, start.solutions, start.p, start.b, rng, trace_map=lambda z: z) > 1e-6
+
+
+@pytest.mark.parametrize(("seed", "finite"), [(1, 40), (16, 38)])
+def test_family_homotopy_counts_each_platforms_finite_roots(family_start, seed, finite):
+    """The start system of the whole 6-6 family (40 roots, trace test passed) tracked to one
+    platform at complex legs: every isolated root of that platform is an endpoint. Random
+    platform #16 has 38 distinct finite roots, the other two paths diverge (its geometry is
+    special: two roots at infinity), the count that the monodromy of its own form reaches
+    from every seed and that ``assembly_modes`` reports for it, not certified."""
+    system, start = family_start
+    A, B, L = random_platform(seed)
+    rng = np.random.default_rng(5)
+    legs = L + 0.1 * (rng.normal(size=6) + 1j * rng.normal(size=6))
+    hom = ParameterHomotopy(
+        system,
+        start.p[None],
+        system.params(A, B, legs)[None],
+        start.b[None],
+        np.zeros((1, 8)),
+        [np.exp(2j * np.pi * rng.uniform())],
+    )
+    with np.errstate(all="ignore"):  # the paths that go to infinity overflow on their way
+        ends = track_parameter_homotopy(system, start.solutions, hom, np.zeros(40, dtype=int))
+    assert int((ends.status == "success").sum()) == finite, list(ends.status)
+    roots = ends.z[ends.status == "success"]
+    G, _, _ = system.evaluate(roots, np.repeat(system.params(A, B, legs)[None], finite, 0))
+    assert np.abs(G).max() < 1e-8
+    assert len(dedup(roots, 1e-6)) == finite
 
 
 def test_dietmaier_all_40_real_postures(family_start):

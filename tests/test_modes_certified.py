@@ -269,7 +269,8 @@ def test_random_6_6_root_count_40_real_set_equals_reference(seed):
 
 @SLOW
 def test_a_6_6_start_system_short_of_40_roots_is_never_certified():
-    # random platform #16: monodromy stops at 38 roots, and a rational fit of the trace on a
+    # random platform #16 (38 finite roots, two at infinity: tests/test_homotopy.py): its
+    # monodromy stops at 38 roots, and a rational fit of the trace on a
     # circle of the pencil once passed on them; only a proof may certify
     A, B, L = random_platform(16)
     model = sc.builders.stewart_gough(A, B)
