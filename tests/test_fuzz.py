@@ -179,7 +179,8 @@ def test_fuzz_tracks(name: str) -> None:
             assert o.error <= 1e-6
 
 
-#: Divergent solves the fuzz found refused although another solution exists (seed 0 of
+#: Divergent solves the fuzz found refused (or answered with a crossing list that does not
+#: account for the answer's side) although another solution exists (seed 0 of
 #: ``benchmarks/fuzz.py``): every real solution at theta0 is the last resort across the
 #: nearest singular configuration. (model, kind, theta0, start (y, theta) or None for home)
 DIVERGENT_CASES = [
@@ -274,6 +275,14 @@ DIVERGENT_CASES = [
             0.11853128562439826,
             -0.27005882035034195,
         ],
+    ),
+    # answered with two crossings but det J_p of the other sign (the leg from the fold
+    # reported one fold too many): every way's answer is parity-checked now
+    (
+        "planar_hexa",
+        "across",
+        [1.4549049042459972, -0.9839399799128237, -3.1973356870642693],
+        [-1.178220357867365, 1.4130467792362997, 0.2923803190134214],
     ),
     # nor from the midpoint of the two answers (sigma_min is locally least at home): the
     # singular configuration by Gauss-Newton onto the singular manifold; answer above the base

@@ -389,6 +389,11 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
         if not res.crossings:
             tried.append(f"{how}: no singular point crossed")
             return None
+        try:  # the crossings reported must account for the answer's side
+            res = parity_checked(model, res, sign)
+        except PathError as exc:
+            tried.append(f"{how}: {exc}")
+            return None
         # through folds only, det J_p has the start's sign at the convergent answer (an even
         # number of turns) and the other one here (odd): they differ; across crossing
         # branches, compare with the convergent answer itself
