@@ -68,6 +68,10 @@ STALL_HALVINGS = 6
 LOOP_FACTOR = 10
 #: A stepped-over point must continue the incoming tangent within acos(STEP_OVER_COS).
 STEP_OVER_COS = 0.9
+#: Lengths of the straight step-over, in units of the last good step, tried in turn.
+STEP_OVER_FACTORS = (2.0, 8.0, 32.0, 128.0, 0.5)
+#: A step-over past a level of ``s`` is at most this many last good steps long.
+SHORT_OVER = 2.0
 #: det J_p changing sign without a turn of s is a bifurcation where H' = [J_p, -j_s] has
 #: sigma_min / sigma_max below this (else the step jumped across a fold and is refined) ...
 BIFURCATION_RANK = 1e-3
@@ -450,7 +454,17 @@ def follow(
             if stepped is not None:
                 cr = stepped[4]
             else:
-                stepped = _step_over(model, kern, p, weight, q, t, c, det, h_good, tol)
+                args = (model, kern, line, p, weight, q, t, c, det, h_good, tol)
+                stepped, cr = _step_over_located(*args, STEP_OVER_FACTORS)
+                if (
+                    stepped is not None
+                    and stepped[3] > SHORT_OVER * h_good
+                    and any((q[-1] - L) * (stepped[0][-1] - L) <= 0 for L in levels)
+                ):
+                    # a long step-over past a level cannot be finished there reliably: only
+                    # short ones may pass it
+                    short = tuple(f for f in STEP_OVER_FACTORS if f <= SHORT_OVER)
+                    stepped, cr = _step_over_located(*args, short)
                 if stepped is None and advancing and h >= h_min:
                     # calls still advance (e.g. at a tight fold): keep going, until the next
                     # call that advances (a step below h_min or no advance: stalled)
@@ -459,9 +473,6 @@ def follow(
                 if stepped is None:
                     out.stalled = True
                     break
-                cr = None
-                if stepped[2] * det < 0:
-                    cr = _locate_bifurcation(model, kern, line, p, weight, q, stepped[0], c, det)
             q_new, t_new, det_new, length = stepped[:4]
             # no step passes a level without finishing it there (a solution it skipped
             # would be lost, or a later one taken for the first)
@@ -772,12 +783,14 @@ def _straight(kern, p, q, t, length, c, tol) -> np.ndarray | None:
     return q_new
 
 
-def _step_over(model, kern, p, weight, q, t, c, det, h_good, tol):
+def _step_over(model, kern, p, weight, q, t, c, det, h_good, tol, factors=None):
     """Step over a point the predictors cannot pass (a bifurcation): straight along ``t`` with
-    a corrector on the plane normal to it, at a few lengths; the new point must continue the
+    a corrector on the plane normal to it, at ``factors`` (default
+    :data:`STEP_OVER_FACTORS`) times ``h_good`` in turn; the new point must continue the
     incoming tangent. Returns (q, t, det, length) or None."""
     m = model.m
-    for length in (2.0 * h_good, 8.0 * h_good, 32.0 * h_good, 128.0 * h_good, 0.5 * h_good):
+    for f in STEP_OVER_FACTORS if factors is None else factors:
+        length = f * h_good
         q_new = _straight(kern, p, q, t, length, c, tol)
         if q_new is None:
             continue
@@ -787,6 +800,20 @@ def _step_over(model, kern, p, weight, q, t, c, det, h_good, tol):
         if float(weight @ (t_new * t)) >= STEP_OVER_COS:
             return q_new, t_new, det_new, _wdist(weight, q_new, q)
     return None
+
+
+def _step_over_located(model, kern, line, p, weight, q, t, c, det, h_good, tol, factors):
+    """:func:`_step_over` at ``factors`` times ``h_good``, with the crossing located where
+    ``det J_p`` changed sign: ``((q, t, det, length), crossing or None)``, or ``(None, None)``
+    if no step-over continues the tangent or the sign change is not on its chord."""
+    got = _step_over(model, kern, p, weight, q, t, c, det, h_good, tol, factors)
+    if got is None or got[2] * det > 0:
+        return got, None
+    at = _locate_bifurcation(model, kern, line, p, weight, q, got[0], c, det)
+    lo, hi = sorted((float(q[-1]), float(got[0][-1])))
+    if not lo - 1e-9 <= at.s <= hi + 1e-9:
+        return None, None  # det J_p changed sign off the chord: no crossing located
+    return got, at
 
 
 #: Steps in s of the step-over at fixed s (:func:`_step_over_in_s`): the first is this
