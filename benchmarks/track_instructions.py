@@ -140,7 +140,7 @@ def rows(report: str, top: int) -> list[tuple[int, str]]:
     out = []
     for line in report.splitlines():
         m = re.match(r"^\s*([\d,]+)\s+(?:\([^)]*\)\s+)?\S*:(\S+)", line)
-        if m and "PROGRAM TOTALS" not in line:
+        if m and not m.group(2).startswith(("(", "0x", "__libc_start", "main")):
             out.append((int(m.group(1).replace(",", "")), m.group(2)))
     return out[:top]
 
