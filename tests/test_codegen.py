@@ -11,7 +11,7 @@ from factories import ROOT, needs_compiler, shipped
 from scdk_sym.cli import main
 from scdk_sym.codegen.generate import generate
 from scdk_sym.codegen.kernels import build_tracker_kernels
-from scdk_sym.follower.kernels import build_follower_kernels
+from scdk_sym.follower.kernels import build_follower_kernels, closure_function
 
 EXAMPLE = ROOT / "examples" / "c"
 CFLAGS = ["-std=c99", "-O2", "-Wall"]
@@ -293,6 +293,39 @@ def test_tracker_kernels_are_dense_at_the_c_boundary(name):
     ref = (model.kernels.g(y, theta, c), *model.kernels.jac(y, theta, c))
     for ours, want in zip(kern.closure(y, theta, c), ref, strict=True):
         np.testing.assert_array_equal(np.array(ours), np.array(want))
+
+
+@pytest.mark.parametrize("name", ["planar_hexa", "stewart_gough"])
+def test_curve_kernels_calling_the_dense_closure_compute_what_the_sparse_one_gives(name):
+    """The tracker's closure kernel has dense outputs; its other kernels call it through a view
+    in the model's sparsity: bit for bit what they compute calling the sparse closure."""
+    model = shipped(name)
+    sym = model.symbolic
+    kern = build_tracker_kernels(sym, model.chart.rotations, "ref")
+    ref = build_follower_kernels(sym, inline=False, closure=closure_function(sym))
+    rng = np.random.default_rng(3)
+    y, c = model.chart.to_local(model.home.y)
+    m, k = model.m, model.k
+    for _ in range(3):
+        yp = y + 1e-2 * rng.normal(size=m)
+        theta = model.home.theta + 1e-2 * rng.normal(size=k)
+        dtheta = 1e-2 * rng.normal(size=k)
+        p = np.concatenate([theta, dtheta])
+        q = np.append(yp, 0.1)
+        v = np.append(rng.normal(size=m), 1.0)
+        calls = [
+            ("newton", (yp, theta, c)),
+            ("polish", (yp, theta, c)),
+            ("predict", (yp, theta, dtheta, c)),
+            ("tangent", (q, v, p, c)),
+        ]
+        t = np.array(ref.tangent(q, v, p, c)[0]).ravel()
+        calls.append(("step", (np.append(q, t), 1e-3, p, c)))
+        for kernel, args in calls:
+            ours = getattr(kern, kernel).call(list(args))
+            want = getattr(ref, kernel).call(list(args))
+            for a, b in zip(ours, want, strict=True):
+                np.testing.assert_array_equal(np.array(a).ravel(), np.array(b).ravel(), kernel)
 
 
 def test_cli_writes_sources_with_a_prefix(tmp_path, capsys):
