@@ -11,7 +11,7 @@ from factories import ROOT, needs_compiler, shipped
 from scdk_sym.cli import main
 from scdk_sym.codegen.generate import generate
 from scdk_sym.codegen.kernels import build_tracker_kernels
-from scdk_sym.follower.kernels import build_follower_kernels
+from scdk_sym.follower.kernels import build_follower_kernels, closure_function
 
 EXAMPLE = ROOT / "examples" / "c"
 CFLAGS = ["-std=c99", "-O2", "-Wall"]
@@ -45,7 +45,7 @@ def test_sources_are_self_contained(built):
         assert included <= STANDARD_HEADERS | generated, (path.name, included)
         assert "casadi/" not in text
     header = src.kernels_h.read_text()
-    for kernel in ("g", "jac", "pose", "tangent", "step", "predict", "newton", "polish",
+    for kernel in ("closure", "pose", "tangent", "step", "predict", "newton", "polish",
                    "recentre"):  # fmt: skip
         assert f"int scdk_{kernel}(const casadi_real** arg" in header
     tracker = src.tracker_h.read_text()
@@ -146,12 +146,13 @@ int main(void) {
                                        "an input is NaN or infinite") == 0);
     /* the generated kernels at fixed inputs, printed for comparison with CasADi */
     arg[0] = scdk_home_y; arg[1] = scdk_home_theta; arg[2] = scdk_home_c;
-    out[0] = J; out[1] = Js;
-    scdk_jac(arg, out, iw, w, 0);
+    out[0] = NULL; out[1] = J; out[2] = Js;
+    scdk_closure(arg, out, iw, w, 0);
     for (i = 0; i < SCDK_NY * SCDK_NY; ++i) printf("J %.17g\n", J[i]);
+    for (i = 0; i < SCDK_NY * SCDK_NTHETA; ++i) printf("Js %.17g\n", Js[i]);
     for (i = 0; i < SCDK_NY; ++i) y[i] = scdk_home_y[i] + 1e-3 * (i + 1);
-    arg[0] = y; out[0] = g;
-    scdk_g(arg, out, iw, w, 0);
+    arg[0] = y; out[0] = g; out[1] = NULL; out[2] = NULL;
+    scdk_closure(arg, out, iw, w, 0);
     for (i = 0; i < SCDK_NY; ++i) printf("g %.17g\n", g[i]);
     out[0] = ys; out[1] = &res; out[2] = &corr;
     scdk_newton(arg, out, iw, w, 0);
@@ -239,10 +240,11 @@ def test_generated_kernels_equal_the_casadi_functions(boundary):
     kern = build_tracker_kernels(model.symbolic, model.chart.rotations, "ref")
     y, c = model.chart.to_local(model.home.y)
     theta = model.home.theta
-    J = np.array(kern.jac(y, theta, c)[0]).ravel(order="F")
+    _, J, Js = (np.array(a).ravel(order="F") for a in kern.closure(y, theta, c))
     np.testing.assert_allclose(values["J"], J, rtol=1e-13, atol=1e-15)
+    np.testing.assert_allclose(values["Js"], Js, rtol=1e-13, atol=1e-15)
     yp = y + 1e-3 * np.arange(1, 7)
-    g = np.array(kern.g(yp, theta, c)).ravel()
+    g = np.array(kern.closure(yp, theta, c)[0]).ravel()
     np.testing.assert_allclose(values["g"], g, rtol=1e-12, atol=1e-16)
     y_new, res, _ = (np.array(v).ravel() for v in kern.newton(yp, theta, c))
     np.testing.assert_allclose(values["newton_y"], y_new, rtol=1e-12, atol=1e-15)
@@ -288,8 +290,42 @@ def test_tracker_kernels_are_dense_at_the_c_boundary(name):
         assert all(f.sparsity_out(i).is_dense() for i in range(f.n_out())), f.name()
     y, c = model.chart.to_local(model.home.y)
     theta = model.home.theta
-    for ours, ref in zip(kern.jac(y, theta, c), model.kernels.jac(y, theta, c), strict=True):
-        np.testing.assert_array_equal(np.array(ours), np.array(ref))
+    ref = (model.kernels.g(y, theta, c), *model.kernels.jac(y, theta, c))
+    for ours, want in zip(kern.closure(y, theta, c), ref, strict=True):
+        np.testing.assert_array_equal(np.array(ours), np.array(want))
+
+
+@pytest.mark.parametrize("name", ["planar_hexa", "stewart_gough"])
+def test_curve_kernels_calling_the_dense_closure_compute_what_the_sparse_one_gives(name):
+    """The tracker's closure kernel has dense outputs; its other kernels call it through a view
+    in the model's sparsity: bit for bit what they compute calling the sparse closure."""
+    model = shipped(name)
+    sym = model.symbolic
+    kern = build_tracker_kernels(sym, model.chart.rotations, "ref")
+    ref = build_follower_kernels(sym, inline=False, closure=closure_function(sym))
+    rng = np.random.default_rng(3)
+    y, c = model.chart.to_local(model.home.y)
+    m, k = model.m, model.k
+    for _ in range(3):
+        yp = y + 1e-2 * rng.normal(size=m)
+        theta = model.home.theta + 1e-2 * rng.normal(size=k)
+        dtheta = 1e-2 * rng.normal(size=k)
+        p = np.concatenate([theta, dtheta])
+        q = np.append(yp, 0.1)
+        v = np.append(rng.normal(size=m), 1.0)
+        calls = [
+            ("newton", (yp, theta, c)),
+            ("polish", (yp, theta, c)),
+            ("predict", (yp, theta, dtheta, c)),
+            ("tangent", (q, v, p, c)),
+        ]
+        t = np.array(ref.tangent(q, v, p, c)[0]).ravel()
+        calls.append(("step", (np.append(q, t), 1e-3, p, c)))
+        for kernel, args in calls:
+            ours = getattr(kern, kernel).call(list(args))
+            want = getattr(ref, kernel).call(list(args))
+            for a, b in zip(ours, want, strict=True):
+                np.testing.assert_array_equal(np.array(a).ravel(), np.array(b).ravel(), kernel)
 
 
 def test_cli_writes_sources_with_a_prefix(tmp_path, capsys):

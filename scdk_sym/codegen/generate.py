@@ -33,8 +33,14 @@ from .kernels import UNOPTIMISED, build_tracker_kernels
 #: Flags compiling each source of the shared library built for Python (the optimisation
 #: level of :mod:`scdk_sym.kernels.compile`; ``-fno-semantic-interposition``: the kernels'
 #: helpers such as ``casadi_sq``, global functions, are inlined as in a static build instead
-#: of called, since ``-Bsymbolic`` binds them inside the library anyway).
-COMPILE_FLAGS = ("-std=c99", OPT, "-Wall", "-fPIC", "-fno-semantic-interposition")
+#: of called, since ``-Bsymbolic`` binds them inside the library anyway;
+#: ``-fstrict-aliasing``, on from -O2: a store of a double may not change a pointer, so the
+#: kernels do not load their output pointer ``res[i]`` again before each store, a tenth of
+#: the closure kernel's instructions; the generated C and the tracker access every object
+#: through its own type).
+COMPILE_FLAGS = (
+    "-std=c99", OPT, "-Wall", "-fPIC", "-fno-semantic-interposition", "-fstrict-aliasing",
+)  # fmt: skip
 #: Flags linking it (``-Bsymbolic``: the tracker calls its own kernels even if another library
 #: of the process exports the same names).
 LINK_FLAGS = ("-shared", "-Wl,-Bsymbolic")

@@ -21,7 +21,9 @@ Every kernel that evaluates the closures calls one Function of them
 (:func:`scdk_sym.follower.kernels.closure_function`) and every linear solve calls one Function
 per matrix pattern (:func:`~scdk_sym.follower.kernels.linear_solver`): the generated C holds
 one copy of each per source file (:data:`GROUPS`) instead of one per use, and compiles in a
-fraction of the time.
+fraction of the time. The closure Function is itself a kernel (``closure``: ``g``, ``J_p`` and
+``J_s`` in one evaluation, written straight into the caller's dense arrays), the one the
+tracker's Newton iterations and determinants call.
 """
 
 from __future__ import annotations
@@ -40,8 +42,8 @@ from ..symbolic.system import Symbolic
 #: parallel. The kernels that call the closure Function (its one copy); the others; the
 #: inverse kinematics.
 GROUPS = (
-    ("jac", "predict", "newton", "polish", "tangent", "step"),
-    ("g", "pose", "recentre", "check"),
+    ("closure", "predict", "newton", "polish", "tangent", "step"),
+    ("pose", "recentre", "check"),
     ("ik_step",),
 )
 #: Kernels compiled without optimisation (``-O0``): the inverse kinematics, called only to
@@ -54,8 +56,9 @@ class TrackerKernels:
     """CasADi Functions code-generated for the C tracker (names carry the C prefix).
 
     Attributes:
-        g: (y[m], theta[k], c) -> g[m]: the loop-closure residual [model length unit].
-        jac: (y, theta, c) -> (J_p[m,m], J_s[m,k]), column-major.
+        closure: (y[m], theta[k], c) -> (g[m], J_p[m,m], J_s[m,k]): the loop-closure
+            residual [model length unit] and its Jacobians, column-major (the Function every
+            other kernel of its source calls: one evaluation gives the three).
         pose: (y, theta, c) -> (T[4,4], x[n]): platform placement and workspace coordinates.
         tangent: (q[m+1], v[m+1], p[2k], c) -> (t[m+1], vec(J_p)[m*m]): unit tangent of the
             curve at ``q = (y, s)`` oriented along ``v``, ``p = (theta1, dtheta)`` (the
@@ -77,8 +80,7 @@ class TrackerKernels:
             residual that verifies every sample, as ``model.residual``).
     """
 
-    g: ca.Function
-    jac: ca.Function
+    closure: ca.Function
     pose: ca.Function
     tangent: ca.Function
     step: ca.Function
@@ -117,6 +119,19 @@ def _dense(f: ca.Function, name: str | None = None) -> ca.Function:
     return ca.Function(name, ins, outs, f.name_in(), f.name_out())
 
 
+def _sparse_view(sym: Symbolic, closure: ca.Function) -> ca.Function:
+    """Calls of the dense ``closure`` with the outputs in the sparsity of the model's own
+    expressions: the kernels built from it are the expressions built from calls of the sparse
+    closure Function (the same operations), calling the dense one (inlined where it is
+    called, the call of ``closure`` stays a call)."""
+    y, theta, c = sym.y, sym.theta, sym.c
+    outs = [
+        ca.project(out, expr.sparsity())
+        for out, expr in zip(closure(y, theta, c), (sym.g, sym.J_p, sym.J_s), strict=True)
+    ]
+    return ca.Function(f"{closure.name()}_view", [y, theta, c], outs)
+
+
 def build_tracker_kernels(
     sym: Symbolic, rotations: tuple[tuple[int, int, int], ...], prefix: str
 ) -> TrackerKernels:
@@ -133,11 +148,9 @@ def build_tracker_kernels(
         is dense (the C tracker indexes them as dense column-major arrays).
     """
     base = build_kernels(sym, name=prefix)
-    closure = closure_function(sym)
-    curve = build_follower_kernels(sym, inline=False, closure=closure)
+    closure = closure_function(sym, name=f"{prefix}_closure", dense=True)
+    curve = build_follower_kernels(sym, inline=False, closure=_sparse_view(sym, closure))
     y, theta, c = sym.y, sym.theta, sym.c
-    _, Jp, Js = closure(y, theta, c)
-    jac = ca.Function(f"{prefix}_jac", [y, theta, c], [Jp, Js], ["y", "theta", "c"], ["J_p", "J_s"])
 
     # recentre: R_ref <- R_ref cayley(rho), rho <- 0, one Newton-Schulz orthonormalisation
     y_out = ca.SX(y)
@@ -151,10 +164,8 @@ def build_tracker_kernels(
             y_out[j] = 0
     recentre = ca.Function(f"{prefix}_recentre", [y, c], [y_out, c_out], ["y", "c"], ["y0", "c0"])
 
-    g = ca.Function(f"{prefix}_g", [y, theta, c], [sym.g], ["y", "theta", "c"], ["g"])
     kernels = dict(
-        g=g,
-        jac=jac,
+        closure=closure,
         pose=base.pose,
         tangent=curve.tangent,
         step=curve.step,

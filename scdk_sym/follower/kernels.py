@@ -185,7 +185,7 @@ def _solve(A: ca.SX, B: ca.SX | ca.DM, inline: bool) -> ca.SX:
     return ca.horzcat(*[solver(A, B[:, j]) for j in range(B.size2())])
 
 
-def closure_function(sym) -> ca.Function:
+def closure_function(sym, name: str = "scdk_closure", dense: bool = False) -> ca.Function:
     """The closure system and its Jacobians as one Function whose calls stay calls.
 
     Kernels built from calls of it (``inline=False`` below) hold one copy of the model's
@@ -195,14 +195,18 @@ def closure_function(sym) -> ca.Function:
 
     Args:
         sym: the model's symbolic system (``model.symbolic``).
+        name: the Function's name (its C name in generated code).
+        dense: True to return every output dense (structural zeros stored), e.g. for a C caller
+            indexing dense column-major arrays; the same values.
 
     Returns:
         (y[m], theta[k], c) -> (g[m], J_p[m,m], J_s[m,k]) [model length unit, per rad].
     """
+    outs = [sym.g, sym.J_p, sym.J_s]
     return ca.Function(
-        "scdk_closure",
+        name,
         [sym.y, sym.theta, sym.c],
-        [sym.g, sym.J_p, sym.J_s],
+        [ca.densify(o) for o in outs] if dense else outs,
         ["y", "theta", "c"],
         ["g", "J_p", "J_s"],
         _options(False),

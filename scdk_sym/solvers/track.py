@@ -247,8 +247,7 @@ class _Kernels:
 
     predict: Buffered
     newton: Buffered
-    jac: Buffered
-    g: Buffered
+    closure: Buffered
     recentre: Buffered
 
 
@@ -258,7 +257,7 @@ def _kernels(model: Model) -> _Kernels:
 
         kern = build_tracker_kernels(model.symbolic, model.chart.rotations, "scdk")
         return _Kernels(
-            Buffered(kern.predict), Buffered(kern.newton), Buffered(kern.jac), Buffered(kern.g),
+            Buffered(kern.predict), Buffered(kern.newton), Buffered(kern.closure),
             Buffered(kern.recentre),
         )  # fmt: skip
 
@@ -312,7 +311,7 @@ class _Tracker:
     def _det(self, y, theta, keep: bool = False) -> float:
         """det J_p at (y, theta); keep: J_p and J_s there become ``jac_next`` (None if J_p is
         not finite or singular)."""
-        Jp, Js = self.K.jac(y, theta, self.c)
+        _, Jp, Js = self.K.closure(y, theta, self.c)
         if keep:
             self.jac_next = None
         if not np.all(np.isfinite(Jp)):
@@ -355,9 +354,8 @@ class _Tracker:
         res = d0 = d1 = math.nan
         self.jac_next = None
         for it in range(FAST_ITERATIONS):
-            Jp, Js = self.K.jac(y, theta, self.c)
+            g, Jp, Js = self.K.closure(y, theta, self.c)
             Jp = Jp.reshape(m, m, order="F")
-            g = self.K.g(y, theta, self.c)[0]
             with np.errstate(all="ignore"):
                 res, d1 = _inf(g), float(np.linalg.det(Jp))
             if not (math.isfinite(res) and math.isfinite(d1)) or d1 == 0.0:
@@ -402,7 +400,7 @@ class _Tracker:
         K, c = self.K, self.c
 
         def jac(y):
-            return K.jac(y, theta, c)[0].reshape(m, m, order="F").copy()
+            return K.closure(y, theta, c)[1].reshape(m, m, order="F").copy()
 
         with np.errstate(all="ignore"):
             J = jac(r)
@@ -530,7 +528,7 @@ class _Tracker:
 
     def _ell0(self, theta, w: float) -> tuple[float, float]:
         """(arc length per unit s at y_k, clamped; the convergent direction relative to nu)."""
-        Jp, Js = self.K.jac(self.y, self.theta, self.c)
+        _, Jp, Js = self.K.closure(self.y, self.theta, self.c)
         m = self.m
         Jp = Jp.reshape(m, m, order="F")
         Js = Js.reshape(m, self.model.k, order="F")
