@@ -349,7 +349,7 @@ def _common_chart(model: Model, ys: np.ndarray) -> np.ndarray | None:
     if not rots or not len(ys):
         return None
     # (N, F, 3, 3) rotations of the configurations
-    R = np.array([[rot_exp(y[list(idx)]) for idx in rots] for y in ys])
+    R = np.stack([rot_exp(ys[:, list(idx)]) for idx in rots], axis=1)
     cands = np.concatenate([R, _random_rotations(len(rots))])
     # score[c] = min over configurations and joints of 1 + trace(C^T R)
     score = (1.0 + np.einsum("cfij,nfij->cnf", cands, R)).min(axis=(1, 2))
@@ -437,13 +437,11 @@ def homotopy_modes(
     # real endpoints -> model unknowns, polished on g
     scale = max(1.0, model.length_scale)
     polished: list[Configuration] = []
-    dropped = spurious = 0
-    for z in res.real_solutions:
-        try:
-            y0, c = form.to_model(np.asarray(z, dtype=float), reference=model.home.y)
-        except ScdkError:
-            dropped += 1
-            continue
+    Z = np.asarray(res.real_solutions, dtype=float)
+    finite = np.isfinite(Z).all(axis=1)
+    dropped, spurious = int((~finite).sum()), 0
+    Y0, C = form.to_model(Z[finite], reference=model.home.y)  # (K, m), (K, chart size)
+    for y0, c in zip(Y0, C, strict=True):
         y, r = _polish(model, y0, c, theta0)
         if not r <= RESIDUAL:
             if r > SPURIOUS * scale and model.residual(y0, theta0, c) > SPURIOUS * scale:
