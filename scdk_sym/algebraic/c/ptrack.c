@@ -7,8 +7,8 @@
  *              1 + max|z|; accepted when (nu1 <= trust, nu2 <= theta nu1 + floor, nu2 <= tol)
  *              or max(nu1, nu2) <= noise, and everything is finite; the second factorisation
  *              also gives the velocity at the new point;
- *   step control: accepted, h = min(h clip((eta / nu1)^(1/5), 0.25, 2), h_max);
- *              rejected, h / 2.
+ *   step control: accepted, h = min(h clip((eta / nu1)^(1/5), 0.25, 2), h_max), the factor at
+ *              most 1 right after a rejected step; rejected, h / 2.
  * Linear systems: Gaussian elimination with partial pivoting (pivot of largest |re| + |im|,
  * as LAPACK); an exactly zero pivot gives NaN solutions, which reject the step.
  */
@@ -191,6 +191,7 @@ static int track_path(context *c, const scdk_options *o, int64_t d, cplx *z, dou
     cplx *d1 = zp + n, *z1 = d1 + n;
     double tau = *tau_io, h = *h_io;
     int64_t st = tau >= tau1 ? SCDK_DONE : SCDK_RUNNING, nsteps = 0, nacc = 0;
+    int rejected = 0; /* the last step was rejected */
     if (velocity(c, z, tau, d, v)) return SCDK_EVAL_FAILED;
     for (int64_t it = 0; it < o->max_steps && st == SCDK_RUNNING; ++it) {
         const double remaining = tau1 - tau;
@@ -229,7 +230,9 @@ static int track_path(context *c, const scdk_options *o, int64_t d, cplx *z, dou
         const int ok = all_finite(zt, n) && all_finite(X1, n) && (converged || at_noise);
         ++nsteps;
         nacc += ok;
-        const double factor = clip(pow(o->eta / (nu1 > 1e-300 ? nu1 : 1e-300), 0.2), 0.25, 2.0);
+        const double factor = clip(pow(o->eta / (nu1 > 1e-300 ? nu1 : 1e-300), 0.2), 0.25,
+                                   rejected ? 1.0 : 2.0);
+        rejected = !ok;
         if (ok) {
             h = hh * factor < o->h_max ? hh * factor : o->h_max;
             for (int64_t i = 0; i < n; ++i) {
