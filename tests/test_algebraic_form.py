@@ -28,6 +28,7 @@ from scdk_sym.algebraic import algebraic_form
 from scdk_sym.algebraic.pairs import complexify
 from scdk_sym.algebraic.polynomial import polynomial_rows
 from scdk_sym.errors import AlgebraicFormError, InputError
+from scdk_sym.follower.geometry import features
 
 FIXTURES = Path(__file__).resolve().parent / "fixtures" / "gepetto"
 SHIPPED = (
@@ -166,6 +167,25 @@ def test_assembled_configurations_are_roots_and_map_back(name):
         np.testing.assert_allclose(model.chart.to_canonical(y_loc, c), y, rtol=0, atol=1e-12)
         # the local chart of the model maps to the same z
         np.testing.assert_allclose(form.from_model(*model.chart.to_local(y)), z, atol=1e-13)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_a_batch_of_points_maps_back_in_one_call(name):
+    """to_model of the (N, n) points of several assembled configurations: each row's
+    configuration (chart-free features: angles as cos and sin, rotations as matrices) is the
+    one it came from; a batch with one complex row raises."""
+    model = load(name)
+    form = algebraic_form(model)
+    ys = np.array([y for y, _ in assembled(name)])
+    Z = np.array([form.from_model(y) for y in ys])
+    Y_loc, C = form.to_model(Z, reference=ys[0])
+    assert Y_loc.shape == (len(ys), model.m) and C.shape == (len(ys), model.chart.size)
+    back = np.array([model.chart.to_canonical(y, c) for y, c in zip(Y_loc, C, strict=True)])
+    np.testing.assert_allclose(features(model, back), features(model, ys), rtol=0, atol=1e-12)
+    bad = Z.astype(complex)
+    bad[-1, 0] += 1e-3j
+    with pytest.raises(InputError):
+        form.to_model(bad)
 
 
 @pytest.mark.parametrize("name", NAMES)

@@ -659,8 +659,7 @@ def certify_configurations(
     local = ys.copy()
     for i, idx in enumerate(model.chart.rotations):
         ref = c[9 * i : 9 * i + 9].reshape(3, 3, order="F")
-        for row in local:
-            row[list(idx)] = gibbs(ref.T @ rot_exp(row[list(idx)]))
+        local[:, list(idx)] = gibbs(ref.T @ rot_exp(local[:, list(idx)]))  # all rows at once
     far = np.flatnonzero(~np.all(np.abs(local) < 1e8, axis=1))
     if far.size:
         raise InputError(

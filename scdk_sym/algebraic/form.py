@@ -279,21 +279,26 @@ class AlgebraicForm:
         ``model.configuration(y, theta, c)`` and ``model.residual(y, theta, c)``.
 
         Args:
-            z: (n,) real unknowns (complex accepted when its imaginary part is below ``tol``,
-                relative to ``max(1, |z|)``).
+            z: (n,) real unknowns, or a batch (N, n) (complex accepted when its imaginary part
+                is below ``tol``, relative to ``max(1, |z|)``).
             reference: (m,) canonical unknowns; each angle is taken the nearest to its
                 reference value modulo 2 pi (default: in (-pi, pi]).
             tol: tolerance on the imaginary part.
 
+        Returns:
+            ``y`` (m,) and ``c`` (chart size,), or (N, m) and (N, chart size) for a batch.
+
         Raises:
-            InputError: wrong size, non-finite, or not real.
+            InputError: wrong size, non-finite, or not real (any row of a batch).
         """
         m = self.model
         z = np.asarray(z)
-        if z.shape != (self.n,) or not np.all(np.isfinite(z)):
+        single = z.ndim == 1
+        if z.shape[-1:] != (self.n,) or z.ndim > 2 or not np.all(np.isfinite(z)):
             raise InputError(f"z must be {self.n} finite numbers, got shape {z.shape}")
+        z = np.atleast_2d(z)
         if np.iscomplexobj(z):
-            if not self.is_real(z, tol):
+            if not np.all(self.is_real(z, tol)):
                 raise InputError(
                     f"z is not real (max |Im z| = {np.abs(z.imag).max():.2e} > {tol:.1e}); "
                     "select real solutions with is_real first"
@@ -301,23 +306,22 @@ class AlgebraicForm:
             z = z.real
         z = np.asarray(z, dtype=float)
         ref = None if reference is None else np.asarray(reference, dtype=float)
-        y = np.zeros(m.m)
-        c = np.zeros(m.chart.size)
+        y = np.zeros((len(z), m.m))
+        c = np.zeros((len(z), m.chart.size))
         for s in self.rows.slots:
             if s.kind == "angle":
-                a = float(np.arctan2(z[s.z[1]], z[s.z[0]]))
+                a = np.arctan2(z[:, s.z[1]], z[:, s.z[0]])
                 if ref is not None:
                     a += 2 * np.pi * np.round((ref[s.y[0]] - a) / (2 * np.pi))
-                y[s.y[0]] = a
+                y[:, s.y[0]] = a
             elif s.kind == "length":
-                y[s.y[0]] = z[s.z[0]]
+                y[:, s.y[0]] = z[:, s.z[0]]
             else:
-                q = z[list(s.z[3:7])]
-                u, _, vt = np.linalg.svd(quaternion_matrix(q))
+                u, _, vt = np.linalg.svd(quaternion_matrix(z[:, list(s.z[3:7])]))
                 i = m.chart.rotations.index(tuple(s.y[3:]))
-                c[9 * i : 9 * i + 9] = (u @ vt).flatten(order="F")
-                y[list(s.y[:3])] = z[list(s.z[:3])]
-        return y, c
+                c[:, 9 * i : 9 * i + 9] = (u @ vt).transpose(0, 2, 1).reshape(len(z), 9)
+                y[:, list(s.y[:3])] = z[:, list(s.z[:3])]
+        return (y[0], c[0]) if single else (y, c)
 
     def is_real(self, z, tol: float = 1e-8) -> bool | np.ndarray:
         """Whether ``z`` (n,) is real: ``max |Im z| <= tol max(1, max |z|)``; for a batch

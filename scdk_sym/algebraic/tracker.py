@@ -11,8 +11,10 @@ endgame). One iteration of :func:`track` moves every active path by its own step
   and ``nu2 <= tol``, or when both updates are below ``noise`` (the rounding level); the
   second iteration's factorisation also gives the velocity at the new point, the next step's
   first RK4 stage (five evaluations per step in all);
-- step control: accepted, ``h *= clip(0.8 (eta / nu1)^(1/5), 0.25, 2)`` (``nu1`` is the
-  predictor's local error, fifth order); rejected, ``h /= 2``.
+- step control: accepted, ``h *= clip((eta / nu1)^(1/5), 0.25, 2)`` (``nu1`` is the
+  predictor's local error, fifth order: the steps settle where it is ``eta``), the factor at
+  most 1 right after a rejected step (no step straight back to the size just rejected);
+  rejected, ``h /= 2``.
 
 A path stops as ``DONE`` at ``tau1``, ``DIVERGED`` when ``|z|`` exceeds ``max_norm``,
 ``UNDERFLOW`` when its step falls below ``h_min``, ``STEP_LIMIT`` after ``max_steps`` tries.
@@ -176,6 +178,7 @@ def track(
     status[tau >= tau1] = DONE
     steps = np.zeros(M, dtype=int)
     accepted = np.zeros(M, dtype=int)
+    rejected = np.zeros(M, dtype=bool)  # the last step was rejected
     v = _velocity(homotopy, tmap, z, tau, idx) if M else z.copy()
     for _ in range(o.max_steps):
         act = np.flatnonzero(status == RUNNING)
@@ -206,7 +209,9 @@ def track(
         ok = np.isfinite(zc).all(axis=1) & np.isfinite(v_new).all(axis=1) & (converged | at_noise)
         steps[act] += 1
         accepted[act] += ok
-        factor = np.clip(0.8 * (o.eta / np.maximum(nu1, 1e-300)) ** 0.2, 0.25, 2.0)
+        factor = np.clip((o.eta / np.maximum(nu1, 1e-300)) ** 0.2, 0.25, 2.0)
+        factor = np.where(rejected[act], np.minimum(factor, 1.0), factor)
+        rejected[act] = ~ok
         h_new = np.where(ok, np.minimum(hh * factor, o.h_max), 0.5 * hh)
         h[act] = h_new
         z[act] = np.where(ok[:, None], zc, za)

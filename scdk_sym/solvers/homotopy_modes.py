@@ -39,6 +39,7 @@ from numpy.typing import ArrayLike
 from ..backends import resolve
 from ..errors import ScdkError
 from ..follower.geometry import features
+from ..kernels.fastcall import model_calls
 from ..model.rotations import rot_exp
 from ..products import START_SYSTEM
 from ..results import AssemblyModes, Configuration
@@ -323,7 +324,7 @@ _FIELDS = (
 
 def _polish(model: Model, y: np.ndarray, c: np.ndarray, theta: np.ndarray):
     """Newton on the model's rows in the chart ``c``; returns ``(y, max |g|)``."""
-    k = model.kernels
+    k = model_calls(model)
     for _ in range(NEWTON_STEPS):
         g = np.array(k.g(y, theta, c)).ravel()
         r = float(np.max(np.abs(g))) if g.size else 0.0
@@ -348,7 +349,7 @@ def _common_chart(model: Model, ys: np.ndarray) -> np.ndarray | None:
     if not rots or not len(ys):
         return None
     # (N, F, 3, 3) rotations of the configurations
-    R = np.array([[rot_exp(y[list(idx)]) for idx in rots] for y in ys])
+    R = np.stack([rot_exp(ys[:, list(idx)]) for idx in rots], axis=1)
     cands = np.concatenate([R, _random_rotations(len(rots))])
     # score[c] = min over configurations and joints of 1 + trace(C^T R)
     score = (1.0 + np.einsum("cfij,nfij->cnf", cands, R)).min(axis=(1, 2))
@@ -435,33 +436,32 @@ def homotopy_modes(
         )
     # real endpoints -> model unknowns, polished on g
     scale = max(1.0, model.length_scale)
-    cfgs: list[Configuration] = []
-    feats: list[np.ndarray] = []
-    dropped = spurious = 0
-    for z in res.real_solutions:
-        try:
-            y, c = form.to_model(np.asarray(z, dtype=float), reference=model.home.y)
-        except ScdkError:
-            dropped += 1
-            continue
-        r0 = model.residual(y, theta0, c)
-        y, r = _polish(model, y, c, theta0)
+    polished: list[Configuration] = []
+    Z = np.asarray(res.real_solutions, dtype=float)
+    finite = np.isfinite(Z).all(axis=1)
+    dropped, spurious = int((~finite).sum()), 0
+    Y0, C = form.to_model(Z[finite], reference=model.home.y)  # (K, m), (K, chart size)
+    for y0, c in zip(Y0, C, strict=True):
+        y, r = _polish(model, y0, c, theta0)
         if not r <= RESIDUAL:
-            if r0 > SPURIOUS * scale and r > SPURIOUS * scale:
+            if r > SPURIOUS * scale and model.residual(y0, theta0, c) > SPURIOUS * scale:
                 spurious += 1  # a root of the form that is no closure of the model
             else:
                 dropped += 1
             continue
-        cfg = model.configuration(y, theta0, c)
-        f = features(model, cfg.y)[0]
-        # distinct endpoints of the homotopy are distinct roots; only images of one
-        # configuration (polished to the same point) are merged: two real solutions next to
-        # a singular surface may lie 1e-5 model sizes apart, and the Krawczyk boxes below
-        # decide (they must be pairwise disjoint)
-        if feats and np.min(np.max(np.abs(np.vstack(feats) - f), axis=1)) <= DUPLICATE * scale:
+        polished.append(model.configuration(y, theta0, c))
+    # distinct endpoints of the homotopy are distinct roots; only images of one configuration
+    # (polished to the same point) are merged: two real solutions next to a singular surface
+    # may lie 1e-5 model sizes apart, and the Krawczyk boxes below decide (they must be
+    # pairwise disjoint)
+    feats = features(model, np.vstack([cfg.y for cfg in polished] or [np.zeros((0, model.m))]))
+    cfgs: list[Configuration] = []
+    kept: list[int] = []
+    for i, cfg in enumerate(polished):
+        if kept and np.abs(feats[kept] - feats[i]).max(axis=1).min() <= DUPLICATE * scale:
             continue
         cfgs.append(cfg)
-        feats.append(f)
+        kept.append(i)
     if dropped:
         reasons.append(f"{dropped} real endpoint(s) did not polish to max |g| <= {RESIDUAL:.0e}")
     cfgs.sort(key=_sort_key)

@@ -7,8 +7,8 @@
  *              1 + max|z|; accepted when (nu1 <= trust, nu2 <= theta nu1 + floor, nu2 <= tol)
  *              or max(nu1, nu2) <= noise, and everything is finite; the second factorisation
  *              also gives the velocity at the new point;
- *   step control: accepted, h = min(h clip(0.8 (eta / nu1)^(1/5), 0.25, 2), h_max);
- *              rejected, h / 2.
+ *   step control: accepted, h = min(h clip((eta / nu1)^(1/5), 0.25, 2), h_max), the factor at
+ *              most 1 right after a rejected step; rejected, h / 2.
  * Linear systems: Gaussian elimination with partial pivoting (pivot of largest |re| + |im|,
  * as LAPACK); an exactly zero pivot gives NaN solutions, which reject the step.
  */
@@ -31,18 +31,20 @@ typedef struct {
     double *res[6];
     double *in, *out, *work;
     long long *iw;
-    /* homotopy values at the last evaluation: H (n), Hz (n x n column-major), Ht (n) */
-    cplx *H, *Hz, *Ht;
+    /* homotopy values at the last evaluation: H (n), Ht (n); H_z is written straight into
+     * the first n columns of the augmented matrix of the next solve */
+    cplx *H, *Ht;
     /* linear algebra */
     cplx *rhs;
-    double *ar, *ai; /* augmented matrix of the solve, n x (n + 2) */
+    double *ar, *ai; /* augmented matrix [H_z B] of the solve, n x (n + nrhs), row-major */
 } context;
 
 static double abs2(cplx a) { return creal(a) * creal(a) + cimag(a) * cimag(a); }
 
 
-/* H, H_z, H_t of datum d at (z, t); returns 0 or SCDK_EVAL_FAILED. */
-static int homotopy(context *c, const cplx *z, double t, int64_t d) {
+/* H, H_t of datum d at (z, t) into c->H, c->Ht, and H_z into the augmented matrix of a solve
+ * with nrhs right-hand sides (see solve); returns 0 or SCDK_EVAL_FAILED. */
+static int homotopy(context *c, const cplx *z, double t, int64_t d, int64_t nrhs) {
     const int64_t n = c->n, k = c->k;
     const cplx g = c->gamma[d];
     const cplx den = 1.0 + (g - 1.0) * t;
@@ -70,23 +72,26 @@ static int homotopy(context *c, const cplx *z, double t, int64_t d) {
         for (int64_t j = 0; j < k; ++j) acc += (Pr[j * n + i] + I * Pi[j * n + i]) * dp[j];
         c->Ht[i] = (w * acc + db[i]) * ds;
     }
-    for (int64_t j = 0; j < n; ++j)
-        for (int64_t i = 0; i < n; ++i)
-            c->Hz[j * n + i] = c->weights[i] * (Jr[j * n + i] + I * Ji[j * n + i]);
+    const int64_t W = n + nrhs;
+    for (int64_t i = 0; i < n; ++i) {
+        const double w = c->weights[i];
+        double *ar = c->ar + i * W, *ai = c->ai + i * W;
+        for (int64_t j = 0; j < n; ++j) {
+            ar[j] = w * Jr[j * n + i];
+            ai[j] = w * Ji[j * n + i];
+        }
+    }
     return 0;
 }
 
 /* Solve Hz X = B for nrhs (1 or 2) right-hand sides B (n x nrhs column-major, in rhs; X
- * replaces it). Gaussian elimination with partial pivoting on the augmented matrix [Hz B],
- * row-major with separate real and imaginary parts (contiguous, vectorisable rows). */
+ * replaces it), Hz as the last homotopy call with the same nrhs left it. Gaussian elimination
+ * with partial pivoting on the augmented matrix [Hz B], row-major with separate real and
+ * imaginary parts (contiguous, vectorisable rows). */
 static void solve(context *c, int64_t nrhs) {
     const int64_t n = c->n, W = n + nrhs;
     double *ar = c->ar, *ai = c->ai;
     for (int64_t i = 0; i < n; ++i) {
-        for (int64_t j = 0; j < n; ++j) {
-            ar[i * W + j] = creal(c->Hz[j * n + i]);
-            ai[i * W + j] = cimag(c->Hz[j * n + i]);
-        }
         for (int64_t r = 0; r < nrhs; ++r) {
             ar[i * W + n + r] = creal(c->rhs[r * n + i]);
             ai[i * W + n + r] = cimag(c->rhs[r * n + i]);
@@ -168,7 +173,7 @@ static int all_finite(const cplx *z, int64_t n) {
 /* Velocity -H_z^{-1} H_t at (z, t) into v. */
 static int velocity(context *c, const cplx *z, double t, int64_t d, cplx *v) {
     const int64_t n = c->n;
-    if (homotopy(c, z, t, d)) return SCDK_EVAL_FAILED;
+    if (homotopy(c, z, t, d, 1)) return SCDK_EVAL_FAILED;
     memcpy(c->rhs, c->Ht, (size_t)n * sizeof(cplx));
     solve(c, 1);
     for (int64_t i = 0; i < n; ++i) v[i] = -c->rhs[i];
@@ -186,6 +191,7 @@ static int track_path(context *c, const scdk_options *o, int64_t d, cplx *z, dou
     cplx *d1 = zp + n, *z1 = d1 + n;
     double tau = *tau_io, h = *h_io;
     int64_t st = tau >= tau1 ? SCDK_DONE : SCDK_RUNNING, nsteps = 0, nacc = 0;
+    int rejected = 0; /* the last step was rejected */
     if (velocity(c, z, tau, d, v)) return SCDK_EVAL_FAILED;
     for (int64_t it = 0; it < o->max_steps && st == SCDK_RUNNING; ++it) {
         const double remaining = tau1 - tau;
@@ -204,7 +210,7 @@ static int track_path(context *c, const scdk_options *o, int64_t d, cplx *z, dou
         }
         /* Newton corrector: two iterations; the second also gives the new velocity */
         const double t_new = tau + hh;
-        if (homotopy(c, zp, t_new, d)) return SCDK_EVAL_FAILED;
+        if (homotopy(c, zp, t_new, d, 1)) return SCDK_EVAL_FAILED;
         memcpy(c->rhs, c->H, (size_t)n * sizeof(cplx));
         solve(c, 1);
         for (int64_t i = 0; i < n; ++i) {
@@ -212,7 +218,7 @@ static int track_path(context *c, const scdk_options *o, int64_t d, cplx *z, dou
             const int fin = isfinite(creal(d1[i])) && isfinite(cimag(d1[i]));
             z1[i] = zp[i] - (fin ? d1[i] : 0.0);
         }
-        if (homotopy(c, z1, t_new, d)) return SCDK_EVAL_FAILED;
+        if (homotopy(c, z1, t_new, d, 2)) return SCDK_EVAL_FAILED;
         memcpy(c->rhs, c->H, (size_t)n * sizeof(cplx));
         memcpy(c->rhs + n, c->Ht, (size_t)n * sizeof(cplx));
         solve(c, 2);
@@ -224,7 +230,9 @@ static int track_path(context *c, const scdk_options *o, int64_t d, cplx *z, dou
         const int ok = all_finite(zt, n) && all_finite(X1, n) && (converged || at_noise);
         ++nsteps;
         nacc += ok;
-        const double factor = clip(0.8 * pow(o->eta / (nu1 > 1e-300 ? nu1 : 1e-300), 0.2), 0.25, 2.0);
+        const double factor = clip(pow(o->eta / (nu1 > 1e-300 ? nu1 : 1e-300), 0.2), 0.25,
+                                   rejected ? 1.0 : 2.0);
+        rejected = !ok;
         if (ok) {
             h = hh * factor < o->h_max ? hh * factor : o->h_max;
             for (int64_t i = 0; i < n; ++i) {
@@ -274,7 +282,7 @@ int scdk_ptrack(scdk_eval_fn eval, int64_t sz_iw, int64_t sz_w, int64_t n, int64
     const size_t nin = (size_t)(2 * n + 2 * k), nout = (size_t)(2 * n + 2 * n * n + 2 * n * k);
     c.in = malloc((nin + nout + (size_t)sz_w + 1) * sizeof(double));
     c.iw = malloc(((size_t)sz_iw + 1) * sizeof(long long));
-    cplx *cbuf = malloc((size_t)(2 * n + n * n + 2 * n + 8 * n + n * (n + 2)) * sizeof(cplx));
+    cplx *cbuf = malloc((size_t)(2 * n + 2 * n + 8 * n + n * (n + 2)) * sizeof(cplx));
     if (!c.in || !c.iw || !cbuf) {
         free(c.in);
         free(c.iw);
@@ -295,8 +303,7 @@ int scdk_ptrack(scdk_eval_fn eval, int64_t sz_iw, int64_t sz_w, int64_t n, int64
     c.res[5] = c.res[4] + n * k;
     c.H = cbuf;
     c.Ht = c.H + n;
-    c.Hz = c.Ht + n;
-    c.rhs = c.Hz + n * n;
+    c.rhs = c.Ht + n;
     cplx *path = c.rhs + 2 * n;
     c.ar = (double *)(path + 8 * n);
     c.ai = c.ar + n * (n + 2);
