@@ -276,6 +276,41 @@ DIVERGENT_CASES = [
             -0.27005882035034195,
         ],
     ),
+    # targets just before a singular surface, far in theta from the singular configuration
+    # nearest to the start (its mirror guesses come back to the start's sheet) and a set of
+    # every real solution that is not certified: across the one nearest to the convergent answer
+    (
+        "5bar_linkage_iso6d",
+        "near_singular",
+        [1.1643702273594059, -2.007218389795203],
+        (
+            [
+                -0.08723027297425245,
+                0.1857222266061794,
+                1.4380286487041442e-15,
+                0.9584235565468726,
+                -3.4908855418011974e-16,
+                1.5707963267948948,
+            ],
+            [-0.009889406668901592, -0.2094440271232746],
+        ),
+    ),
+    (
+        "5bar_linkage_iso6d",
+        "near_singular",
+        [1.1601963223895881, -1.9986472878785426],
+        (
+            [
+                0.09559173641006768,
+                -0.06206468093224791,
+                1.351293184679624e-15,
+                0.8793791046137618,
+                -1.217202701759338e-16,
+                1.5707963267948948,
+            ],
+            [-0.048826693404285616, 0.10318315113097823],
+        ),
+    ),
     # answered with two crossings but det J_p of the other sign (the leg from the fold
     # reported one fold too many): every way's answer is parity-checked now
     (

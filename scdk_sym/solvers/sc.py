@@ -367,7 +367,11 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
        other than the convergent answer) the one nearest to it, picked by the rule of way 2
        (:func:`~scdk_sym.follower.singular.nearest_across`), which guesses the candidates by
        Newton from points beyond the singular configuration where this way has them all
-       (e.g. the Delta's mirror assembly above its base).
+       (e.g. the Delta's mirror assembly above its base);
+    6. where the set of every real solution is not certified: the solution at ``theta0`` on
+       the other side of the singular configuration nearest to the convergent answer, by the
+       rule of way 2 (a target just before a singular surface that the start's nearest
+       singular configuration, far from it, does not lead to).
     """
     from ..follower.singular import across, across_fold, nearest_singular
 
@@ -480,6 +484,23 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
     res = _across_by_modes(model, theta0, start, sign, fold, convergent, backend, tried)
     if res is not None:
         return res
+    # 6. across the singular configuration nearest to the convergent answer
+    conv = convergent()
+    near = None if conv is None else nearest_singular(model, conv.configuration, backend)
+    if conv is not None and near is not None:
+        how = "across the singular configuration nearest to the convergent answer"
+        leg = across_fold(model, conv.configuration, near, theta0, backend=backend,
+                          exclude=conv.configuration)  # fmt: skip
+        if leg is None:
+            tried.append(f"{how}: no solution")
+        else:
+            cfg, met = leg
+            crossings = (_on_path(near, start, theta0), *met)
+            res = other_than_convergent(
+                _result(model, cfg.y, theta0, crossings, "divergent", -sign, start, None), how
+            )
+            if res is not None:
+                return res
     raise PathError(
         f"divergent branch at theta0={theta0.tolist()}: no solution across a singular surface "
         f"was reached ({'; '.join(tried)}); every real solution: sc.assembly_modes(model, theta0)"
