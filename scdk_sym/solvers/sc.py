@@ -435,30 +435,27 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
         res = from_mirror(other, "along the paper's path")
         if res is not None:
             return res
+
+    def across_from(anchor, near, exclude, how: str) -> SolveResult | None:
+        # the solution at theta0 on the other side of the singular configuration ``near``
+        # (found from ``anchor``), crossed on the way from the start
+        leg = across_fold(model, anchor, near, theta0, backend=backend, exclude=exclude)
+        if leg is None:
+            tried.append(f"{how}: no solution")
+            return None
+        cfg, met = leg
+        crossings = (_on_path(near, start, theta0), *met)
+        res = _result(model, cfg.y, theta0, crossings, "divergent", -sign, start, None)
+        return other_than_convergent(res, how)
+
     # 2. across the nearest singular configuration
     fold = nearest_singular(model, start, backend)
-    leg = None
-    if fold is not None:
-        conv = convergent() if fold.kind == "bifurcation" else None
-        leg = across_fold(model, start, fold, theta0, backend=backend,
-                          exclude=None if conv is None else conv.configuration)  # fmt: skip
-    if leg is None or fold is None:
-        tried.append("no solution across the nearest singular configuration")
+    if fold is None:
+        tried.append("no singular configuration found near the start")
     else:
-        cfg, met = leg
-        res = other_than_convergent(
-            _result(
-                model,
-                cfg.y,
-                theta0,
-                (_on_path(fold, start, theta0), *met),
-                "divergent",
-                -sign,
-                start,
-                None,
-            ),  # fmt: skip
-            "across the nearest singular configuration",
-        )
+        conv = convergent() if fold.kind == "bifurcation" else None
+        res = across_from(start, fold, None if conv is None else conv.configuration,
+                          "across the nearest singular configuration")  # fmt: skip
         if res is not None:
             return res
     # 3. aimed at the singular surface
@@ -489,18 +486,9 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
     near = None if conv is None else nearest_singular(model, conv.configuration, backend)
     if conv is not None and near is not None:
         how = "across the singular configuration nearest to the convergent answer"
-        leg = across_fold(model, conv.configuration, near, theta0, backend=backend,
-                          exclude=conv.configuration)  # fmt: skip
-        if leg is None:
-            tried.append(f"{how}: no solution")
-        else:
-            cfg, met = leg
-            crossings = (_on_path(near, start, theta0), *met)
-            res = other_than_convergent(
-                _result(model, cfg.y, theta0, crossings, "divergent", -sign, start, None), how
-            )
-            if res is not None:
-                return res
+        res = across_from(conv.configuration, near, conv.configuration, how)
+        if res is not None:
+            return res
     raise PathError(
         f"divergent branch at theta0={theta0.tolist()}: no solution across a singular surface "
         f"was reached ({'; '.join(tried)}); every real solution: sc.assembly_modes(model, theta0)"
