@@ -234,38 +234,39 @@ def _along_line(model, theta0, start, sign0, direction, name, backend, max_arc, 
     reached on the start's side along a bent path (see :func:`_detour`) is returned when there
     is one."""
     tangent = _first_tangent(theta0, start, direction, nu)
-    tr = trace(model, theta0, start, direction, max_arc=max_arc, backend=backend,
-               record_path=record_path, tangent=tangent)  # fmt: skip
-    explicit = False
-    if not tr.hits and tr.stalled:  # CVODES stalled: the explicit predictor-corrector
-        tr = trace(model, theta0, start, direction, max_arc=max_arc, backend=backend,
-                   record_path=record_path, predictor="rk4", tangent=tangent)  # fmt: skip
-        explicit = True
+
+    def walk(predictor: str) -> Walk:
+        return trace(model, theta0, start, direction, max_arc=max_arc, backend=backend,
+                     record_path=record_path, predictor=predictor, tangent=tangent)  # fmt: skip
+
+    def first_hit(tr: Walk) -> SolveResult:
+        hit = tr.hits[0]
+        crossings = tuple(tr.singular[: hit.crossings])
+        res = _result(model, hit.y, theta0, crossings, name, direction, start, tr.path)
+        return parity_checked(model, res, sign0)
+
+    tr = walk("cvodes")
+    explicit = not tr.hits and tr.stalled
+    if explicit:  # CVODES stalled: the explicit predictor-corrector
+        tr = walk("rk4")
     if detour and tr.singular and (not tr.hits or tr.hits[0].crossings):
         res = _detour(model, theta0, start, direction, tr.singular[0], backend, max_arc,
                       any_fold=not tr.hits)  # fmt: skip
         if res is not None:
             return res
     if tr.hits:
-        hit = tr.hits[0]
-        crossings = tuple(tr.singular[: hit.crossings])
-        res = _result(model, hit.y, theta0, crossings, name, direction, start, tr.path)
         try:
-            return parity_checked(model, res, sign0)
+            return first_hit(tr)
         except PathError:
             if explicit:
                 raise
-        # the CVODES walk's answer is on another sheet (it crossed between two close sheets
-        # without a sign change in its samples): the explicit predictor-corrector's, if its
-        # parity holds
-        tr = trace(model, theta0, start, direction, max_arc=max_arc, backend=backend,
-                   record_path=record_path, predictor="rk4", tangent=tangent)  # fmt: skip
-        if not tr.hits:
-            return parity_checked(model, res, sign0)  # raises: the first answer's error
-        hit = tr.hits[0]
-        crossings = tuple(tr.singular[: hit.crossings])
-        res = _result(model, hit.y, theta0, crossings, name, direction, start, tr.path)
-        return parity_checked(model, res, sign0)
+            # the CVODES walk's answer is on another sheet (it crossed between two close
+            # sheets without a sign change in its samples): the explicit
+            # predictor-corrector's, if its parity holds (else the first answer's error)
+            again = walk("rk4")
+            if not again.hits:
+                raise
+        return first_hit(again)
     touch = touching(model, theta0, tr, sign0)
     if touch is not None:
         y, n = touch
