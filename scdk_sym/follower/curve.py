@@ -459,7 +459,7 @@ def follow(
                 if (
                     stepped is not None
                     and stepped[3] > SHORT_OVER * h_good
-                    and any((q[-1] - L) * (stepped[0][-1] - L) <= 0 for L in levels)
+                    and _levels_passed(levels, float(q[-1]), float(stepped[0][-1]), False)
                 ):
                     # a long step-over past a level cannot be finished there reliably: only
                     # short ones may pass it
@@ -476,12 +476,7 @@ def follow(
             q_new, t_new, det_new, length = stepped[:4]
             # no step passes a level without finishing it there (a solution it skipped
             # would be lost, or a later one taken for the first)
-            passed = [
-                L
-                for L in levels
-                if (q[-1] - L) * (q_new[-1] - L) <= 0 and q_new[-1] != q[-1]
-                and not (skip_level_at_start and q[-1] == L)
-            ]  # fmt: skip
+            passed = _levels_passed(levels, float(q[-1]), float(q_new[-1]), skip_level_at_start)
             finished = [
                 (L, _finish(model, kern, line, q, q_new, t, t_new, length, L, c, tol))
                 for L in passed
@@ -549,13 +544,9 @@ def follow(
             before_segment = len(out.singular)
             turn = T[-1, j] * T[-1, j + 1] < 0
             flip = D[j] * D[j + 1] < 0
-            crossing_levels = [
-                L
-                for L in levels
-                if (Q[-1, j] - L) * (Q[-1, j + 1] - L) <= 0
-                and Q[-1, j] != Q[-1, j + 1]
-                and not (skip_level_at_start and j == 0 and Q[-1, 0] == L)
-            ]
+            crossing_levels = _levels_passed(
+                levels, float(Q[-1, j]), float(Q[-1, j + 1]), skip_level_at_start and j == 0
+            )
             hidden = any(
                 _hidden_pair(Q[-1, j], Q[-1, j + 1], T[-1, j], T[-1, j + 1], h, L) for L in levels
             )
@@ -725,6 +716,16 @@ def follow(
     if record and rec["q"]:
         out.path = _samples(model, line, rec, direction)
     return out
+
+
+def _levels_passed(levels, s_a: float, s_b: float, leaving: bool) -> list[float]:
+    """The levels of ``s`` a step from ``s_a`` to ``s_b`` passes or reaches (none for a step
+    that keeps ``s``); with ``leaving``, not the one ``s_a`` sits on (the walk's start)."""
+    return [
+        L
+        for L in levels
+        if (s_a - L) * (s_b - L) <= 0 and s_a != s_b and not (leaving and s_a == L)
+    ]
 
 
 def _eventful(Q, T, D, n: int, levels, stop: bool) -> range | list[int]:
