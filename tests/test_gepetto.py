@@ -108,6 +108,28 @@ def test_loads_as_is_and_reduces_what_is_not_square(name: str) -> None:
         assert joint in note
 
 
+def test_idle_joints_are_locked_where_rounding_cannot_move_them(monkeypatch) -> None:
+    """robot_delta has no home: it is projected from the neutral configuration, and its three
+    idle joints are locked there. A start moved by 1e-13 rad (seeded) must lock them within
+    1e-10 of the unmoved one: a projection stepping along the idle directions moved them by
+    1e-4, so the model depended on the floating-point library it ran on."""
+    from scdk_sym.robot.model import Model
+
+    project = Model._project
+    locked = [np.array(list(model("robot_delta").locked.values()))]
+    for seed in range(2):
+        rng = np.random.default_rng(seed)
+
+        def moved(f_all, y, theta, rng=rng):
+            return project(f_all, y + 1e-13 * rng.standard_normal(len(y)), theta)
+
+        monkeypatch.setattr(Model, "_project", staticmethod(moved))
+        m = sc.load_model(FIXTURES / "robot_delta", frame="effector")
+        assert m.home.residual <= 1e-12
+        locked.append(np.array(list(m.locked.values())))
+    assert float(np.ptp(np.array(locked), axis=0).max()) <= 1e-10
+
+
 def test_neutral_assembly_matches_the_published_figure() -> None:
     # README of the fixtures: least squares from the neutral configuration, mot1 = mot2 = 0
     m = model("5bar_linkage_iso3d")

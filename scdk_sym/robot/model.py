@@ -349,6 +349,12 @@ class Model:
 
         The verification rows are minimised (for 6d closures the whole ``R_a^T R_b - I``):
         the skew part alone also vanishes at a half turn, a false minimum.
+
+        Every step is a minimum-norm one: it has no component along the directions the
+        closures do not see (singular values below ``1e-10`` of the largest). Where the
+        closures leave idle freedoms (joints locked at the result), a step along them would be
+        driven by rounding alone, and the locked values would depend on the floating-point
+        library; this way the result is the same on every machine to rounding.
         """
         mu = 1e-3
         _, _, g, J, _ = (np.array(v) for v in f_all(y, theta))
@@ -357,14 +363,17 @@ class Model:
         for _ in range(200):
             if cost < 1e-30:
                 break
-            A = J.T @ J
-            dy = np.linalg.solve(A + mu * (np.diag(np.diag(A)) + 1e-12 * np.eye(len(y))), -J.T @ g)
+            u, sv, vt = np.linalg.svd(J, full_matrices=False)
+            s_max = float(sv[0]) if sv.size else 0.0
+            keep = sv > 1e-10 * s_max
+            sv, u, vt = sv[keep], u[:, keep], vt[keep]
+            dy = -vt.T @ ((sv / (sv * sv + mu * s_max**2)) * (u.T @ g))
             yn = y + dy
             _, _, gn, Jn, _ = (np.array(v) for v in f_all(yn, theta))
             gn = gn.ravel()
             if gn @ gn < cost:
                 y, g, J, cost = yn, gn, Jn, gn @ gn
-                mu = max(mu / 3, 1e-12)
+                mu = max(mu / 3, 1e-16)
                 if np.linalg.norm(dy) < 1e-15:
                     break
             else:
