@@ -446,3 +446,25 @@ def test_divergent_that_looped_at_a_tight_fold_returns() -> None:
     out = classify(ref, scen, start, res)
     assert out.status == "ok", out.detail
     assert ref.distance(ref.coords(res), known) <= 1e-9
+
+
+def test_convergent_fold_just_past_s_1_inside_one_step_is_not_missed() -> None:
+    """A hexapod start whose convergent curve folds at s = 1 + 4.5e-8 (found by the fuzz as a
+    refusal, "the curve closed on itself"): both crossings of s = 1 lie inside one step, too
+    close to the fold for the step's interpolation to show them. The answer must be the first
+    crossing, with the start's det sign and no singular crossing (reference: closed-form leg
+    lengths and finite-difference det signs)."""
+    import scdk_sym as sc
+
+    ref, model = reference("stewart_gough"), load("stewart_gough")
+    start = model.inverse_kinematics(
+        [0.00878240311619109, 0.02647802522852165, 0.5453821371556559,
+         -0.17098344251576178, -0.13687823734819793, 0.8936639461047436]
+    )  # fmt: skip
+    theta0 = np.array([0.9334252204132131, 0.6818533944602982, 0.9410317638837019,
+                       0.7333402401971281, 0.9653827842700596, 0.7290066876682006])  # fmt: skip
+    res = sc.solve(model, theta0, start=start)
+    u = ref.coords(res)
+    assert float(np.abs(ref.closure(u, theta0)).max()) <= 1e-9
+    assert res.crossings == ()
+    assert ref.det_sign(u, theta0) == ref.det_sign(ref.coords(start), start.theta)

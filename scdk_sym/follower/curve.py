@@ -614,6 +614,16 @@ def follow(
                     if h / 4 >= h_min:
                         refine_at = j
                         break
+                if (
+                    locate
+                    and h / 4 >= h_min
+                    and _turns_beyond(levels, Q[-1, j], Q[-1, j + 1], cr.s)
+                ):
+                    # the located fold lies past a level both samples are short of: the step
+                    # hid two crossings of it (too close to the fold for the interpolation
+                    # to show); smaller steps put a sample between them
+                    refine_at = j
+                    break
                 f = np.append(features(model, cr.y)[0], cr.s * w)
                 for f_old, a_old in f_folds:
                     if np.max(np.abs(f_old - f)) < 2 * h + 1e-6 * scale and (
@@ -716,6 +726,12 @@ def follow(
     if record and rec["q"]:
         out.path = _samples(model, line, rec, direction)
     return out
+
+
+def _turns_beyond(levels, s_a: float, s_b: float, s_turn: float) -> bool:
+    """Whether ``s`` turning at ``s_turn`` between samples at ``s_a`` and ``s_b`` passes a level
+    that neither sample reaches (it crosses it twice inside the step)."""
+    return any((s_a - L) * (s_turn - L) < 0 and (s_b - L) * (s_turn - L) < 0 for L in levels)
 
 
 def _levels_passed(levels, s_a: float, s_b: float, leaving: bool) -> list[float]:
