@@ -468,3 +468,29 @@ def test_convergent_fold_just_past_s_1_inside_one_step_is_not_missed() -> None:
     assert float(np.abs(ref.closure(u, theta0)).max()) <= 1e-9
     assert res.crossings == ()
     assert ref.det_sign(u, theta0) == ref.det_sign(ref.coords(start), start.theta)
+
+
+def test_convergent_past_a_near_self_motion_point_is_followed() -> None:
+    """A five-bar target 1e-6 from the point where both elbows meet (theta = (pi/3, 2 pi/3),
+    where the effector turns freely on a circle): the curve turns within 1e-3 of s = 1 and
+    sweeps half the circle at almost constant s. The follower's step had to shrink below the
+    number of halvings after which it tried to step over, found nothing to step over and
+    stopped (the fuzz's refusal "could not be followed further"). The answer: the reference
+    continuation reaches s = 1, and of the two solutions at theta0 (mirror images, det signs
+    opposite) the one with the start's det sign, with no crossing."""
+    import scdk_sym as sc
+
+    ref, model = reference("five_bar"), load("five_bar")
+    start = model.configuration(
+        [0.02529360125780586, 0.34627641756263944], [0.5283286963447011, 1.0261651021256681]
+    )
+    theta0 = np.array([1.047205178828321, 2.0944006855180057])
+    u_start = ref.coords(start)
+    assert line_curve_reaches(ref, u_start, start.theta, theta0) is True
+    res = sc.solve(model, theta0, start=start)
+    u = ref.coords(res)
+    assert float(np.abs(ref.closure(u, theta0)).max()) <= 1e-9
+    assert res.crossings == ()
+    assert ref.det_sign(u, theta0) == ref.det_sign(u_start, start.theta)
+    other = sc.solve(model, theta0, start=start, branch="divergent")
+    assert ref.distance(ref.coords(other), u) > 0.1

@@ -432,7 +432,6 @@ def follow(
             Hit(model.chart.to_canonical(y_hit, c), float(level), arc, crossings, arriving)
         )
 
-    advancing = False  # the last call accepted some steps
     turns = 0  # loop iterations: every one either advances, shrinks h or stops
     while out.arc < budget and out.steps < max_steps:
         turns += 1
@@ -465,10 +464,12 @@ def follow(
                     # short ones may pass it
                     short = tuple(f for f in STEP_OVER_FACTORS if f <= SHORT_OVER)
                     stepped, cr = _step_over_located(*args, short)
-                if stepped is None and advancing and h >= h_min:
-                    # calls still advance (e.g. at a tight fold): keep going, until the next
-                    # call that advances (a step below h_min or no advance: stalled)
-                    halvings, advancing = 0, False
+                if stepped is None and h / 2 >= h_min:
+                    # nothing to step over: a tight turn of a smooth curve (e.g. next to a
+                    # point where two branches nearly cross, or a tight fold) that smaller
+                    # steps follow; halve on, down to h_min
+                    halvings = 0
+                    h /= 2
                     continue
                 if stepped is None:
                     out.stalled = True
@@ -482,6 +483,12 @@ def follow(
                 for L in passed
             ]
             if any(y_hit is None for _L, y_hit in finished):
+                # a level the step-over passed has no solution on its chord: it jumped
+                # (e.g. between two branches that nearly cross); smaller steps, else stalled
+                if h / 2 >= h_min:
+                    halvings = 0
+                    h /= 2
+                    continue
                 out.stalled = True
                 break
             out.step_overs += 1
@@ -525,7 +532,6 @@ def follow(
                 # for the next few calls
                 ch = backup.advance(q, t, h, c, det)
                 backup_left = BACKUP_CALLS if ch.ok else 0
-        advancing = ch.ok > 0
         if ch.ok == 0:
             out.rejected += 1
             halvings += 1
