@@ -1369,7 +1369,9 @@ def line_curve_reaches(ref: Reference, u0, theta1, theta0) -> bool | None:
     Pseudo-arclength continuation on the reference's own closures (finite-difference
     Jacobians, bordered Newton corrector, step halving and growth): True when ``s`` crosses
     1, False when the curve comes back to the start (closed without reaching it), None
-    when a budget ran out or the corrector failed (undecided).
+    when a budget ran out or the corrector failed (undecided), and None too for a closed
+    curve on which ``s`` turned inside a step within :data:`GRAZE` of 1 (a fold just past
+    1 crosses it twice within one step: the check of the step's ends would not see it).
     """
     theta1 = np.asarray(theta1, dtype=float)
     dth = np.asarray(theta0, dtype=float) - theta1
@@ -1401,7 +1403,7 @@ def line_curve_reaches(ref: Reference, u0, theta1, theta0) -> bool | None:
     e_s = np.zeros(len(v))
     e_s[-1] = 1.0
     t = tangent(v, e_s)
-    h, arc, far = 1e-3, 0.0, False
+    h, arc, far, grazed = 1e-3, 0.0, False, False
     for _ in range(LINE_STEPS):
         w = v + h * t
         for _it in range(8):  # Newton on [F; t . (w - v) - h] = 0
@@ -1426,6 +1428,8 @@ def line_curve_reaches(ref: Reference, u0, theta1, theta0) -> bool | None:
             continue
         if (v[-1] - 1.0) * (w[-1] - 1.0) <= 0:
             return True
+        if t[-1] * t_new[-1] < 0 and _turn_near(v[-1], w[-1], h * t[-1], h * t_new[-1], 1.0):
+            grazed = True  # s turned inside the step next to 1: it may cross 1 twice there
         arc += h
         v, t = w, t_new
         d = np.where(np.append(angle, 0.0) > 0, wrap(v - start), v - start)
@@ -1434,11 +1438,28 @@ def line_curve_reaches(ref: Reference, u0, theta1, theta0) -> bool | None:
         if dist > 10 * h:
             far = True
         elif far and dist <= 2 * h:
-            return False  # back at the start: the curve is closed
+            # back at the start: the curve is closed (undecided where it turned next to s = 1)
+            return None if grazed else False
         if arc > LINE_ARC:
             return None
         h = min(1.5 * h, 0.05)
     return None
+
+
+#: A turn of ``s`` inside a step whose cubic estimate comes this close to a level leaves the
+#: reference undecided about the level (two crossings may hide inside the step).
+GRAZE = 1e-4
+
+
+def _turn_near(sa: float, sb: float, da: float, db: float, level: float) -> bool:
+    """Whether the cubic Hermite of ``s`` over a step (ends ``sa``, ``sb``, end derivatives
+    times the step ``da``, ``db``) comes within :data:`GRAZE` of ``level`` or passes it."""
+    u = np.linspace(0.0, 1.0, 257)
+    u2, u3 = u * u, u * u * u
+    s = (2 * u3 - 3 * u2 + 1) * sa + (u3 - 2 * u2 + u) * da + (-2 * u3 + 3 * u2) * sb
+    s = s + (u3 - u2) * db
+    side = np.sign(sa - level)
+    return bool(np.any(side * (s - level) <= GRAZE))
 
 
 def confirm_off_curve(o: Outcome) -> bool:

@@ -494,3 +494,16 @@ def test_convergent_past_a_near_self_motion_point_is_followed() -> None:
     assert ref.det_sign(u, theta0) == ref.det_sign(u_start, start.theta)
     other = sc.solve(model, theta0, start=start, branch="divergent")
     assert ref.distance(ref.coords(other), u) > 0.1
+
+
+def test_the_reference_sees_a_turn_of_s_next_to_the_level_inside_a_step() -> None:
+    """The reference's own guard against a closed-curve verdict over a hidden pair: a step
+    whose ends lie below s = 1 while s turns inside it (cubic Hermite of s) at 1 - 5e-5 or
+    past 1 is flagged; one that turns at 1 - 1e-2 is not."""
+    from references import _turn_near
+
+    # s(u) = 1 - e - (u - 1/2)^2 c over the step: ends 1 - e - c/4, slopes +-c
+    for e, flagged in ((5e-5, True), (-1e-8, True), (1e-2, False)):
+        c = 0.01
+        end = 1 - e - c / 4
+        assert _turn_near(end, end, c, -c, 1.0) is flagged
