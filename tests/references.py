@@ -1348,8 +1348,8 @@ def _track_errors(ref: Reference, model, tr: Track, res) -> np.ndarray:
 # ------------------------------------------------------- the curve of a convergent solve
 
 #: Budgets of :func:`line_curve_reaches`: steps and arc length [reference coordinates, s].
-LINE_STEPS = 20000
-LINE_ARC = 200.0
+LINE_STEPS = 100000
+LINE_ARC = 1000.0
 #: Largest corrector move of :func:`line_curve_reaches`, relative to the step.
 LINE_CORRECTION = 0.05
 
@@ -1403,6 +1403,7 @@ def line_curve_reaches(ref: Reference, u0, theta1, theta0) -> bool | None:
     e_s = np.zeros(len(v))
     e_s[-1] = 1.0
     t = tangent(v, e_s)
+    t_start = t.copy()
     h, arc, far, grazed = 1e-3, 0.0, False, False
     for _ in range(LINE_STEPS):
         w = v + h * t
@@ -1437,8 +1438,9 @@ def line_curve_reaches(ref: Reference, u0, theta1, theta0) -> bool | None:
         dist = float(np.linalg.norm(d))
         if dist > 10 * h:
             far = True
-        elif far and dist <= 2 * h:
-            # back at the start: the curve is closed (undecided where it turned next to s = 1)
+        elif far and dist <= 2 * h and float(t @ t_start) > 0:
+            # back at the start, in the direction it left: the curve is closed (undecided
+            # where it turned next to s = 1)
             return None if grazed else False
         if arc > LINE_ARC:
             return None
