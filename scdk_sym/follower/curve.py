@@ -464,27 +464,22 @@ def follow(
                     # short ones may pass it
                     short = tuple(f for f in STEP_OVER_FACTORS if f <= SHORT_OVER)
                     stepped, cr = _step_over_located(*args, short)
-                if stepped is None and h / 2 >= h_min:
-                    # nothing to step over: a tight turn of a smooth curve (e.g. next to a
-                    # point where two branches nearly cross, or a tight fold) that smaller
-                    # steps follow; halve on, down to h_min
-                    halvings = 0
-                    h /= 2
-                    continue
-                if stepped is None:
-                    out.stalled = True
-                    break
-            q_new, t_new, det_new, length = stepped[:4]
-            # no step passes a level without finishing it there (a solution it skipped
-            # would be lost, or a later one taken for the first)
-            passed = _levels_passed(levels, float(q[-1]), float(q_new[-1]), skip_level_at_start)
-            finished = [
-                (L, _finish(model, kern, line, q, q_new, t, t_new, length, L, c, tol))
-                for L in passed
-            ]
-            if any(y_hit is None for _L, y_hit in finished):
-                # a level the step-over passed has no solution on its chord: it jumped
-                # (e.g. between two branches that nearly cross); smaller steps, else stalled
+            finished: list[tuple[float, np.ndarray | None]] = []
+            if stepped is not None:
+                q_new, t_new, det_new, length = stepped[:4]
+                # no step passes a level without finishing it there (a solution it skipped
+                # would be lost, or a later one taken for the first)
+                passed = _levels_passed(levels, float(q[-1]), float(q_new[-1]),
+                                        skip_level_at_start)  # fmt: skip
+                finished = [
+                    (L, _finish(model, kern, line, q, q_new, t, t_new, length, L, c, tol))
+                    for L in passed
+                ]
+            if stepped is None or any(y_hit is None for _L, y_hit in finished):
+                # nothing to step over (a tight turn of a smooth curve, e.g. next to a point
+                # where two branches nearly cross, or a tight fold), or a step-over passing a
+                # level with no solution on its chord (it jumped between such branches):
+                # smaller steps follow the curve; halve on, down to h_min, else stalled
                 if h / 2 >= h_min:
                     halvings = 0
                     h /= 2
