@@ -327,6 +327,26 @@ DIVERGENT_CASES = [
         [0.0046977284362291274, 0.34331120507523755, 0.8022216960093237],
         [0.028118494040272887, -0.03505301612190848, -0.15254048785318083],
     ),
+    # the workspace is a band round one actuator's circle: from the nearest singular
+    # configuration the line to theta0 leaves the other sheet at once, and every solution at
+    # theta0 lies on a curve of the start's line that never reaches s = 0; the path that goes
+    # round the other way (theta0 + (0, 2 pi)) reaches the mirror assembly with no other guess
+    (
+        "5bar_linkage_iso6d",
+        "near_singular",
+        [-2.028240476667613, -2.0467902994465867],
+        (
+            [
+                0.14767260870414553,
+                0.08820915076331315,
+                1.6274534020465172e-15,
+                1.0147646969131547,
+                -5.564856194929396e-16,
+                1.5707963267948948,
+            ],
+            [-0.2393136935975033, -0.050111216164329675],
+        ),
+    ),
 ]
 
 

@@ -372,7 +372,10 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
     6. where the set of every real solution is not certified: the solution at ``theta0`` on
        the other side of the singular configuration nearest to the convergent answer, by the
        rule of way 2 (a target just before a singular surface that the start's nearest
-       singular configuration, far from it, does not lead to).
+       singular configuration, far from it, does not lead to);
+    7. across the nearest singular configuration as in way 2, the path then going to
+       ``theta0`` the other way round on revolute actuators (:func:`other_way_round`): the
+       end of that curve only, reached continuously with no other guess.
     """
     from ..follower.singular import across, across_fold, nearest_singular
 
@@ -437,16 +440,20 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
         if res is not None:
             return res
 
-    def across_from(anchor, near, exclude, how: str) -> SolveResult | None:
+    def across_from(anchor, near, exclude, how: str, leg_to=None) -> SolveResult | None:
         # the solution at theta0 on the other side of the singular configuration ``near``
-        # (found from ``anchor``), crossed on the way from the start
-        leg = across_fold(model, anchor, near, theta0, backend=backend, exclude=exclude)
+        # (found from ``anchor``), crossed on the way from the start; with ``leg_to``, reached
+        # by the line from ``near`` to that equivalent of theta0
+        leg = across_fold(model, anchor, near, theta0, backend=backend, exclude=exclude,
+                          leg_to=leg_to)  # fmt: skip
         if leg is None:
-            tried.append(f"{how}: no solution")
+            if leg_to is None:
+                tried.append(f"{how}: no solution")
             return None
         cfg, met = leg
         crossings = (_on_path(near, start, theta0), *met)
-        res = _result(model, cfg.y, theta0, crossings, "divergent", -sign, start, None)
+        y = cfg.y if leg_to is None else _near_start(model, cfg.y, start)  # angles went round
+        res = _result(model, y, theta0, crossings, "divergent", -sign, start, None)
         return other_than_convergent(res, how)
 
     # 2. across the nearest singular configuration
@@ -490,10 +497,76 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
         res = across_from(conv.configuration, near, conv.configuration, how)
         if res is not None:
             return res
+    # 7. across the nearest singular configuration, to theta0 the other way round
+    if fold is not None:
+        conv = convergent() if fold.kind == "bifurcation" else None
+        ends = other_way_round(model, theta0, fold.theta)
+        how = "across the nearest singular configuration, to theta0 the other way round"
+        for end in ends:
+            res = across_from(start, fold, None if conv is None else conv.configuration,
+                              f"{how} (+ 2 pi {_turns(end - theta0)})", leg_to=end)  # fmt: skip
+            if res is not None:
+                return res
+        if ends:
+            tried.append(f"{how} on revolute actuators ({len(ends)} lines): no solution")
     raise PathError(
         f"divergent branch at theta0={theta0.tolist()}: no solution across a singular surface "
         f"was reached ({'; '.join(tried)}); every real solution: sc.assembly_modes(model, theta0)"
     )
+
+
+#: Lines to equivalents of theta0 (revolute actuators the other way round) tried at most.
+WRAPS = 8
+
+
+def other_way_round(model: Model, theta0: np.ndarray, anchor: np.ndarray) -> list[np.ndarray]:
+    """Equivalents ``theta0 + 2 pi n`` of ``theta0`` reached from ``anchor`` by going the other
+    way round on some revolute actuators, the shortest lines first (at most ``WRAPS``).
+
+    A revolute actuator's ``theta`` is an angle: the straight line from ``anchor`` to
+    ``theta0`` is one of the lines to the same target, and where it leaves the manifold's
+    sheet the line going round the other way may stay on it (e.g. Gepetto's 5-bar, whose
+    workspace is a band round one actuator's circle).
+
+    Args:
+        model: the model.
+        theta0: (k,) target [rad or model length unit].
+        anchor: (k,) where the lines start.
+
+    Returns:
+        (k,) targets, ``theta0`` shifted by ``-2 pi sign(theta0 - anchor)`` on each revolute
+        actuator of a non-empty subset; none for a model without revolute actuators.
+    """
+    units = model.units
+    d = np.asarray(theta0, float) - np.asarray(anchor, float)
+    rev = [i for i, a in enumerate(model.actuated) if units[a] == "rad"]
+    ends = []
+    for mask in range(1, 2 ** len(rev)):
+        end = np.array(theta0, dtype=float)
+        for bit, i in enumerate(rev):
+            if mask >> bit & 1:
+                end[i] -= math.copysign(2.0 * math.pi, d[i])
+        ends.append(end)
+    ends.sort(key=lambda e: float(np.linalg.norm(e - anchor)))
+    return ends[:WRAPS]
+
+
+def _near_start(model: Model, y: np.ndarray, start: Configuration) -> np.ndarray:
+    """Canonical unknowns with each revolute angle the one of its values (modulo ``2 pi``)
+    nearest to the start's."""
+    from ..follower.geometry import periodic
+
+    out = np.array(y, dtype=float)
+    per = periodic(model)
+    if per.size:
+        d = out[per] - start.y[per]
+        out[per] = start.y[per] + (d + math.pi) % (2.0 * math.pi) - math.pi
+    return out
+
+
+def _turns(shift: np.ndarray) -> list[int]:
+    """Whole turns of a shift by multiples of ``2 pi``."""
+    return [int(round(v / (2.0 * math.pi))) for v in shift]
 
 
 def _across_by_modes(
