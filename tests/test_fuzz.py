@@ -327,10 +327,10 @@ DIVERGENT_CASES = [
         [0.0046977284362291274, 0.34331120507523755, 0.8022216960093237],
         [0.028118494040272887, -0.03505301612190848, -0.15254048785318083],
     ),
-    # the workspace is a band round one actuator's circle: from the nearest singular
-    # configuration the line to theta0 leaves the other sheet at once, and every solution at
-    # theta0 lies on a curve of the start's line that never reaches s = 0; the path that goes
-    # round the other way (theta0 + (0, 2 pi)) reaches the mirror assembly with no other guess
+    # from the nearest singular configuration the line to theta0 leaves the other sheet at
+    # once, and every solution at theta0 lies on a curve of the start's line that never
+    # reaches s = 0; the path that goes round the other way (theta0 + (0, 2 pi)) reaches the
+    # mirror assembly with no other guess
     (
         "5bar_linkage_iso6d",
         "near_singular",

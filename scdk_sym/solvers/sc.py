@@ -525,8 +525,8 @@ def other_way_round(model: Model, theta0: np.ndarray, anchor: np.ndarray) -> lis
 
     A revolute actuator's ``theta`` is an angle: the straight line from ``anchor`` to
     ``theta0`` is one of the lines to the same target, and where it leaves the manifold's
-    sheet the line going round the other way may stay on it (e.g. Gepetto's 5-bar, whose
-    workspace is a band round one actuator's circle).
+    sheet the line going round the other way may stay on it (e.g. on Gepetto's
+    5bar_linkage_iso6d from a start of ``tests/test_fuzz.py``).
 
     Args:
         model: the model.
