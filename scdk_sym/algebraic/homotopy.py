@@ -52,15 +52,19 @@ class ParameterHomotopy:
         self.gamma = np.asarray(gamma, dtype=complex)
 
     def __call__(self, z: np.ndarray, t: np.ndarray, idx: np.ndarray):
-        """z (M, n), t (M,) complex, idx (M,) -> H (M, n), H_z (M, n, n), H_t (M, n)."""
+        """z (M, n), t (M,) complex, idx (M,) -> H (M, n), H_z (M, n, n), H_t (M, n).
+
+        Paths going to infinity overflow to non-finite values, which the tracker tells and
+        ends (status "at_infinity" or "failed"): no warning is raised for them."""
         g = self.gamma[idx]
         den = 1.0 + (g - 1.0) * t
         s = (g * t / den)[:, None]
         ds = (g / den**2)[:, None]
         dp, db = self.dp[idx], self.db[idx]
-        G, Gz, Gp = self.system.evaluate(z, self.p_from[idx] + s * dp)
-        H = G + self.b_from[idx] + s * db
-        Ht = (np.einsum("mij,mj->mi", Gp, dp) + db) * ds
+        with np.errstate(over="ignore", invalid="ignore"):
+            G, Gz, Gp = self.system.evaluate(z, self.p_from[idx] + s * dp)
+            H = G + self.b_from[idx] + s * db
+            Ht = (np.einsum("mij,mj->mi", Gp, dp) + db) * ds
         return H, Gz, Ht
 
 
