@@ -456,14 +456,17 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
         res = _result(model, y, theta0, crossings, "divergent", -sign, start, None)
         return other_than_convergent(res, how)
 
-    # 2. across the nearest singular configuration
+    # 2. across the nearest singular configuration (where branches cross there, any
+    # solution other than the convergent answer is on its other side)
     fold = nearest_singular(model, start, backend)
+    beside = None
+    if fold is not None and fold.kind == "bifurcation":
+        conv = convergent()
+        beside = None if conv is None else conv.configuration
     if fold is None:
         tried.append("no singular configuration found near the start")
     else:
-        conv = convergent() if fold.kind == "bifurcation" else None
-        res = across_from(start, fold, None if conv is None else conv.configuration,
-                          "across the nearest singular configuration")  # fmt: skip
+        res = across_from(start, fold, beside, "across the nearest singular configuration")
         if res is not None:
             return res
     # 3. aimed at the singular surface
@@ -499,12 +502,11 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
             return res
     # 7. across the nearest singular configuration, to theta0 the other way round
     if fold is not None:
-        conv = convergent() if fold.kind == "bifurcation" else None
         ends = other_way_round(model, theta0, fold.theta)
         how = "across the nearest singular configuration, to theta0 the other way round"
         for end in ends:
-            res = across_from(start, fold, None if conv is None else conv.configuration,
-                              f"{how} (+ 2 pi {_turns(end - theta0)})", leg_to=end)  # fmt: skip
+            turns = np.round((end - theta0) / (2.0 * math.pi)).astype(int).tolist()
+            res = across_from(start, fold, beside, f"{how} (+ 2 pi {turns})", leg_to=end)
             if res is not None:
                 return res
         if ends:
@@ -554,19 +556,12 @@ def other_way_round(model: Model, theta0: np.ndarray, anchor: np.ndarray) -> lis
 def _near_start(model: Model, y: np.ndarray, start: Configuration) -> np.ndarray:
     """Canonical unknowns with each revolute angle the one of its values (modulo ``2 pi``)
     nearest to the start's."""
-    from ..follower.geometry import periodic
+    from ..follower.geometry import difference, periodic
 
     out = np.array(y, dtype=float)
     per = periodic(model)
-    if per.size:
-        d = out[per] - start.y[per]
-        out[per] = start.y[per] + (d + math.pi) % (2.0 * math.pi) - math.pi
+    out[per] = start.y[per] + difference(model, out, start.y)[per]
     return out
-
-
-def _turns(shift: np.ndarray) -> list[int]:
-    """Whole turns of a shift by multiples of ``2 pi``."""
-    return [int(round(v / (2.0 * math.pi))) for v in shift]
 
 
 def _across_by_modes(
