@@ -269,7 +269,7 @@ def _quiet_unused_parameters(source: Path) -> None:
 
 
 def _periodic(model) -> str:
-    from ..solvers.track import periodic
+    from ..follower.geometry import periodic
 
     mask = np.zeros(model.m, dtype=int)
     mask[periodic(model)] = 1

@@ -120,6 +120,7 @@ import numpy as np
 
 from ..backends import resolve
 from ..errors import InputError, PathError, TrackError
+from ..follower.geometry import periodic
 from ..kernels.fastcall import Buffered, model_calls
 from ..model.rotations import gibbs, gibbs_product, rot_exp
 from ..products import TRACK_KERNELS
@@ -265,16 +266,6 @@ def _kernels(model: Model) -> _Kernels:
 
 
 TWO_PI = 2.0 * math.pi
-
-
-def periodic(model: Model) -> np.ndarray:
-    """Indices of the unknowns that are revolute joint angles (their values 2 pi apart are one
-    configuration)."""
-    types = {j.name: j.type for j in model.tree.joints}
-    return np.array(
-        [i for i, u in enumerate(model.unknowns) if types.get(u) in ("revolute", "continuous")],
-        dtype=int,
-    )
 
 
 def _sign(v: float) -> int:
