@@ -184,3 +184,8 @@ class ViewError(ScdkError):
 class DependencyError(ScdkError):
     """An optional dependency that a command needs is not installed (the message gives the
     install command)."""
+
+
+class ModelWarning(UserWarning):
+    """A model file says something the loader reads as its source tool does, but that looks
+    like a mistake (e.g. a joint edit naming a joint the URDF does not have)."""

@@ -39,7 +39,16 @@ from .track import read_thetas
 
 #: The command modules, in the order ``scdk --help`` lists their commands (each registers its
 #: commands in :data:`COMMANDS` when imported).
-COMMAND_MODULES = ("solve", "codegen", "modes", "track", "figures", "atlas", "verify")
+COMMAND_MODULES = (
+    "solve",
+    "codegen",
+    "modes",
+    "track",
+    "figures",
+    "atlas",
+    "verify",
+    "assemble",
+)
 for _module in COMMAND_MODULES:
     import_module(f"{__name__}.{_module}")
 

@@ -1,9 +1,10 @@
 """The loop-closure side file (``robot.yaml``): parsing and validation.
 
-A strict superset of the Gepetto "extended URDF" YAML (``closed_loop``, ``type``,
-``name_mot``) with the extensions ``format_version``, ``platform``, ``workspace``, ``home``,
-``length_unit`` (default m), the closure types ``2d`` and ``distance`` and the per-closure
-``length`` list.
+A strict superset of the Gepetto "extended URDF" YAML (``closed_loop``, ``type`` in either
+case, ``name_mot``, and the joint edits ``joint_name`` / ``joint_type`` that Gepetto's loader
+applies to the URDF before closing the loops) with the extensions ``format_version``,
+``platform``, ``workspace``, ``home``, ``length_unit`` (default m), the closure types ``2d``
+and ``distance`` and the per-closure ``length`` list.
 """
 
 from __future__ import annotations
@@ -20,10 +21,15 @@ CLOSURE_TYPES = ("3d", "6d", "2d", "distance")
 #: Number of residual rows of each closure type.
 CLOSURE_ROWS = {"3d": 3, "6d": 6, "2d": 2, "distance": 1}
 WORKSPACE_NAMES = ("x", "y", "z", "roll", "pitch", "yaw", "phi")
+#: Joint edits of Gepetto's format (``joint_type``): a ball joint, a joint held at zero, and
+#: universal joints (two revolutes about the named axes of the joint frame, in that order).
+JOINT_EDITS = ("SPHERICAL", "FIXED", "UJOINT_XY", "UJOINT_YZ", "UJOINT_ZX", "UJOINT_ZY")
 KNOWN_KEYS = (
     "closed_loop",
     "type",
     "name_mot",
+    "joint_name",
+    "joint_type",
     "format_version",
     "platform",
     "workspace",
@@ -66,7 +72,20 @@ class Closure:
 
 @dataclass(frozen=True)
 class Spec:
-    """Parsed ``robot.yaml``."""
+    """Parsed ``robot.yaml``.
+
+    Attributes:
+        closures: the loop closures, in the YAML's order.
+        actuated: actuated joint names (``name_mot``).
+        platform: link whose pose is reported (``None``: the model's default).
+        workspace: workspace coordinate names, or ``None`` for the default.
+        home: joint coordinate -> value of the assembled home configuration [rad or length
+            unit].
+        raw: the YAML mapping as read.
+        length_unit: unit of every length of the model.
+        joint_edits: (joint name, edit) pairs of ``joint_name`` / ``joint_type``, edits from
+            :data:`JOINT_EDITS`.
+    """
 
     closures: tuple[Closure, ...]
     actuated: tuple[str, ...]
@@ -75,6 +94,7 @@ class Spec:
     home: dict[str, float] = field(default_factory=dict)
     raw: dict[str, Any] = field(default_factory=dict)
     length_unit: str = DEFAULT_LENGTH_UNIT
+    joint_edits: tuple[tuple[str, str], ...] = ()
 
     def to_yaml(self) -> str:
         data: dict[str, Any] = {
@@ -83,6 +103,9 @@ class Spec:
             "name_mot": list(self.actuated),
             "format_version": 1,
         }
+        if self.joint_edits:
+            data["joint_name"] = [name for name, _ in self.joint_edits]
+            data["joint_type"] = [edit for _, edit in self.joint_edits]
         if any(c.type == "distance" for c in self.closures):
             data["length"] = [
                 c.length_joint if c.length_joint else (None if math.isnan(c.length) else c.length)
@@ -141,8 +164,9 @@ def parse_spec(text: str, path: str | None = None) -> Spec:
             f"'type' has {len(types)} entries but 'closed_loop' has {len(loops)}", path
         )
     for t in types:
-        if t not in CLOSURE_TYPES:
+        if t.lower() not in CLOSURE_TYPES:
             raise ModelError(f"unknown closure type {t!r}; types: {', '.join(CLOSURE_TYPES)}", path)
+    types = [t.lower() for t in types]
     lengths = data.get("length")
     if not isinstance(lengths, list):
         lengths = []
@@ -200,4 +224,26 @@ def parse_spec(text: str, path: str | None = None) -> Spec:
         {str(k): float(v) for k, v in home.items()},
         data,
         unit.strip(),
+        _joint_edits(data, path),
     )
+
+
+def _joint_edits(data: dict, path: str | None) -> tuple[tuple[str, str], ...]:
+    """The ``joint_name`` / ``joint_type`` pairs (types in either case, written upper-case)."""
+    if "joint_name" not in data and "joint_type" not in data:
+        return ()
+    names = _str_list(data, "joint_name", path)
+    kinds = _str_list(data, "joint_type", path)
+    if len(names) != len(kinds):
+        raise ModelError(
+            f"'joint_type' has {len(kinds)} entries but 'joint_name' has {len(names)}", path
+        )
+    if len(set(names)) != len(names):
+        raise ModelError(f"'joint_name' has duplicates: {names}", path)
+    for kind in kinds:
+        if kind.upper() not in JOINT_EDITS:
+            raise ModelError(
+                f"unknown joint type {kind!r} in 'joint_type'; types: {', '.join(JOINT_EDITS)}",
+                path,
+            )
+    return tuple((n, k.upper()) for n, k in zip(names, kinds, strict=True))

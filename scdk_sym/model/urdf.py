@@ -16,11 +16,17 @@ import numpy as np
 from ..errors import ModelError
 from .rotations import rpy_from_matrix, rpy_matrix
 
-#: Joint types with one coordinate.
-MOVABLE_TYPES = ("revolute", "continuous", "prismatic", "floating")
-SUPPORTED_TYPES = (*MOVABLE_TYPES, "fixed")
+#: Joint types that move (one coordinate each, six for a floating joint, three for a
+#: spherical one).
+MOVABLE_TYPES = ("revolute", "continuous", "prismatic", "floating", "spherical")
+#: Joint types a URDF file may use (``spherical`` comes only from a Gepetto joint edit).
+SUPPORTED_TYPES = ("revolute", "continuous", "prismatic", "floating", "fixed")
+#: Joint types whose rotation is an unknown in a local chart (see :mod:`scdk_sym.model.chart`).
+ROTATION_TYPES = ("floating", "spherical")
 #: Coordinate suffixes of a floating joint: position, then local rotation parameters.
 FLOATING_COORDS = ("x", "y", "z", "rx", "ry", "rz")
+#: Coordinate suffixes of a spherical (ball) joint: its rotation vector.
+SPHERICAL_COORDS = ("rx", "ry", "rz")
 
 
 @dataclass(frozen=True)
@@ -29,7 +35,7 @@ class Joint:
 
     Attributes:
         name: joint name.
-        type: "revolute", "continuous", "prismatic" or "fixed".
+        type: "revolute", "continuous", "prismatic", "fixed", "floating" or "spherical".
         parent: parent link name.
         child: child link name.
         origin: (4, 4) transform from the parent link frame to the joint frame [m].
@@ -53,9 +59,12 @@ class Joint:
 
     @property
     def coordinates(self) -> tuple[str, ...]:
-        """Coordinate names: the joint name, or ``name.x ... name.rz`` for a floating joint."""
+        """Coordinate names: the joint name, ``name.x ... name.rz`` for a floating joint,
+        ``name.rx, name.ry, name.rz`` for a spherical one."""
         if self.type == "floating":
             return tuple(f"{self.name}.{c}" for c in FLOATING_COORDS)
+        if self.type == "spherical":
+            return tuple(f"{self.name}.{c}" for c in SPHERICAL_COORDS)
         return (self.name,) if self.movable else ()
 
 
@@ -87,6 +96,16 @@ class Tree:
     @property
     def floating_joints(self) -> tuple[str, ...]:
         return tuple(j.name for j in self.joints if j.type == "floating")
+
+    @property
+    def rotation_joints(self) -> tuple[str, ...]:
+        """Floating and spherical joints: their rotations are unknowns in local charts."""
+        return tuple(j.name for j in self.joints if j.type in ROTATION_TYPES)
+
+    @property
+    def single_coordinate_joints(self) -> tuple[str, ...]:
+        """Movable joints with one coordinate (those that can be actuated)."""
+        return tuple(j.name for j in self.joints if j.movable and j.type not in ROTATION_TYPES)
 
     def joint(self, name: str) -> Joint:
         for j in self.joints:

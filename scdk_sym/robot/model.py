@@ -29,6 +29,7 @@ from ..errors import (
 from ..kernels.fastcall import model_calls
 from ..kernels.functions import build_kernels
 from ..model.chart import Chart
+from ..model.edits import apply_joint_edits, ball_to_universal
 from ..model.files import read_description
 from ..model.rotations import rot_exp, rot_log, rpy_matrix
 from ..model.spec import Spec
@@ -36,12 +37,18 @@ from ..model.urdf import Tree, tree_to_urdf
 from ..products import Products
 from ..results import Configuration
 from ..symbolic.kinematics import link_placements
-from ..symbolic.system import build_symbolic
+from ..symbolic.system import Symbolic, build_symbolic
+from . import assembly
+from .assembly import assemble, closure_rows
 
 #: Workspace coordinates that are angles [rad].
 ANGLE_COORDINATES = ("phi", "roll", "pitch", "yaw")
 #: Relative tolerance of the assembled-configuration checks (scaled by the model size).
 RESIDUAL_TOL = 1e-9
+#: A freedom the actuators leave undetermined is idle when it moves every joint by less than
+#: this fraction of the model's size per unit of motion (a spin in place; CAD exports leave
+#: offsets of a few 1e-4 m between axes meant to meet) [length unit / (rad or length unit)].
+IDLE_TOL = 1e-3
 
 
 def as_vector(value, size: int, what: str) -> np.ndarray:
@@ -57,6 +64,26 @@ def as_vector(value, size: int, what: str) -> np.ndarray:
     if not np.all(np.isfinite(arr)):
         raise InputError(f"{what} must be finite, got {arr.tolist()}")
     return arr
+
+
+def distal_link(tree: Tree, closures) -> str:
+    """The default reported link of a model without ``platform``: the leaf link with the most
+    movable joints between it and the root (a leg's foot), closure frames excluded; the
+    first in URDF order among equals (the first leg's foot on a biped)."""
+    parents = {j.child: j for j in tree.joints}
+    ends = {f for c in closures for f in (c.frame_a, c.frame_b)}
+    inner = {j.parent for j in tree.joints}
+    best, depth = tree.links[-1], -1
+    for link in tree.links:
+        if link in inner or link in ends:
+            continue
+        n, at = 0, link
+        while at in parents:
+            n += parents[at].movable
+            at = parents[at].parent
+        if n > depth:
+            best, depth = link, n
+    return best
 
 
 def _pivoted_selection(M: np.ndarray, count: int) -> list[int]:
@@ -89,6 +116,8 @@ class Model:
         workspace: names of the workspace coordinates x.
         frame: link whose pose is x (the platform).
         reduction: one line describing the square reduction, or ``None``.
+        assembly: one line saying how home was assembled when the YAML gives no ``home`` and
+            the neutral configuration does not close, else ``None``.
         length_scale: characteristic size of the model [model length unit].
     """
 
@@ -100,14 +129,15 @@ class Model:
         frame: str | None = None,
         urdf_text: str | None = None,
     ) -> None:
+        self._urdf_text = urdf_text if urdf_text is not None else tree_to_urdf(tree)
+        tree = apply_joint_edits(tree, spec.joint_edits, path)
         self.tree = tree
         self.spec = spec
         self.path = path
         self.name = tree.name
-        self._urdf_text = urdf_text if urdf_text is not None else tree_to_urdf(tree)
         links = tree.links
         movable = tree.coordinates
-        single = tuple(j.name for j in tree.joints if j.movable and j.type != "floating")
+        single = tree.single_coordinate_joints
         # a frame is a link, or a joint (as in Pinocchio: the joint frame is its child link's)
         joint_frames = {j.name: j.child for j in tree.joints if j.name not in links}
         frames = (*links, *joint_frames)
@@ -118,7 +148,7 @@ class Model:
         kinds = {j.name: j.type for j in tree.joints}
         for a in spec.actuated:
             if a not in single:
-                if kinds.get(a) in ("fixed", "floating"):
+                if kinds.get(a) in ("fixed", "floating", "spherical"):
                     reason = (
                         f"in 'name_mot' is a {kinds[a]} joint: only a movable joint with one "
                         "coordinate can be actuated"
@@ -133,7 +163,7 @@ class Model:
                 raise UnknownNameError("joint", j, movable, path)
         chosen = frame or spec.platform
         if chosen is None:
-            chosen = "effector" if "effector" in links else links[-1]
+            chosen = "effector" if "effector" in links else distal_link(tree, spec.closures)
         if chosen not in links and chosen not in joint_frames:
             raise UnknownNameError("frame", chosen, frames, path)
         self.frame = joint_frames.get(chosen, chosen)
@@ -165,6 +195,11 @@ class Model:
             raise ModelError("no loop closures: 'closed_loop' is empty", path)
         self.length_scale = self._size()
         self.tolerance = RESIDUAL_TOL * max(1.0, self.length_scale)
+        self._candidates = candidates
+        self.assembly: str | None = None
+        #: ball joint -> (rotation at home (3, 3), spin axis (3,)) of the balls turned into
+        #: universal joints to lock a rod's spin (see :meth:`_lock_spins`)
+        self.spins: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._reduce(candidates)
 
     # ------------------------------------------------------------------ loading helpers
@@ -175,7 +210,7 @@ class Model:
         pos = np.array([np.array(ca.DM(t[:3, 3])).ravel() for t in T.values()])
         return float(np.max(np.linalg.norm(pos - pos[0], axis=1)))
 
-    def _reduce(self, candidates: tuple[str, ...]) -> None:
+    def _reduce(self, candidates: tuple[str, ...], start: dict[str, float] | None = None) -> None:
         full = build_symbolic(
             self.tree,
             self.closures,
@@ -186,9 +221,10 @@ class Model:
             self.frame,
             self.workspace,
         )
-        chart = Chart.for_unknowns(candidates, self.tree.floating_joints)
-        y0 = np.array([self.spec.home.get(j, 0.0) for j in candidates])
-        th0 = np.array([self.spec.home.get(j, 0.0) for j in self.actuated])
+        chart = Chart.for_unknowns(candidates, self.tree.rotation_joints)
+        given = self.spec.home if start is None else start
+        y0 = np.array([given.get(j, 0.0) for j in candidates])
+        th0 = np.array([given.get(j, 0.0) for j in self.actuated])
         y0, c0 = chart.to_local(y0)
         f_all = ca.Function(
             "all",
@@ -201,11 +237,14 @@ class Model:
                     full.g_check,
                     ca.jacobian(full.g_check, full.y),
                     ca.jacobian(full.g_all, full.theta),
+                    ca.jacobian(full.g_check, full.theta),
                 )
             ],
         )
         check = np.abs(np.array(f_all(y0, th0)[2])).ravel()
-        if self.spec.home:
+        if start is not None:
+            y0 = self._project(f_all, y0, th0)
+        elif self.spec.home:
             if check.max() > self.tolerance:
                 raise NotAssembledError(
                     f"'home' is not assembled: {self._worst(check)} "
@@ -217,12 +256,7 @@ class Model:
             y0 = self._project(f_all, y0, th0)
             check = np.abs(np.array(f_all(y0, th0)[2])).ravel()
             if check.max() > self.tolerance:
-                raise NotAssembledError(
-                    "no 'home' given and the neutral configuration does not assemble by least "
-                    f"squares: {self._worst(check)}; add 'home' to the YAML",
-                    float(check.max()),
-                    self.path,
-                )
+                y0, th0 = self._assemble(full, c0, f_all, y0, th0, check)
         G = np.array(f_all(y0, th0)[1])
         nrows, ncols = G.shape
         sv = np.linalg.svd(G, compute_uv=False)
@@ -243,29 +277,15 @@ class Model:
         if not (rank == nrows == ncols):
             rows = _pivoted_selection(G.T, rank)
             keep = _pivoted_selection(G[rows], rank)
+            if any("." in candidates[c] for c in range(ncols) if c not in keep):
+                # lock single-coordinate joints: weigh the chart coordinates up so that the
+                # pivoting keeps them (a spin is locked at a revolute of its chain)
+                weight = np.array([1e3 if "." in n else 1.0 for n in candidates])
+                keep = _pivoted_selection(G[rows] * weight, rank)
             idle = [c for c in range(ncols) if c not in keep]
             dropped = [labels[r] for r in range(nrows) if r not in rows]
             if idle:
-                # idle freedoms must not move the reported frame: otherwise the actuators
-                # do not determine the mechanism and nothing can be reduced
-                _, _, Vt = np.linalg.svd(G)
-                null = Vt[rank:].T
-                jx = ca.jacobian(ca.vec(full.pose[:3, :]), full.y)
-                Jx = np.array(ca.Function("jx", [full.y, full.theta, full.c], [jx])(y0, th0, c0))
-                moved = np.abs(Jx @ null).max() if null.size else 0.0
-                if moved > 1e-7 * max(1.0, self.length_scale):
-                    # name every joint that takes part in the undetermined motion
-                    names = [candidates[c] for c in range(ncols) if np.abs(null[c]).max() > 1e-6]
-                    raise NonSquareSystemError(
-                        f"{ncols} unknown joints, {nrows} closure rows, rank {rank}: "
-                        f"{ncols - rank} freedom(s) left undetermined by the actuators "
-                        f"{list(self.actuated)} move frame {self.frame!r} (joints {names}; "
-                        f"dependent rows {dropped}); cannot reduce to a square system",
-                        nrows,
-                        ncols,
-                        rank,
-                        self.path,
-                    )
+                self._judge_idle(full, y0, th0, c0, G, rank, candidates, dropped)
             parts = [f"{nrows} rows x {ncols} unknowns, rank {rank}"]
             if dropped:
                 parts.append(f"dropped {len(dropped)} redundant row(s) {dropped}")
@@ -277,6 +297,14 @@ class Model:
         floating_locked = [
             candidates[c] for c in range(ncols) if c not in keep and "." in candidates[c]
         ]
+        balls = sorted({n.partition(".")[0] for n in floating_locked})
+        if (
+            floating_locked
+            and start is None
+            and all(self.tree.joint(b).type == "spherical" for b in balls)
+        ):
+            self._lock_spins(balls, candidates, G, rank, y0, c0, th0, chart)
+            return
         if floating_locked:
             raise NonSquareSystemError(
                 f"{ncols} unknown joints, {nrows} closure rows, rank {rank}: the reduction would "
@@ -288,9 +316,161 @@ class Model:
             )
         self.locked = {candidates[c]: float(y0[c]) for c in range(ncols) if c not in keep}
         self.reduction = note
-        self.chart = Chart.for_unknowns(self.unknowns, self.tree.floating_joints)
+        self.chart = Chart.for_unknowns(self.unknowns, self.tree.rotation_joints)
         self._home_y = chart.to_canonical(y0, c0)[keep]
         self._home_theta = th0
+
+    def _lock_spins(
+        self,
+        balls: list[str],
+        candidates: tuple[str, ...],
+        G: np.ndarray,
+        rank: int,
+        y0: np.ndarray,
+        c0: np.ndarray,
+        th0: np.ndarray,
+        chart: Chart,
+    ) -> None:
+        """Lock the spins of rods between two ball joints: each ball joint whose coordinates
+        the reduction would lock becomes a universal joint without the spin (its rotation at
+        home folded into its origin), then the model is reduced again from the same home."""
+        _, _, Vt = np.linalg.svd(G)
+        null = Vt[rank:].T
+        canonical = chart.to_canonical(y0, c0)
+        values = dict(zip(candidates, canonical.tolist(), strict=True))
+        values.update(zip(self.actuated, th0.tolist(), strict=True))
+        tree = self.tree
+        for ball in balls:
+            idx = [candidates.index(f"{ball}.{c}") for c in ("rx", "ry", "rz")]
+            u, _, _ = np.linalg.svd(null[idx])
+            rotation = rot_exp(canonical[idx])
+            tree = ball_to_universal(tree, ball, rotation, u[:, 0])
+            self.spins[ball] = (rotation, u[:, 0])
+        self.tree = tree
+        candidates = tuple(j for j in tree.coordinates if j not in self.actuated)
+        self._candidates = candidates
+        self._reduce(candidates, values)
+        turned = ", ".join(balls)
+        self.reduction = (self.reduction or "reduced to a square system") + (
+            f"; ball joint(s) {turned} turned into universal joints (the spin of a rod between "
+            "two ball joints locked at home)"
+        )
+
+    def _judge_idle(
+        self,
+        full: Symbolic,
+        y0: np.ndarray,
+        th0: np.ndarray,
+        c0: np.ndarray,
+        G: np.ndarray,
+        rank: int,
+        candidates: tuple[str, ...],
+        dropped: list[str],
+    ) -> None:
+        """Refuse freedoms the actuators leave undetermined unless they are idle.
+
+        A null direction of the closure Jacobian ``G`` (actuators fixed) is idle when it moves
+        no joint of the mechanism: the bodies it turns spin in place about axes through all
+        their joints (a rod between two ball joints turning about its own axis, two revolutes
+        on one axis at a cut), and so move nothing but themselves. Every joint of the tree is
+        judged (the origin of its child link), not one frame. A freedom that moves a joint is a
+        real lack of actuation: refused, naming the links it moves. The reported frame must
+        not turn either when the workspace has orientations.
+        """
+        nrows, ncols = G.shape
+        _, _, Vt = np.linalg.svd(G)
+        null = Vt[rank:].T
+        links = [j.child for j in self.tree.joints if j.movable]
+        origins = ca.vertcat(*[full.placements[lk][:3, 3] for lk in links])
+        turn = ca.vec(full.pose[:3, :3])
+        jac = ca.Function(
+            "idle", [full.y, full.theta, full.c], [ca.jacobian(ca.vertcat(origins, turn), full.y)]
+        )
+        J = np.array(jac(y0, th0, c0))
+        V = (J @ null)[: 3 * len(links)].reshape(len(links), 3, -1)
+        speed = np.abs(V).max(axis=(1, 2))
+        tol = IDLE_TOL * self.length_scale
+        moved = [lk for lk, v in zip(links, speed, strict=True) if v > tol]
+        if moved:  # the reported frame first when the freedom moves it
+            jx = ca.Function(
+                "frame", [full.y, full.theta, full.c], [ca.jacobian(full.pose[:3, 3], full.y)]
+            )
+            if np.abs(np.array(jx(y0, th0, c0)) @ null).max() > tol:
+                moved = [self.frame, *(lk for lk in moved if lk != self.frame)]
+        names = [candidates[c] for c in range(ncols) if np.abs(null[c]).max() > 1e-6]
+        if moved:
+            sv = np.linalg.svd(V.reshape(-1, V.shape[-1]), compute_uv=False)
+            real = int(np.sum(sv > tol))
+            shown = moved if len(moved) <= 8 else [*moved[:8], f"... {len(moved) - 8} more"]
+            raise NonSquareSystemError(
+                f"{ncols} unknown joints, {nrows} closure rows, rank {rank}: {real} freedom(s) "
+                f"left undetermined by the actuators {list(self.actuated)} move links {shown} "
+                f"(joints {names}; dependent rows {dropped}); the mechanism is under-actuated: "
+                "add the missing actuators to 'name_mot' or a closure that fixes them",
+                nrows,
+                ncols,
+                rank,
+                self.path,
+            )
+        rotations = {"roll", "pitch", "yaw", "phi"} & set(self.workspace)
+        if rotations and np.abs(J[3 * len(links) :] @ null).max() > IDLE_TOL:
+            raise NonSquareSystemError(
+                f"frame {self.frame!r} turns with idle joints {names} (it spins in place): its "
+                f"orientation {sorted(rotations)} is not determined; report another link "
+                "(frame=...) or a workspace of positions only",
+                nrows,
+                ncols,
+                rank,
+                self.path,
+            )
+
+    def _assemble(
+        self,
+        full: Symbolic,
+        c0: np.ndarray,
+        f_all: ca.Function,
+        y: np.ndarray,
+        theta: np.ndarray,
+        check: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Assemble from the neutral configuration over every joint (actuators too), where a
+        least-squares projection with the actuators at zero does not close the loops.
+
+        Returns:
+            (y, theta): the assembled unknowns (chart centred at neutral) and actuators.
+
+        Raises:
+            NotAssembledError: no seed assembles (says how far the projection got).
+        """
+
+        m = y.size
+        z0 = np.zeros(m + self.k)
+        found = assemble(
+            lambda start: closure_rows(full, self.closures, c0, start),
+            z0,
+            1e-2 * self.tolerance,
+            np.concatenate([y, theta]),
+        )
+        worst = np.inf
+        if found is not None:
+            worst = float(np.abs(np.array(f_all(found.z[:m], found.z[m:])[2])).max())
+        if found is None or worst > self.tolerance:
+            raise NotAssembledError(
+                "no 'home' given, and the neutral configuration does not assemble (least "
+                f"squares: {self._worst(check)}; continuation from a relaxed closure over "
+                f"every joint failed from {assembly.SEEDS + 1} starts); add 'home' to the YAML",
+                float(check.max()),
+                self.path,
+            )
+        names = (*self._candidates, *self.actuated)
+        far = int(np.argmax(np.abs(found.z)))
+        start = "the neutral configuration" if found.seed == 0 else f"perturbed seed {found.seed}"
+        self.assembly = (
+            f"assembled from {start} by continuation from a relaxed closure over every joint "
+            f"({found.steps} steps, residual {found.residual:.1e}); largest change from neutral "
+            f"{found.change:.3g} ({names[far]}); write it as 'home' with `scdk assemble --write`"
+        )
+        return found.z[:m], found.z[m:]
 
     def _check_actuation(self, G: np.ndarray, G_theta: np.ndarray, rank: int, labels) -> None:
         """Refuse more actuators than the mechanism has freedoms (rows that bind theta alone).
@@ -314,7 +494,8 @@ class Model:
             f"over-actuated: {self.k} actuated joints {list(self.actuated)} but the mechanism "
             f"has {dof} degree(s) of freedom ({ncols} unknown + {self.k} actuated coordinates, "
             f"{full} independent closure rows, {full - rank} binding the actuators alone: "
-            f"{bound}); remove {self.k - dof} joint(s) from 'name_mot'",
+            f"{bound}); remove {full - rank} joint(s) from 'name_mot', or check the joint "
+            "types (a ball joint written as one revolute over-constrains its loop)",
             nrows,
             ncols,
             rank,
@@ -357,7 +538,7 @@ class Model:
         library; this way the result is the same on every machine to rounding.
         """
         mu = 1e-3
-        _, _, g, J, _ = (np.array(v) for v in f_all(y, theta))
+        _, _, g, J, *_ = (np.array(v) for v in f_all(y, theta))
         g = g.ravel()
         cost = g @ g
         for _ in range(200):
@@ -369,7 +550,7 @@ class Model:
             sv, u, vt = sv[keep], u[:, keep], vt[keep]
             dy = -vt.T @ ((sv / (sv * sv + mu * s_max**2)) * (u.T @ g))
             yn = y + dy
-            _, _, gn, Jn, _ = (np.array(v) for v in f_all(yn, theta))
+            _, _, gn, Jn, *_ = (np.array(v) for v in f_all(yn, theta))
             gn = gn.ravel()
             if gn @ gn < cost:
                 y, g, J, cost = yn, gn, Jn, gn @ gn
@@ -486,6 +667,57 @@ class Model:
         T, x = calls.pose(y_loc, theta, c)
         residual = float(np.abs(calls.check(y_loc, theta, c)).max())
         return Configuration(theta, y, x.ravel(), T, self.joint_values(y, theta), residual)
+
+    @cached_property
+    def _placements(self) -> ca.Function:
+        sym = self.symbolic
+        return ca.Function(
+            "placements", [sym.y, sym.theta, sym.c], [ca.vertcat(*sym.placements.values())]
+        )
+
+    def placements(self, cfg: Configuration) -> dict[str, np.ndarray]:
+        """World placement of every link of a configuration.
+
+        Args:
+            cfg: a configuration of this model (a solution, ``home``, a track sample).
+
+        Returns:
+            Link name -> (4, 4) homogeneous placement in the base frame [model length unit].
+        """
+        y_loc, c = self.chart.to_local(cfg.y)
+        out = np.array(self._placements(y_loc, cfg.theta, c))
+        links = self.symbolic.placements
+        return {n: out[4 * i : 4 * i + 4] for i, n in enumerate(links)}
+
+    def placement(self, cfg: Configuration, link: str) -> np.ndarray:
+        """World placement (4, 4) of one link (or joint frame) of a configuration.
+
+        Raises:
+            UnknownNameError: ``link`` is not a link or joint of the model.
+        """
+        frames = {j.name: j.child for j in self.tree.joints}
+        name = link if link in self.tree.links else frames.get(link)
+        if name is None:
+            raise UnknownNameError("link", link, self.tree.links, self.path)
+        return self.placements(cfg)[name]
+
+    def file_joints(self, cfg: Configuration) -> dict[str, float]:
+        """The joint coordinates of ``cfg`` in the model files' terms (``home`` of the YAML):
+        a ball joint whose rod spin was locked gives its rotation vector again."""
+        joints = {k: v for k, v in cfg.joints.items() if not k.endswith(("_U1", "_U2"))}
+        if not self.spins:
+            return joints
+        T = self.placements(cfg)
+        for ball in self.spins:
+            first = self.tree.joint(f"{ball}_U1")
+            second = self.tree.joint(f"{ball}_U2")
+            rotation, _ = self.spins[ball]
+            frame = T[first.parent] @ first.origin
+            w = rot_log(rotation @ frame[:3, :3].T @ T[second.child][:3, :3])
+            joints.update(
+                {f"{ball}.{c}": float(v) for c, v in zip(("rx", "ry", "rz"), w, strict=True)}
+            )
+        return joints
 
     def joint_values(self, y: np.ndarray, theta: np.ndarray) -> dict[str, float]:
         """Every joint coordinate (URDF order, locked ones included) from canonical y, theta."""

@@ -41,6 +41,14 @@ def floating_motion(coords: ca.SX, R_ref: ca.SX) -> ca.SX:
     return T
 
 
+def spherical_motion(rho: ca.SX, R_ref: ca.SX) -> ca.SX:
+    """4x4 transform of a spherical (ball) joint in its local chart: ``[R_ref cayley(rho), 0]``
+    (the chart of :func:`floating_motion` without the translation)."""
+    T = ca.SX.eye(4)
+    T[:3, :3] = R_ref @ cayley(rho)
+    return T
+
+
 def link_placements(
     tree: Tree,
     joint_values: Mapping[str, ca.SX | float],
@@ -52,7 +60,8 @@ def link_placements(
         tree: the URDF tree.
         joint_values: a value (symbolic or numeric) for every joint coordinate (floating
             joints: ``name.x`` ... ``name.rz``).
-        charts: floating joint name -> reference rotation (3x3) of its chart (identity if absent).
+        charts: floating or spherical joint name -> reference rotation (3x3) of its chart
+            (identity if absent).
     """
     out: dict[str, ca.SX] = {tree.root: ca.SX.eye(4)}
     for j in tree.joints:
@@ -61,6 +70,9 @@ def link_placements(
             coords = ca.vertcat(*[joint_values[c] for c in j.coordinates])
             R_ref = (charts or {}).get(j.name, ca.SX.eye(3))
             T = T @ floating_motion(coords, R_ref)
+        elif j.type == "spherical":
+            rho = ca.vertcat(*[joint_values[c] for c in j.coordinates])
+            T = T @ spherical_motion(rho, (charts or {}).get(j.name, ca.SX.eye(3)))
         elif j.movable:
             T = T @ joint_motion(j.type, j.axis, joint_values[j.name])
         out[j.child] = T

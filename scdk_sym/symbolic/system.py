@@ -23,8 +23,8 @@ class Symbolic:
     Attributes:
         y: (m,) unknown joint coordinates.
         theta: (k,) actuated joint coordinates.
-        c: (9 f,) reference rotations (column-major 3x3) of the charts of the f floating
-            joints (empty without floating joints).
+        c: (9 f,) reference rotations (column-major 3x3) of the charts of the f floating and
+            spherical joints, in tree order (empty without them).
         g: (m,) closure residual rows kept by the square reduction.
         g_all: (r,) every closure residual row.
         g_check: verification rows (6d closures with their full rotation matrix).
@@ -82,9 +82,9 @@ def build_symbolic(
     """
     y = ca.SX.sym("y", len(unknowns))
     theta = ca.SX.sym("theta", len(actuated))
-    floating = tree.floating_joints
-    c = ca.SX.sym("c", 9 * len(floating))
-    charts = {n: ca.reshape(c[9 * i : 9 * i + 9], 3, 3) for i, n in enumerate(floating)}
+    rotating = tree.rotation_joints
+    c = ca.SX.sym("c", 9 * len(rotating))
+    charts = {n: ca.reshape(c[9 * i : 9 * i + 9], 3, 3) for i, n in enumerate(rotating)}
     values: dict[str, ca.SX | float] = dict(locked)
     values.update({n: y[i] for i, n in enumerate(unknowns)})
     values.update({n: theta[i] for i, n in enumerate(actuated)})

@@ -96,15 +96,10 @@ def placement_errors(model: Model, y, theta) -> dict[str, float]:
     Returns:
         Link name -> error [model length unit for the translations; rotations unitless].
     """
-    import casadi as ca
-
     cfg = model.configuration(y, theta)
     pin_T = frame_placements(model, cfg.joints)
-    y_loc, c = model.chart.to_local(cfg.y)
-    sym = model.symbolic
-    f = ca.Function("placements", [sym.y, sym.theta, sym.c], [ca.vertcat(*sym.placements.values())])
-    ours = np.array(f(y_loc, cfg.theta, c)).reshape(len(sym.placements), 4, 4)
-    return {n: float(np.abs(ours[i] - pin_T[n]).max()) for i, n in enumerate(sym.placements)}
+    ours = model.placements(cfg)
+    return {n: float(np.abs(ours[n] - pin_T[n]).max()) for n in ours}
 
 
 def placement_error(model: Model, y, theta) -> float:
@@ -155,3 +150,80 @@ def closure_residuals(model: Model, joints: Mapping[str, float]) -> np.ndarray:
             length = joints[c.length_joint] if c.length_joint else c.length
             out.append(abs(np.linalg.norm(d) - length))
     return np.array(out)
+
+
+def pinocchio_q(model: Model, cfg, pin_model) -> np.ndarray:
+    """The ``q`` of any Pinocchio model of the same robot (for instance the model Gepetto's
+    loader builds from the same files) that puts its links where ``cfg`` puts them.
+
+    Each joint's coordinates are read off the placements: for Pinocchio joint ``i``, the
+    world placement of its frame comes from a link attached to it (a BODY or JOINT frame named
+    after one of this model's links), and its motion ``(oM_parent * jointPlacement)^-1 * oM_i``
+    gives the angle (revolute, (cos, sin) for continuous), the displacement (prismatic), the
+    quaternion (spherical: Gepetto's ball joints and merged revolute triples) or the
+    placement (free-flyer, at the base: the base fixed, as solved). Joint order and
+    conventions are the Pinocchio model's own; a free-flyer base is the identity.
+
+    Args:
+        model: the model that solved ``cfg``.
+        cfg: a configuration of ``model``.
+        pin_model: a ``pinocchio.Model`` whose BODY frames carry this model's link names.
+
+    Returns:
+        (pin_model.nq,) configuration.
+
+    Raises:
+        ModelError: a Pinocchio joint carries no link of this model.
+    """
+    pin = pinocchio()
+    from ..errors import ModelError
+
+    ours = model.placements(cfg)
+    world: dict[int, object] = {0: pin.SE3.Identity()}
+    for f in pin_model.frames:
+        kind = f.type in (pin.FrameType.BODY, pin.FrameType.JOINT)
+        if kind and f.name in ours and f.parentJoint not in world:
+            M = pin.SE3(ours[f.name][:3, :3], ours[f.name][:3, 3])
+            world[f.parentJoint] = M * f.placement.inverse()
+    q = pin.neutral(pin_model)
+    for jid in range(1, pin_model.njoints):
+        if jid not in world:
+            if pin_model.parents[jid] == 0 and pin_model.joints[jid].nq == 7:
+                world[jid] = pin.SE3.Identity()  # free-flyer base, held fixed
+            else:
+                raise ModelError(
+                    f"Pinocchio joint {pin_model.names[jid]!r} carries no link of the model "
+                    f"(links: {', '.join(model.tree.links)})"
+                )
+        jm = pin_model.joints[jid]
+        parent = world[pin_model.parents[jid]] * pin_model.jointPlacements[jid]
+        motion = parent.inverse() * world[jid]
+        q[jm.idx_q : jm.idx_q + jm.nq] = _joint_q(pin, pin_model, jid, motion)
+    return q
+
+
+def _joint_q(pin, pin_model, jid: int, motion) -> np.ndarray:
+    """Coordinates of joint ``jid`` whose motion (joint frame, parent side -> child) is
+    ``motion``: the q minimising the distance to it (log of the residual motion)."""
+    jm = pin_model.joints[jid]
+    nq = jm.nq
+    if nq == 7:
+        return pin.SE3ToXYZQUAT(motion)
+    if nq == 4:
+        return pin.Quaternion(motion.rotation).normalized().coeffs()
+    # one-dof joints: the motion's twist on the joint's own subspace (S of the joint at 0)
+    model1 = pin.Model()
+    model1.addJoint(0, jm, pin.SE3.Identity(), "j")
+    data1 = model1.createData()
+    q1 = pin.neutral(model1)
+    for _ in range(20):  # Gauss-Newton on log6(M(q)^-1 motion): exact in a step or two
+        pin.forwardKinematics(model1, data1, q1)
+        err = pin.log6(data1.oMi[1].inverse() * motion).vector
+        pin.computeJointJacobians(model1, data1, q1)
+        J = np.asarray(pin.getJointJacobian(model1, data1, 1, pin.ReferenceFrame.LOCAL))
+        J = J.reshape(6, -1)
+        dv = np.linalg.lstsq(J, err, rcond=None)[0]
+        q1 = pin.integrate(model1, q1, dv)
+        if np.abs(dv).max() < 1e-15:
+            break
+    return q1

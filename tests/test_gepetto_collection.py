@@ -1,0 +1,165 @@
+"""The legged robots of Gepetto's example-parallel-robots collection, loaded with no option.
+
+Each answer is checked on Pinocchio's own closure residuals, through the model Gepetto's loader
+builds from the same files (``tests/gepetto_loader.py``, a port of that loader built on
+Pinocchio alone), its ``q`` filled by :func:`scdk_sym.verify.pinocchio.pinocchio_q`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from functools import cache
+from pathlib import Path
+
+import gepetto_loader as gl
+import numpy as np
+import pytest
+
+import scdk_sym as sc
+from scdk_sym.cli.assemble import write_home
+from scdk_sym.errors import ModelError, ModelWarning, NotAssembledError
+from scdk_sym.model.spec import parse_spec
+from scdk_sym.verify.pinocchio import pinocchio_q
+
+FIXTURES = Path(__file__).resolve().parent / "fixtures" / "gepetto"
+LEGGED = (
+    "battobot_6d",
+    "cassie_like",
+    "digit_like",
+    "digit_like_2legs",
+    "digit_like_2legs_6D",
+    "digit_like_2legs_old",
+    "disney_like",
+    "disney_robot",
+    "talos_like",
+    "wl16_like",
+)
+#: Small enough to solve in the test run (the bipeds' first solve takes tens of seconds).
+SOLVED = ("talos_like", "cassie_like", "digit_like", "disney_like")
+#: As published, these URDFs leave loops open (prismatic actuators slide along the axis of
+#: the revolute carrying them): no assembly exists.
+UNCLOSABLE = ("kangaroo_like", "kangaroo_like_2legs")
+
+
+@cache
+def model(name: str) -> sc.Model:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ModelWarning)
+        return sc.load_model(FIXTURES / name)
+
+
+@cache
+def gepetto(name: str) -> gl.GepettoModel:
+    return gl.load(FIXTURES / name, free_flyer=gl.FREE_FLYER.get(name, False))
+
+
+def moving_links(m: sc.Model, gm: gl.GepettoModel) -> list[str]:
+    """Links placed by both models: not the intermediate bodies of revolute triples that
+    Gepetto's loader merges into ball joints (frozen at zero there)."""
+    names = set(gm.model.names)
+    out = []
+    for link in m.tree.links:
+        j = m.tree.parent_joint(link)
+        if j is None or not j.movable or j.name in names or j.name.endswith(("_U1", "_U2")):
+            out.append(link)
+    return out
+
+
+@pytest.mark.parametrize("name", LEGGED)
+def test_loads_with_no_option_and_closes_on_pinocchio(name: str) -> None:
+    m = model(name)
+    assert m.home.residual <= m.tolerance
+    gm = gepetto(name)
+    q = pinocchio_q(m, m.home, gm.model)
+    if name == "disney_robot":  # Gepetto's loader leaves the misspelt left ball a revolute
+        return
+    assert gl.closure_residuals(gm, q).max() <= 1e-9
+    ours, theirs = m.placements(m.home), gl.link_placements(gm, q)
+    err = max(np.abs(ours[k] - theirs[k]).max() for k in moving_links(m, gm) if k in theirs)
+    assert err <= 1e-9
+
+
+@pytest.mark.parametrize("name", SOLVED)
+def test_both_branches_at_home_plus_five_hundredths(name: str) -> None:
+    m = model(name)
+    gm = gepetto(name)
+    theta = m.home.theta + 0.05
+    answers = []
+    for branch in ("convergent", "divergent"):
+        r = sc.solve(m, theta, branch=branch, backend="compiled")
+        assert r.residual <= m.tolerance
+        np.testing.assert_allclose(r.theta, theta, rtol=0, atol=1e-12)
+        q = pinocchio_q(m, r.configuration, gm.model)
+        assert gl.closure_residuals(gm, q).max() <= 1e-9
+        answers.append(m.placements(r.configuration))
+    # the two branches are different assemblies of the mechanism
+    assert max(np.abs(answers[0][k] - answers[1][k]).max() for k in answers[0]) > 1e-3
+
+
+@pytest.mark.parametrize("name", ("talos_like", "cassie_like"))
+def test_convergent_answer_matches_an_independent_pinocchio_continuation(name: str) -> None:
+    m, gm = model(name), gepetto(name)
+    theta = m.home.theta + 0.02
+    r = sc.solve(m, theta, backend="compiled")
+    q0 = pinocchio_q(m, m.home, gm.model)
+    q, info = gl.continuation(gm, q0, theta)
+    assert info.residual <= 1e-10
+    # the foot is determined by the actuators (the rods may spin about their own axes)
+    foot = gl.link_placements(gm, q)[m.frame]
+    np.testing.assert_allclose(r.configuration.platform_pose, foot, rtol=0, atol=1e-7)
+
+
+@pytest.mark.parametrize("name", UNCLOSABLE)
+def test_unclosable_files_are_refused_and_the_reference_agrees(name: str) -> None:
+    with pytest.raises(NotAssembledError) as info:
+        sc.load_model(FIXTURES / name)
+    assert "add 'home'" in str(info.value)
+    with pytest.raises(gl.ProjectionError) as ref:
+        gl.assemble_from_neutral(gepetto(name))
+    assert ref.value.residual > 1e-3
+
+
+def test_assembled_home_written_back_reloads_the_same(tmp_path: Path) -> None:
+    m = model("wl16_like")
+    assert m.assembly is not None and "continuation" in m.assembly
+    d = tmp_path / "wl16"
+    d.mkdir()
+    for f in ("robot.urdf", "robot.yaml"):
+        (d / f).write_text((FIXTURES / "wl16_like" / f).read_text())
+    write_home(d / "robot.yaml", m.file_joints(m.home))
+    again = sc.load_model(d)
+    assert again.assembly is None
+    ours, theirs = m.placements(m.home), again.placements(again.home)
+    assert max(np.abs(ours[k] - theirs[k]).max() for k in ours) <= 1e-12
+
+
+def test_gepetto_keys_and_closure_types_in_either_case() -> None:
+    spec = parse_spec(
+        "closed_loop: [[a, b]]\ntype: ['3D']\nname_mot: [m]\n"
+        "joint_name: [j1, j2]\njoint_type: [spherical, UJOINT_XY]\n"
+    )
+    assert spec.closures[0].type == "3d"
+    assert spec.joint_edits == (("j1", "SPHERICAL"), ("j2", "UJOINT_XY"))
+    with pytest.raises(ModelError, match="unknown joint type 'BALL'"):
+        parse_spec(
+            "closed_loop: [[a, b]]\ntype: [6d]\nname_mot: [m]\njoint_name: [j]\n"
+            "joint_type: [BALL]\n"
+        )
+
+
+def test_universal_joints_are_split_as_gepetto_names_them() -> None:
+    m = model("battobot_6d")
+    names = {j.name: j for j in m.tree.joints}
+    first, second = names["free_knee_left_Y"], names["free_knee_left_Z"]
+    assert (first.type, second.type) == ("revolute", "revolute")
+    assert second.parent == first.child
+    np.testing.assert_array_equal(first.axis, [0.0, 1.0, 0.0])
+    np.testing.assert_array_equal(second.axis, [0.0, 0.0, 1.0])
+    gm = gepetto("battobot_6d")
+    assert {"free_knee_left_Y", "free_knee_left_Z"} <= set(gm.model.names)
+
+
+def test_a_misspelt_joint_edit_is_applied_to_its_near_miss_with_a_warning() -> None:
+    with pytest.warns(ModelWarning, match="sĥerical"):
+        m = sc.load_model(FIXTURES / "disney_robot")
+    assert m.tree.joint("left_sĥerical_free_foot").type == "spherical"
