@@ -211,6 +211,8 @@ sys.path[:0] = json.loads(sys.argv[4])  # import what the test process imports
 import scdk_sym as sc
 model = sc.load_model(sys.argv[1], frame="effector")
 sc.solve(model, model.home.theta + 1e-3)  # builds what the first solve would build
+if sys.argv[2] == "divergent":  # and what its certified last resort builds (start system)
+    sc.assembly_modes(model, model.home.theta)
 print(json.dumps({"ready": True}), flush=True)
 for theta in json.loads(sys.argv[3]):
     t = time.perf_counter()

@@ -93,7 +93,9 @@ def _pivoted_selection(M: np.ndarray, count: int) -> list[int]:
     for _ in range(count):
         norms = np.linalg.norm(A, axis=0)
         norms[chosen] = -1
-        i = int(np.argmax(norms))
+        # the first of the columns tied with the largest (to rounding): the two revolutes on
+        # one axis at a cut have equal columns, and argmax alone picks one by rounding
+        i = int(np.flatnonzero(norms >= norms.max() * (1 - 1e-9))[0])
         chosen.append(i)
         u = A[:, i] / norms[i]
         A = A - np.outer(u, u @ A)
