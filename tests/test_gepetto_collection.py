@@ -163,3 +163,20 @@ def test_a_misspelt_joint_edit_is_applied_to_its_near_miss_with_a_warning() -> N
     with pytest.warns(ModelWarning, match="sĥerical"):
         m = sc.load_model(FIXTURES / "disney_robot")
     assert m.tree.joint("left_sĥerical_free_foot").type == "spherical"
+
+
+@pytest.mark.parametrize("name", ("battobot_6d", "disney_robot"))
+def test_ball_and_universal_joints_match_pinocchio(name: str) -> None:
+    # the Pinocchio model of the edited tree: spherical joints (quaternions), universal joints
+    from scdk_sym.verify.pinocchio import closure_residuals, placement_error
+
+    m = model(name)
+    rng = np.random.default_rng(2)
+    y = m.home.y + rng.normal(scale=0.1, size=m.m)
+    assert placement_error(m, y, m.home.theta) <= 1e-12
+    assert closure_residuals(m, m.home.joints).max() <= 1e-9
+
+
+def test_verify_passes_on_a_legged_model() -> None:
+    report = sc.verify_model(model("talos_like"), samples=1, seed=0)
+    assert report.passed, [c for c in report.checks if not c.passed]

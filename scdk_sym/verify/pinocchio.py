@@ -43,8 +43,46 @@ def _pin_model(urdf_text: str):
 
 
 def pinocchio_model(model: Model):
-    """The Pinocchio model of a model's URDF (cached)."""
-    return _pin_model(model._urdf_text)
+    """The Pinocchio model of a model's URDF (cached); of its joint tree where Gepetto's joint
+    edits or a locked rod spin changed the URDF's joints (ball joints as Pinocchio's
+    spherical joints, universal joints as two revolutes)."""
+    if not model.spec.joint_edits and not model.spins:
+        return _pin_model(model._urdf_text)
+    cached = getattr(model, "_pin_tree_model", None)
+    if cached is None:
+        cached = _pin_model_of_tree(model.tree)
+        model._pin_tree_model = cached
+    return cached
+
+
+def _pin_model_of_tree(tree):
+    """A Pinocchio model joint by joint from a :class:`~scdk_sym.model.urdf.Tree` (every link a
+    BODY frame; fixed joints merged into their parent's body, as Pinocchio's URDF parser does)."""
+    pin = pinocchio()
+    pm = pin.Model()
+    body = {tree.root: (0, pin.SE3.Identity())}
+    pm.addFrame(pin.Frame(tree.root, 0, 0, pin.SE3.Identity(), pin.FrameType.BODY))
+    for j in tree.joints:
+        parent, offset = body[j.parent]
+        place = offset * pin.SE3(np.asarray(j.origin)[:3, :3], np.asarray(j.origin)[:3, 3])
+        if j.type == "fixed":
+            body[j.child] = (parent, place)
+        else:
+            kinds = {
+                "floating": pin.JointModelFreeFlyer,
+                "spherical": pin.JointModelSpherical,
+            }
+            if j.type in kinds:
+                jm = kinds[j.type]()
+            elif j.type == "prismatic":
+                jm = pin.JointModelPrismaticUnaligned(np.asarray(j.axis, dtype=float))
+            else:
+                jm = pin.JointModelRevoluteUnaligned(np.asarray(j.axis, dtype=float))
+            jid = pm.addJoint(parent, jm, place, j.name)
+            body[j.child] = (jid, pin.SE3.Identity())
+        jid, at = body[j.child]
+        pm.addFrame(pin.Frame(j.child, jid, 0, at, pin.FrameType.BODY))
+    return pm
 
 
 def pin_configuration(model: Model, joints: Mapping[str, float]) -> np.ndarray:
@@ -61,6 +99,9 @@ def pin_configuration(model: Model, joints: Mapping[str, float]) -> np.ndarray:
             q[i] = joints[name]
         elif nq == 2:  # continuous joint: (cos, sin)
             q[i : i + 2] = np.cos(joints[name]), np.sin(joints[name])
+        elif nq == 4:  # spherical: quaternion (x, y, z, w) of the rotation vector
+            R = rot_exp(np.array([joints[f"{name}.{c}"] for c in ("rx", "ry", "rz")]))
+            q[i : i + 4] = pin.Quaternion(R).coeffs()
         elif nq == 7:  # free flyer: position + quaternion (x, y, z, w)
             p = [joints[f"{name}.{c}"] for c in ("x", "y", "z")]
             R = rot_exp(np.array([joints[f"{name}.{c}"] for c in ("rx", "ry", "rz")]))
