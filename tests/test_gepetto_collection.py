@@ -180,3 +180,53 @@ def test_ball_and_universal_joints_match_pinocchio(name: str) -> None:
 def test_verify_passes_on_a_legged_model() -> None:
     report = sc.verify_model(model("talos_like"), samples=1, seed=0)
     assert report.passed, [c for c in report.checks if not c.passed]
+
+
+def test_a_biped_splits_into_its_legs() -> None:
+    m = model("digit_like_2legs")
+    assert [s.m for s in m.blocks] == [18, 18]
+    # independent blocks: a finite difference of the closure rows of one leg's unknowns
+    # leaves the other leg's rows unchanged (checked numerically, not on the sparsity)
+    from scdk_sym.kernels.fastcall import model_calls
+
+    calls = model_calls(m)
+    y, c = m.chart.to_local(m.home.y)
+    g0 = np.array(calls.g(y, m.home.theta, c)).ravel()
+    first = m.blocks[0].block[1]
+    other = [r for r in range(m.m) if r not in first.rows]
+    for i in first.unknowns:
+        dy = np.zeros(m.m)
+        dy[i] = 1e-6
+        g = np.array(calls.g(y + dy, m.home.theta, c)).ravel()
+        assert np.abs(g[other] - g0[other]).max() == 0.0
+
+
+def test_the_legs_solved_apart_give_the_dense_answer() -> None:
+    m = model("digit_like_2legs")
+    theta = m.home.theta + 0.05
+    apart = sc.solve(m, theta)
+    dense = sc.load_model(FIXTURES / "digit_like_2legs")
+    dense.__dict__["blocks"] = (dense,)  # the whole 36 x 36 system at once
+    together = sc.solve(dense, theta)
+    np.testing.assert_allclose(apart.y, together.y, rtol=0, atol=1e-10)
+    gm = gepetto("digit_like_2legs")
+    q = pinocchio_q(m, apart.configuration, gm.model)
+    assert gl.closure_residuals(gm, q).max() <= 1e-9
+
+
+@pytest.mark.parametrize("backend", ("cvodes", "c"))
+def test_track_a_biped_along_400_samples(backend: str) -> None:
+    m = model("digit_like_2legs")
+    s = np.linspace(0.0, 1.0, 400)
+    thetas = m.home.theta + 0.1 * np.sin(2 * np.pi * s)[:, None] * np.linspace(1, -1, m.k)
+    r = sc.track(m, thetas, backend=backend)
+    assert r.y.shape == (400, 36)
+    assert r.residual.max() <= m.tolerance
+    for i in (0, 137, 399):  # samples re-checked on the model itself
+        cfg = m.configuration(r.y[i], thetas[i])
+        assert cfg.residual <= m.tolerance
+        np.testing.assert_allclose(cfg.x, r.x[i], rtol=0, atol=1e-12)
+    # no jump: consecutive samples close together (readings 1.6e-3 rad apart), and the
+    # closed motion (back to home's readings) ends on home's assembly
+    assert np.abs(np.diff(r.y, axis=0)).max() < 0.05
+    np.testing.assert_allclose(r.y[-1], m.home.y, rtol=0, atol=1e-8)

@@ -475,6 +475,11 @@ def build_follower_kernels(
     )
 
 
+#: Largest number of unknowns whose SX follower kernels are written out (inlined); larger
+#: systems call their inner Functions (the same operations, built in a tenth of the time).
+INLINE_MAX_UNKNOWNS = 9
+
+
 def follower_kernels(model, backend: str = "cvodes") -> FollowerKernels:
     """The (cached) follower kernels of a model.
 
@@ -492,7 +497,9 @@ def follower_kernels(model, backend: str = "cvodes") -> FollowerKernels:
 
     def build() -> FollowerKernels:
         if backend != "compiled":
-            return build_follower_kernels(model.symbolic)
+            # above INLINE_MAX_UNKNOWNS the written-out kernels take seconds to build (an
+            # 18-unknown leg: 3.8 s inlined, 0.3 s as calls of the inner Functions)
+            return build_follower_kernels(model.symbolic, inline=model.m <= INLINE_MAX_UNKNOWNS)
         from ..kernels.compile import model_library
 
         # calls of one closure Function and of each Newton step: the same operations as the

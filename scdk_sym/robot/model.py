@@ -588,6 +588,14 @@ class Model:
         )
 
     @cached_property
+    def blocks(self) -> tuple[Model, ...]:
+        """One model per independent block of the closure system (the legs of a biped; see
+        :mod:`scdk_sym.robot.blocks`), or ``(self,)`` when it does not split."""
+        from .blocks import block_models
+
+        return block_models(self)
+
+    @cached_property
     def kernels(self):
         """CasADi Functions of this model (:class:`~scdk_sym.kernels.functions.Kernels`)."""
         return build_kernels(self.symbolic)
@@ -690,6 +698,33 @@ class Model:
         out = np.array(self._placements(y_loc, cfg.theta, c))
         links = self.symbolic.placements
         return {n: out[4 * i : 4 * i + 4] for i, n in enumerate(links)}
+
+    def evaluate(
+        self, ys: np.ndarray, thetas: np.ndarray, residual: bool = True
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Workspace coordinates and residuals of many configurations in one mapped call.
+
+        Args:
+            ys: (N, m) canonical unknowns.
+            thetas: (N, k) actuated values.
+            residual: False to skip the residuals (``None`` is returned for them).
+
+        Returns:
+            (x (N, n), residual (N,)): what :meth:`configuration` gives for each row.
+        """
+        ys, thetas = np.atleast_2d(ys), np.atleast_2d(thetas)
+        N = ys.shape[0]
+        loc, charts = np.array(ys, dtype=float), np.zeros((N, self.chart.size))
+        for i, idx in enumerate(self.chart.rotations):
+            R = rot_exp(ys[:, list(idx)])  # (N, 3, 3)
+            charts[:, 9 * i : 9 * i + 9] = R.transpose(0, 2, 1).reshape(N, 9)
+            loc[:, list(idx)] = 0.0
+        pose, check = self.kernels.pose.map(N), self.kernels.check.map(N)
+        x = np.array(pose(loc.T, thetas.T, charts.T)[1]).T
+        if not residual:
+            return x, None
+        rows = np.abs(np.array(check(loc.T, thetas.T, charts.T)))
+        return x, rows.max(axis=0)
 
     def placement(self, cfg: Configuration, link: str) -> np.ndarray:
         """World placement (4, 4) of one link (or joint frame) of a configuration.

@@ -34,6 +34,7 @@ from ..follower.singular import _det_sign
 from ..kernels.fastcall import model_calls
 from ..results import Configuration, Crossing, PathSamples, SolveResult
 from ..robot import Model, as_vector
+from .blocks import solve_blocks
 from .solve_c import solve_c
 
 
@@ -170,6 +171,12 @@ def solve(
             solution at ``theta0`` is listed by :func:`scdk_sym.assembly_modes`).
         VerificationError: the final configuration failed its residual check.
     """
+    subs = model.blocks
+    if len(subs) > 1:  # independent blocks (the legs of a biped): one solve each
+        theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
+        options = dict(branch=branch, b=b, backend=backend, max_arc=max_arc)
+        options.update(record_path=False, fast=fast)
+        return solve_blocks(model, subs, theta0, validate_start(model, start), solve, **options)
     backend = resolve(backend, "solve")
     if backend == "c":  # one call of the generated C follower (scdk_sym.solvers.solve_c)
         return solve_c(model, theta0, start, branch, b, max_arc=max_arc, record_path=record_path)
@@ -673,6 +680,8 @@ def _fast_convergent(model, theta0, start, backend) -> SolveResult | None:
 
 
 def _result(model, y, theta0, crossings, branch, direction, start, path) -> SolveResult:
+    """The verified :class:`SolveResult` of unknowns ``y`` at ``theta0`` (raises
+    :class:`~scdk_sym.errors.VerificationError` when it does not close)."""
     cfg = model.configuration(y, theta0)
     if not cfg.residual <= model.tolerance:
         raise VerificationError(
@@ -694,6 +703,10 @@ def _result(model, y, theta0, crossings, branch, direction, start, path) -> Solv
         start=start,
         path=path,
     )
+
+
+#: The verified result of a solve (also of one assembled from blocks).
+verified_result = _result
 
 
 def _is_singular(model: Model, cfg: Configuration) -> bool:

@@ -210,6 +210,13 @@ def track(
             solution was met (``ERR_NO_SOLUTION``: the readings leave the reachable set or
             jump too far), or a sample failed its verification.
     """
+    if len(model.blocks) > 1:  # independent blocks (the legs of a biped): one track each
+        from .blocks import track_blocks
+
+        readings = _thetas(model, thetas)
+        return track_blocks(
+            model, model.blocks, readings, validate_start(model, start), track, backend=backend
+        )
     if resolve(backend, "track") == "c":
         from .track_c import track_c
 

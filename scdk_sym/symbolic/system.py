@@ -10,7 +10,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import casadi as ca
+import numpy as np
 
+from ..model.rotations import rot_exp
 from ..model.spec import Closure
 from ..model.urdf import Tree
 from .kinematics import closure_check, closure_residual, link_placements, workspace_coordinates
@@ -82,10 +84,20 @@ def build_symbolic(
     """
     y = ca.SX.sym("y", len(unknowns))
     theta = ca.SX.sym("theta", len(actuated))
-    rotating = tree.rotation_joints
+    # rotation joints whose rotation is unknown get a chart; a held one (a joint of another
+    # block, see :mod:`scdk_sym.robot.blocks`) is the constant rotation of its rotation vector
+    known = set(unknowns)
+    rotating = [n for n in tree.rotation_joints if f"{n}.rx" in known]
     c = ca.SX.sym("c", 9 * len(rotating))
-    charts = {n: ca.reshape(c[9 * i : 9 * i + 9], 3, 3) for i, n in enumerate(rotating)}
+    charts: dict[str, ca.SX] = {
+        n: ca.reshape(c[9 * i : 9 * i + 9], 3, 3) for i, n in enumerate(rotating)
+    }
     values: dict[str, ca.SX | float] = dict(locked)
+    for n in tree.rotation_joints:
+        if n not in charts and f"{n}.rx" in locked:
+            w = np.array([locked[f"{n}.{a}"] for a in ("rx", "ry", "rz")])
+            charts[n] = ca.SX(ca.DM(rot_exp(w)))
+            values.update({f"{n}.{a}": 0.0 for a in ("rx", "ry", "rz")})
     values.update({n: y[i] for i, n in enumerate(unknowns)})
     values.update({n: theta[i] for i, n in enumerate(actuated)})
     T = link_placements(tree, values, charts)

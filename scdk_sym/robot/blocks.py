@@ -1,0 +1,139 @@
+"""Independent blocks of a closure system: the legs of a biped, solved one at a time.
+
+The closure Jacobian ``J_p`` of a model with several mechanisms on one base (the two legs of a
+biped) is block-diagonal after a permutation: each block's rows involve its own unknowns only.
+Each block is then a model of its own (:func:`block_models`): its unknowns, its closure rows,
+the actuators its rows involve; every other joint is held at its home value, which the block's
+rows do not see. Solving or tracking the blocks one at a time costs what their loops cost (a
+dense 36 x 36 system of a biped becomes two of 18), and the answer is assembled from them.
+
+The blocks come from the structural sparsity of the symbolic ``J_p`` (connected components of
+its row-column graph), so they do not depend on a configuration.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from .model import Model
+
+
+@dataclass(frozen=True)
+class Block:
+    """One independent block of a model's closure system.
+
+    Attributes:
+        unknowns: (m_b,) indices into ``model.unknowns``.
+        actuated: (k_b,) indices into ``model.actuated`` of the actuators its rows involve.
+        rows: (m_b,) indices into the model's kept closure rows ``g``.
+        closures: indices into ``model.closures`` of the closures its rows belong to.
+    """
+
+    unknowns: tuple[int, ...]
+    actuated: tuple[int, ...]
+    rows: tuple[int, ...]
+    closures: tuple[int, ...]
+
+
+def independent_blocks(model: Model) -> tuple[Block, ...]:
+    """The independent blocks of ``model`` (one block when the system does not split), in
+    the order of their first unknown."""
+    sym = model.symbolic
+    P = np.array(ca.DM(sym.J_p.sparsity(), 1), dtype=bool)
+    S = np.array(ca.DM(ca.jacobian(sym.g, sym.theta).sparsity(), 1), dtype=bool)
+    m = model.m
+    # union-find over unknowns: the unknowns of one row belong together
+    parent = list(range(m))
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for row in P:
+        cols = np.flatnonzero(row)
+        for c in cols[1:]:
+            parent[find(int(c))] = find(int(cols[0]))
+    owner = _row_closures(model)
+    groups: dict[int, list[int]] = {}
+    for i in range(m):
+        groups.setdefault(find(i), []).append(i)
+    blocks = []
+    for cols in sorted(groups.values()):
+        rows = [r for r in range(m) if P[r, cols].any()]
+        actuated = [a for a in range(model.k) if S[rows, a].any()]
+        closures = sorted({owner[model.rows[r]] for r in rows})
+        blocks.append(Block(tuple(cols), tuple(actuated), tuple(rows), tuple(closures)))
+    return tuple(blocks)
+
+
+def _row_closures(model: Model) -> list[int]:
+    """Closure index of each row of ``g_all``."""
+    out: list[int] = []
+    for i, c in enumerate(model.closures):
+        out.extend([i] * c.rows)
+    return out
+
+
+def block_models(model: Model) -> tuple[Model, ...]:
+    """One model per independent block (the model itself when it does not split).
+
+    Each block model has the block's unknowns (in the model's order), its closures and rows,
+    and the actuators its rows involve; every other joint is held at its home value. Its
+    reported frame and workspace are the model's (its ``x`` is not the model's answer: the
+    answer is assembled by the model from every block's ``y``).
+    """
+    blocks = independent_blocks(model)
+    if len(blocks) == 1:
+        return (model,)
+    return tuple(_block_model(model, b, i) for i, b in enumerate(blocks))
+
+
+def _block_model(model: Model, block: Block, index: int) -> Model:
+    """The model of one block (built without a reduction: its rows and locks are the
+    model's own)."""
+    sub = object.__new__(Model)
+    sub.__dict__.update(
+        {k: v for k, v in model.__dict__.items() if not k.startswith("_") or k == "_urdf_text"}
+    )
+    for key in ("symbolic", "kernels", "products", "home", "content_hash", "blocks"):
+        sub.__dict__.pop(key, None)
+    home = model.home
+    unknowns = tuple(model.unknowns[i] for i in block.unknowns)
+    actuated = tuple(model.actuated[a] for a in block.actuated)
+    held = dict(home.joints)
+    for name in (*unknowns, *actuated):
+        held.pop(name, None)
+    # rows of the block in the block's own g_all (its closures only, in the model's order)
+    offsets, start = {}, 0
+    for ci in block.closures:
+        offsets[ci] = start
+        start += model.closures[ci].rows
+    full_offsets = np.cumsum([0, *[c.rows for c in model.closures]])
+    owner = _row_closures(model)
+    rows = []
+    for r in block.rows:
+        full = model.rows[r]
+        ci = owner[full]
+        rows.append(offsets[ci] + int(full - full_offsets[ci]))
+    sub.closures = tuple(model.closures[ci] for ci in block.closures)
+    sub.unknowns = unknowns
+    sub.actuated = actuated
+    sub.locked = held
+    sub.rows = tuple(rows)
+    sub.chart = type(model.chart).for_unknowns(unknowns, model.tree.rotation_joints)
+    sub._home_y = home.y[list(block.unknowns)]
+    sub._home_theta = home.theta[list(block.actuated)]
+    sub._candidates = unknowns
+    sub.block = (index, block)
+    digest = hashlib.sha256(
+        f"{model.content_hash}|block|{unknowns}|{actuated}|{tuple(rows)}".encode()
+    ).hexdigest()
+    sub.__dict__["content_hash"] = digest
+    sub.__dict__["blocks"] = (sub,)
+    return sub

@@ -1,0 +1,111 @@
+"""Solve and track a model one independent block at a time (the legs of a biped).
+
+See :mod:`scdk_sym.robot.blocks`: each block is a model of its own; ``solve`` and ``track``
+call themselves on each block with the block's actuators and start, and assemble the model's
+answer (every block's unknowns, then the model's own verification of the whole). A branch
+applies to every block: ``branch="divergent"`` is the answer across the nearest singular
+surface of each block. A crossing of one block is reported with the other blocks' unknowns
+at their answers.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from ..results import Configuration, Crossing, SolveResult, TrackResult
+from ..robot import Model
+
+
+def _expand(model: Model, sub: Model, c: Crossing, y: np.ndarray, theta: np.ndarray) -> Crossing:
+    """A block's crossing in the model's terms (other blocks at ``y``, ``theta``)."""
+    _, block = sub.block
+    full_y, full_theta = np.array(y, dtype=float), np.array(theta, dtype=float)
+    full_y[list(block.unknowns)] = c.y
+    full_theta[list(block.actuated)] = c.theta
+    x = model.configuration(full_y, full_theta).x
+    return Crossing(c.s, x, full_y, full_theta, c.index, c.kind)
+
+
+def _starts(model: Model, subs, start: Configuration) -> list[Configuration]:
+    out = []
+    for sub in subs:
+        _, block = sub.block
+        out.append(
+            sub.configuration(start.y[list(block.unknowns)], start.theta[list(block.actuated)])
+        )
+    return out
+
+
+def solve_blocks(
+    model: Model,
+    subs: tuple[Model, ...],
+    theta0: np.ndarray,
+    start: Configuration,
+    solve: Callable[..., SolveResult],
+    **options,
+) -> SolveResult:
+    """``solve`` on each block, the answer assembled and verified on the model.
+
+    Args:
+        model: the model.
+        subs: its block models (:func:`scdk_sym.robot.blocks.block_models`).
+        theta0: (k,) actuated values [rad or model length unit].
+        start: the model's assembled start configuration.
+        solve: the solve to call on each block.
+        **options: passed to ``solve`` (branch, b, backend, ...).
+    """
+    y = np.array(start.y, dtype=float)
+    results = []
+    for sub, s0 in zip(subs, _starts(model, subs, start), strict=True):
+        _, block = sub.block
+        r = solve(sub, theta0[list(block.actuated)], start=s0, **options)
+        y[list(block.unknowns)] = r.y
+        results.append((sub, r))
+    crossings = tuple(_expand(model, sub, c, y, theta0) for sub, r in results for c in r.crossings)
+    from .sc import verified_result
+
+    first = results[0][1]
+    return verified_result(model, y, theta0, crossings, first.branch, first.b, start, None)
+
+
+def track_blocks(
+    model: Model,
+    subs: tuple[Model, ...],
+    thetas: np.ndarray,
+    start: Configuration,
+    track: Callable[..., TrackResult],
+    **options,
+) -> TrackResult:
+    """``track`` on each block, the samples assembled and verified on the model."""
+    N = len(thetas)
+    ys = np.tile(np.asarray(start.y, dtype=float), (N, 1))
+    results = []
+    for sub, s0 in zip(subs, _starts(model, subs, start), strict=True):
+        _, block = sub.block
+        r = track(sub, thetas[:, list(block.actuated)], start=s0, **options)
+        ys[:, list(block.unknowns)] = r.y
+        results.append((sub, r))
+    # every closure belongs to one block: the model's residual is the worst block's
+    covered = sorted(ci for sub, _ in results for ci in sub.block[1].closures)
+    xs, residual = model.evaluate(ys, thetas, residual=covered != list(range(len(model.closures))))
+    if residual is None:
+        residual = np.max([r.residual for _, r in results], axis=0)
+    crossings = []
+    for sub, r in results:
+        for c in r.crossings:
+            crossings.append(_expand(model, sub, c, ys[max(c.index, 0)], thetas[max(c.index, 0)]))
+    crossings.sort(key=lambda c: (c.index, c.s))
+    from .track import verify_samples
+
+    verify_samples(model, residual, thetas)
+    return TrackResult(
+        x=xs,
+        y=ys,
+        theta=thetas,
+        residual=residual,
+        crossings=tuple(crossings),
+        status="converged",
+        backend=results[0][1].backend,
+    )
