@@ -230,3 +230,37 @@ def test_track_a_biped_along_400_samples(backend: str) -> None:
     # closed motion (back to home's readings) ends on home's assembly
     assert np.abs(np.diff(r.y, axis=0)).max() < 0.05
     np.testing.assert_allclose(r.y[-1], m.home.y, rtol=0, atol=1e-8)
+
+
+def _motion_through_a_fold(m: sc.Model) -> tuple[np.ndarray, np.ndarray, int]:
+    """A 400-sample motion of one motor through a fold of the leg (the example's arc-length
+    continuation of the closure curve): (ys, thetas, sample of the fold)."""
+    import sys
+
+    sys.path.insert(0, str(FIXTURES.parents[2] / "examples"))
+    from biped_ankle_singularity import closure_curve
+
+    for step in (0.02, 0.04):
+        for motor in m.actuated:
+            ys, thetas = closure_curve(m, motor, 400, step=step)
+            j = m.actuated.index(motor)
+            fold = int(np.argmax(thetas[:, j]))
+            if 20 < fold < 380 and thetas[-1, j] < thetas[fold, j] - 0.05:
+                return ys, thetas, fold
+    raise AssertionError(f"no motor of {m.name} passes a fold within 400 samples")
+
+
+@pytest.mark.parametrize("name", ("talos_like", "cassie_like", "digit_like", "digit_like_2legs"))
+def test_track_follows_a_motion_through_a_fold(name: str) -> None:
+    m = model(name)
+    ys, thetas, fold = _motion_through_a_fold(m)
+    gm = gepetto(name)
+    for i in (fold - 40, fold + 40):  # the motion itself closes on Pinocchio
+        q = pinocchio_q(m, m.configuration(ys[i], thetas[i]), gm.model)
+        assert gl.closure_residuals(gm, q).max() <= 1e-9
+    for backend in ("cvodes", "c"):
+        r = sc.track(m, thetas, backend=backend)
+        assert r.residual.max() <= m.tolerance
+        np.testing.assert_allclose(r.y, ys, rtol=0, atol=1e-8)  # every sample, no jump
+        assert [c.kind for c in r.crossings] == ["fold"]
+        assert abs(r.crossings[0].index - fold) <= 1
