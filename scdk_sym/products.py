@@ -64,6 +64,11 @@ START_SYSTEM = Key("start_system", "monodromy start system", "(backend, seed, ma
 #: Sweeps of the atlas loaded from the store (:func:`scdk_sym.atlas.sweep.load_sweeps`).
 ATLAS_SWEEPS = Key("atlas_sweeps", "the atlas sweeps of the model", "the model only")
 
+#: The Pinocchio model of an edited joint tree (:func:`scdk_sym.verify.pinocchio.pinocchio_model`).
+PINOCCHIO_MODEL = Key(
+    "pinocchio_model", "Pinocchio model of the edited joint tree", "the model only"
+)
+
 #: Every declared key, by name.
 KEYS: dict[str, Key] = {
     k.name: k
@@ -79,6 +84,7 @@ KEYS: dict[str, Key] = {
         HOMOTOPY_TRACKER,
         START_SYSTEM,
         ATLAS_SWEEPS,
+        PINOCCHIO_MODEL,
     )
 }
 

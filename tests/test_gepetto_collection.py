@@ -206,7 +206,7 @@ def test_the_legs_solved_apart_give_the_dense_answer() -> None:
     theta = m.home.theta + 0.05
     apart = sc.solve(m, theta)
     dense = sc.load_model(FIXTURES / "digit_like_2legs")
-    dense.__dict__["blocks"] = (dense,)  # the whole 36 x 36 system at once
+    dense.blocks = (dense,)  # the whole 36 x 36 system at once
     together = sc.solve(dense, theta)
     np.testing.assert_allclose(apart.y, together.y, rtol=0, atol=1e-10)
     gm = gepetto("digit_like_2legs")

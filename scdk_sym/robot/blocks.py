@@ -13,7 +13,6 @@ its row-column graph), so they do not depend on a configuration.
 
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass
 
 import casadi as ca
@@ -56,9 +55,9 @@ def independent_blocks(model: Model) -> tuple[Block, ...]:
         return i
 
     for row in P:
-        cols = np.flatnonzero(row)
+        cols = [int(c) for c in np.flatnonzero(row)]
         for c in cols[1:]:
-            parent[find(int(c))] = find(int(cols[0]))
+            parent[find(c)] = find(cols[0])
     owner = _row_closures(model)
     groups: dict[int, list[int]] = {}
     for i in range(m):
@@ -95,21 +94,13 @@ def block_models(model: Model) -> tuple[Model, ...]:
 
 
 def _block_model(model: Model, block: Block, index: int) -> Model:
-    """The model of one block (built without a reduction: its rows and locks are the
-    model's own)."""
-    sub = object.__new__(Model)
-    sub.__dict__.update(
-        {k: v for k, v in model.__dict__.items() if not k.startswith("_") or k == "_urdf_text"}
-    )
-    for key in ("symbolic", "kernels", "products", "home", "content_hash", "blocks"):
-        sub.__dict__.pop(key, None)
-    home = model.home
+    """The model of one block (see :meth:`Model.restricted`)."""
     unknowns = tuple(model.unknowns[i] for i in block.unknowns)
     actuated = tuple(model.actuated[a] for a in block.actuated)
-    held = dict(home.joints)
+    held = dict(model.home.joints)
     for name in (*unknowns, *actuated):
         held.pop(name, None)
-    # rows of the block in the block's own g_all (its closures only, in the model's order)
+    # rows of the block in the block's own closure rows (its closures, in the model's order)
     offsets, start = {}, 0
     for ci in block.closures:
         offsets[ci] = start
@@ -121,19 +112,5 @@ def _block_model(model: Model, block: Block, index: int) -> Model:
         full = model.rows[r]
         ci = owner[full]
         rows.append(offsets[ci] + int(full - full_offsets[ci]))
-    sub.closures = tuple(model.closures[ci] for ci in block.closures)
-    sub.unknowns = unknowns
-    sub.actuated = actuated
-    sub.locked = held
-    sub.rows = tuple(rows)
-    sub.chart = type(model.chart).for_unknowns(unknowns, model.tree.rotation_joints)
-    sub._home_y = home.y[list(block.unknowns)]
-    sub._home_theta = home.theta[list(block.actuated)]
-    sub._candidates = unknowns
-    sub.block = (index, block)
-    digest = hashlib.sha256(
-        f"{model.content_hash}|block|{unknowns}|{actuated}|{tuple(rows)}".encode()
-    ).hexdigest()
-    sub.__dict__["content_hash"] = digest
-    sub.__dict__["blocks"] = (sub,)
-    return sub
+    closures = tuple(model.closures[ci] for ci in block.closures)
+    return Model.restricted(model, unknowns, actuated, closures, tuple(rows), held, (index, block))

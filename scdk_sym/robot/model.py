@@ -12,6 +12,7 @@ import hashlib
 from dataclasses import replace
 from functools import cached_property
 from pathlib import Path
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -122,6 +123,11 @@ class Model:
             the neutral configuration does not close, else ``None``.
         length_scale: characteristic size of the model [model length unit].
     """
+
+    #: (index, :class:`~scdk_sym.robot.blocks.Block`) of a block model, ``None`` otherwise.
+    block: tuple[int, Any] | None = None
+    #: What distinguishes a block model's cache key from its parent's (empty otherwise).
+    _restriction: tuple[str, ...] = ()
 
     def __init__(
         self,
@@ -590,7 +596,10 @@ class Model:
     @cached_property
     def blocks(self) -> tuple[Model, ...]:
         """One model per independent block of the closure system (the legs of a biped; see
-        :mod:`scdk_sym.robot.blocks`), or ``(self,)`` when it does not split."""
+        :mod:`scdk_sym.robot.blocks`), or ``(self,)`` when it does not split (or for a block
+        model). Assign ``(model,)`` to solve the whole system at once."""
+        if self.block is not None:
+            return (self,)
         from .blocks import block_models
 
         return block_models(self)
@@ -631,12 +640,54 @@ class Model:
 
     @cached_property
     def content_hash(self) -> str:
-        """SHA-256 of the URDF, the YAML and the reported frame (cache key)."""
+        """SHA-256 of the URDF, the YAML and the reported frame (cache key); of a block model
+        (see :meth:`restricted`), also of its unknowns, actuators and rows."""
         h = hashlib.sha256()
-        for part in (self._urdf_text, self.spec.to_yaml(), self.frame, "|".join(self.workspace)):
+        parts = (self._urdf_text, self.spec.to_yaml(), self.frame, "|".join(self.workspace))
+        for part in (*parts, *self._restriction):
             h.update(part.encode())
             h.update(b"\0")
         return h.hexdigest()
+
+    @classmethod
+    def restricted(
+        cls,
+        parent: Model,
+        unknowns: tuple[str, ...],
+        actuated: tuple[str, ...],
+        closures: tuple,
+        rows: tuple[int, ...],
+        held: dict[str, float],
+        block: tuple[int, object],
+    ) -> Model:
+        """A model of part of ``parent``'s closure system (one independent block): its own
+        unknowns, actuators, closures and rows of those closures, every other joint held at
+        the given value; built without a reduction (the parent's rows and locks are kept).
+
+        Args:
+            parent: the whole model.
+            unknowns: the block's unknowns (canonical, in the parent's order).
+            actuated: the actuators the block's rows involve.
+            closures: the block's closures (frames resolved to links).
+            rows: indices of the kept rows in the block's closure rows.
+            held: every other joint coordinate -> value [rad or length unit].
+            block: (index, :class:`~scdk_sym.robot.blocks.Block`) of the block.
+        """
+        sub = cls.__new__(cls)
+        for name in ("tree", "spec", "path", "name", "_urdf_text", "frame", "workspace"):
+            setattr(sub, name, getattr(parent, name))
+        for name in ("length_scale", "tolerance", "reduction", "assembly", "spins"):
+            setattr(sub, name, getattr(parent, name))
+        sub.closures, sub.unknowns, sub.actuated, sub.rows = closures, unknowns, actuated, rows
+        sub.locked = dict(held)
+        sub._candidates = unknowns
+        sub.chart = Chart.for_unknowns(unknowns, parent.tree.rotation_joints)
+        home = parent.home
+        sub._home_y = np.array([home.y[parent.unknowns.index(n)] for n in unknowns])
+        sub._home_theta = np.array([home.theta[parent.actuated.index(n)] for n in actuated])
+        sub.block = block
+        sub._restriction = ("block", *unknowns, "|", *actuated, "|", *map(str, rows))
+        return sub
 
     # ------------------------------------------------------------------ configurations
 

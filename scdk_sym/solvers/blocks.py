@@ -16,11 +16,19 @@ import numpy as np
 
 from ..results import Configuration, Crossing, SolveResult, TrackResult
 from ..robot import Model
+from ..robot.blocks import Block
+
+
+def _block(sub: Model) -> Block:
+    """The block of a block model."""
+    if sub.block is None:  # pragma: no cover - the block models of model.blocks have one
+        raise ValueError(f"{sub!r} is not a block model")
+    return sub.block[1]
 
 
 def _expand(model: Model, sub: Model, c: Crossing, y: np.ndarray, theta: np.ndarray) -> Crossing:
     """A block's crossing in the model's terms (other blocks at ``y``, ``theta``)."""
-    _, block = sub.block
+    block = _block(sub)
     full_y, full_theta = np.array(y, dtype=float), np.array(theta, dtype=float)
     full_y[list(block.unknowns)] = c.y
     full_theta[list(block.actuated)] = c.theta
@@ -31,7 +39,7 @@ def _expand(model: Model, sub: Model, c: Crossing, y: np.ndarray, theta: np.ndar
 def _starts(model: Model, subs, start: Configuration) -> list[Configuration]:
     out = []
     for sub in subs:
-        _, block = sub.block
+        block = _block(sub)
         out.append(
             sub.configuration(start.y[list(block.unknowns)], start.theta[list(block.actuated)])
         )
@@ -59,7 +67,7 @@ def solve_blocks(
     y = np.array(start.y, dtype=float)
     results = []
     for sub, s0 in zip(subs, _starts(model, subs, start), strict=True):
-        _, block = sub.block
+        block = _block(sub)
         r = solve(sub, theta0[list(block.actuated)], start=s0, **options)
         y[list(block.unknowns)] = r.y
         results.append((sub, r))
@@ -83,12 +91,12 @@ def track_blocks(
     ys = np.tile(np.asarray(start.y, dtype=float), (N, 1))
     results = []
     for sub, s0 in zip(subs, _starts(model, subs, start), strict=True):
-        _, block = sub.block
+        block = _block(sub)
         r = track(sub, thetas[:, list(block.actuated)], start=s0, **options)
         ys[:, list(block.unknowns)] = r.y
         results.append((sub, r))
     # every closure belongs to one block: the model's residual is the worst block's
-    covered = sorted(ci for sub, _ in results for ci in sub.block[1].closures)
+    covered = sorted(ci for sub, _ in results for ci in _block(sub).closures)
     xs, residual = model.evaluate(ys, thetas, residual=covered != list(range(len(model.closures))))
     if residual is None:
         residual = np.max([r.residual for _, r in results], axis=0)

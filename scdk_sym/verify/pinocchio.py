@@ -15,6 +15,7 @@ import numpy as np
 from ..errors import DependencyError
 from ..model.rotations import rot_exp
 from ..optional import require
+from ..products import PINOCCHIO_MODEL
 from ..robot import Model
 
 #: Install command of the optional Pinocchio cross-check.
@@ -48,11 +49,7 @@ def pinocchio_model(model: Model):
     spherical joints, universal joints as two revolutes)."""
     if not model.spec.joint_edits and not model.spins:
         return _pin_model(model._urdf_text)
-    cached = getattr(model, "_pin_tree_model", None)
-    if cached is None:
-        cached = _pin_model_of_tree(model.tree)
-        model._pin_tree_model = cached
-    return cached
+    return model.products.get(PINOCCHIO_MODEL, lambda: _pin_model_of_tree(model.tree))
 
 
 def _pin_model_of_tree(tree):

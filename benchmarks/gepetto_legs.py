@@ -1,0 +1,165 @@
+"""Gepetto's legged robots: first solve cold, and the tracker's cost per step against a plain C
+Newton on the same blocks, in one run.
+
+- **First solve, cold** (each in a fresh process with an empty cache: loading, assembly,
+  symbolic build and the solve at home + 0.05 rad on every motor): a biped solved one leg at
+  a time (``model.blocks``, the default) against the same solve on the whole 36 x 36 system.
+- **Tracking**: on a 400-sample motion of one motor through a fold of the leg (the arc-length
+  continuation of ``examples/biped_ankle_singularity.py``), microseconds per sample of
+  ``sc.track(backend="c")`` (every block, the answer assembled and verified on the model)
+  against a plain warm-started Newton in C (``benchmarks/newton_c/newton_blocks.c``) on the
+  same blocks with their CasADi-generated closure kernels, compiled with ``-O3``; both timed
+  in turn within each repeat, medians printed with their ratio. The Newton tracker has no
+  branch control: it is the cost floor, not an equivalent (it returns to the wrong assembly
+  after the fold).
+
+    python benchmarks/gepetto_legs.py [--repeat 15] [--models digit_like digit_like_2legs]
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+
+import scdk_sym as sc
+from scdk_sym.errors import ModelWarning
+
+ROOT = Path(__file__).resolve().parents[1]
+FIXTURES = ROOT / "tests" / "fixtures" / "gepetto"
+NEWTON = Path(__file__).resolve().parent / "newton_c" / "newton_blocks.c"
+sys.path.insert(0, str(ROOT / "examples"))
+from biped_ankle_singularity import closure_curve  # noqa: E402  (the example's motion)
+
+COLD = r"""
+import json, sys, time, warnings
+warnings.simplefilter("ignore")
+t0 = time.perf_counter()
+import scdk_sym as sc
+m = sc.load_model(sys.argv[1])
+if sys.argv[2] == "dense":
+    m.blocks = (m,)
+t1 = time.perf_counter()
+r = sc.solve(m, m.home.theta + 0.05)
+t2 = time.perf_counter()
+print(json.dumps({"load": t1 - t0, "solve": t2 - t1, "residual": r.residual}))
+"""
+
+
+def cold_first_solve(name: str, how: str) -> dict:
+    env = dict(os.environ, SCDK_CACHE_DIR=tempfile.mkdtemp(), OMP_NUM_THREADS="1")
+    out = subprocess.run(
+        [sys.executable, "-c", COLD, str(FIXTURES / name), how],
+        capture_output=True, text=True, env=env, check=True,
+    )  # fmt: skip
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+class NewtonBlocks:
+    """The plain C Newton tracker of every block of a model (one shared library)."""
+
+    def __init__(self, model: sc.Model, work: Path) -> None:
+        self.blocks = model.blocks
+        gen = ca.CodeGenerator("closures.c", {"with_header": False})
+        self.functions = []
+        for i, b in enumerate(self.blocks):
+            sym = b.symbolic
+            f = ca.Function(f"blk{i}", [sym.y, sym.theta, sym.c], [sym.g, ca.densify(sym.J_p)])
+            gen.add(f)
+            self.functions.append(f)
+        gen.generate(str(work) + "/")
+        lib = work / "newton_blocks.so"
+        subprocess.run(
+            ["gcc", "-O3", "-march=native", "-shared", "-fPIC", "-o", str(lib),
+             str(work / "closures.c"), str(NEWTON), "-lm"],
+            check=True,
+        )  # fmt: skip
+        self.lib = ctypes.CDLL(str(lib))
+        self.lib.newton_block.restype = ctypes.c_int
+
+    def track(self, thetas: np.ndarray) -> tuple[np.ndarray, int]:
+        N = len(thetas)
+        ys = []
+        total = 0
+        for i, (b, f) in enumerate(zip(self.blocks, self.functions, strict=True)):
+            block = b.block[1] if hasattr(b, "block") else None
+            cols = list(block.actuated) if block else list(range(b.k))
+            th = np.ascontiguousarray(thetas[:, cols])
+            y, c = b.chart.to_local(b.home.y)
+            y = np.ascontiguousarray(y)
+            c = np.ascontiguousarray(c if c.size else np.zeros(1))
+            out = np.zeros((N, b.m))
+            arg = (ctypes.c_void_p * f.sz_arg())()
+            res = (ctypes.c_void_p * f.sz_res())()
+            iw = np.zeros(max(f.sz_iw(), 1), dtype=np.int64)
+            w = np.zeros(max(f.sz_w(), 1))
+            g, J = np.zeros(b.m), np.zeros(b.m * b.m)
+            fn = getattr(self.lib, f"blk{i}")
+            d = ctypes.POINTER(ctypes.c_double)
+            n = self.lib.newton_block(
+                ctypes.cast(fn, ctypes.c_void_p), b.m, b.k, c.ctypes.data_as(d),
+                th.ctypes.data_as(d), N, y.ctypes.data_as(d), out.ctypes.data_as(d), 30,
+                ctypes.c_double(1e-12), arg, res, iw.ctypes.data_as(ctypes.c_void_p),
+                w.ctypes.data_as(d), g.ctypes.data_as(d), J.ctypes.data_as(d),
+            )  # fmt: skip
+            if n < 0:
+                raise RuntimeError(f"plain Newton failed on block {i}")
+            total += n
+            ys.append(out)
+        return np.hstack(ys), total
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=15)
+    parser.add_argument("--models", nargs="+", default=["digit_like", "digit_like_2legs"])
+    parser.add_argument("--cold", default="digit_like_2legs", help="biped of the cold solves")
+    args = parser.parse_args()
+
+    if args.cold:
+        for how in ("blocks", "dense"):
+            r = cold_first_solve(args.cold, how)
+            print(
+                f"{args.cold} first solve cold ({how}): load {r['load']:.2f} s, solve "
+                f"{r['solve']:.2f} s, residual {r['residual']:.1e}"
+            )
+    for name in args.models:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ModelWarning)
+            model = sc.load_model(FIXTURES / name)
+        motor = "motor_shin1"
+        ys, thetas = closure_curve(model, motor, 400, step=0.02)
+        sc.track(model, thetas, backend="c")  # builds and compiles
+        with tempfile.TemporaryDirectory() as tmp:
+            newton = NewtonBlocks(model, Path(tmp))
+            t_sc, t_nw = [], []
+            for _ in range(args.repeat):
+                t = time.perf_counter()
+                r = sc.track(model, thetas, backend="c")
+                t_sc.append(time.perf_counter() - t)
+                t = time.perf_counter()
+                y_nw, iters = newton.track(thetas)
+                t_nw.append(time.perf_counter() - t)
+        N = len(thetas)
+        a, b = np.median(t_sc) / N * 1e6, np.median(t_nw) / N * 1e6
+        err = np.abs(r.y - ys).max()
+        print(
+            f"{name} ({len(model.blocks)} block(s) of {[s.m for s in model.blocks]}): "
+            f"track(c) {a:.1f} us/sample, plain C Newton {b:.1f} us/sample "
+            f"({iters / N:.1f} iterations/sample), ratio {a / b:.2f}; track follows the motion "
+            f"to {err:.1e}, {len(r.crossings)} crossing(s)"
+        )
+
+
+if __name__ == "__main__":
+    main()
