@@ -92,7 +92,7 @@ class NewtonBlocks:
         ys = []
         total = 0
         for i, (b, f) in enumerate(zip(self.blocks, self.functions, strict=True)):
-            block = b.block[1] if hasattr(b, "block") else None
+            block = b.block[1] if b.block is not None else None
             cols = list(block.actuated) if block else list(range(b.k))
             th = np.ascontiguousarray(thetas[:, cols])
             y, c = b.chart.to_local(b.home.y)
@@ -137,28 +137,34 @@ def main() -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ModelWarning)
             model = sc.load_model(FIXTURES / name)
-        motor = "motor_shin1"
-        ys, thetas = closure_curve(model, motor, 400, step=0.02)
-        sc.track(model, thetas, backend="c")  # builds and compiles
+        fold_ys, fold = closure_curve(model, "motor_shin1", 400, step=0.02)
+        s = np.linspace(0.0, 1.0, 2000)
+        wave = np.sin(2 * np.pi * s)[:, None] * np.linspace(1.0, -1.0, model.k)
+        paths = {"through the ankle fold (400)": (fold, fold_ys), "smooth (2000)": (
+            model.home.theta + 0.1 * wave, None)}  # fmt: skip
         with tempfile.TemporaryDirectory() as tmp:
             newton = NewtonBlocks(model, Path(tmp))
-            t_sc, t_nw = [], []
-            for _ in range(args.repeat):
-                t = time.perf_counter()
-                r = sc.track(model, thetas, backend="c")
-                t_sc.append(time.perf_counter() - t)
-                t = time.perf_counter()
-                y_nw, iters = newton.track(thetas)
-                t_nw.append(time.perf_counter() - t)
-        N = len(thetas)
-        a, b = np.median(t_sc) / N * 1e6, np.median(t_nw) / N * 1e6
-        err = np.abs(r.y - ys).max()
-        print(
-            f"{name} ({len(model.blocks)} block(s) of {[s.m for s in model.blocks]}): "
-            f"track(c) {a:.1f} us/sample, plain C Newton {b:.1f} us/sample "
-            f"({iters / N:.1f} iterations/sample), ratio {a / b:.2f}; track follows the motion "
-            f"to {err:.1e}, {len(r.crossings)} crossing(s)"
-        )
+            for label, (thetas, ys) in paths.items():
+                sc.track(model, thetas, backend="c")  # builds and compiles
+                t_sc, t_nw = [], []
+                for _ in range(args.repeat):
+                    t = time.perf_counter()
+                    r = sc.track(model, thetas, backend="c")
+                    t_sc.append(time.perf_counter() - t)
+                    t = time.perf_counter()
+                    _, iters = newton.track(thetas)
+                    t_nw.append(time.perf_counter() - t)
+                N = len(thetas)
+                a, b = np.median(t_sc) / N * 1e6, np.median(t_nw) / N * 1e6
+                follows = (
+                    "" if ys is None else f", follows the motion to {np.abs(r.y - ys).max():.1e}"
+                )
+                print(
+                    f"{name} ({len(model.blocks)} block(s) of {[m.m for m in model.blocks]}), "
+                    f"{label}: track(c) {a:.1f} us/sample, plain C Newton {b:.1f} us/sample "
+                    f"({iters / N:.1f} iterations/sample), ratio {a / b:.2f}; "
+                    f"{len(r.crossings)} crossing(s){follows}"
+                )
 
 
 if __name__ == "__main__":

@@ -36,6 +36,22 @@ def _expand(model: Model, sub: Model, c: Crossing, y: np.ndarray, theta: np.ndar
     return Crossing(c.s, x, full_y, full_theta, c.index, c.kind)
 
 
+def _placing_block(model: Model, subs: tuple[Model, ...]) -> int | None:
+    """The index of the block whose unknowns and actuators alone place the reported frame
+    (every other joint fixed), or ``None``."""
+    import casadi as ca
+
+    sym = model.symbolic
+    used = np.array(ca.DM(ca.jacobian(sym.x, ca.vertcat(sym.y, sym.theta)).sparsity(), 1))
+    cols = set(np.flatnonzero(used.any(axis=0)).tolist())
+    for i, sub in enumerate(subs):
+        block = _block(sub)
+        own = {*block.unknowns, *(model.m + a for a in block.actuated)}
+        if cols <= own:
+            return i
+    return None
+
+
 def _starts(model: Model, subs, start: Configuration) -> list[Configuration]:
     out = []
     for sub in subs:
@@ -95,9 +111,15 @@ def track_blocks(
         r = track(sub, thetas[:, list(block.actuated)], start=s0, **options)
         ys[:, list(block.unknowns)] = r.y
         results.append((sub, r))
-    # every closure belongs to one block: the model's residual is the worst block's
+    # every closure belongs to one block: the model's residual is the worst block's; the
+    # reported frame placed by one block's joints alone: x is that block's
     covered = sorted(ci for sub, _ in results for ci in _block(sub).closures)
-    xs, residual = model.evaluate(ys, thetas, residual=covered != list(range(len(model.closures))))
+    whole = covered != list(range(len(model.closures)))
+    placer = _placing_block(model, subs)
+    if placer is None or whole:
+        xs, residual = model.evaluate(ys, thetas, residual=whole)
+    else:
+        xs, residual = results[placer][1].x, None
     if residual is None:
         residual = np.max([r.residual for _, r in results], axis=0)
     crossings = []
