@@ -357,3 +357,39 @@ def test_root_bound_certificate_rejects_an_incomplete_or_degenerate_set():
     off[0] = z[0] + 0.3
     ok, note = complete_by_bound(form, off, p, b, bound)
     assert not ok and "do not refine" in note
+
+
+# ---------------------------------------------------------------- special 6-6 geometry
+
+
+def test_shipped_stewart_gough_is_certified_with_its_own_root_count():
+    """Planar base and platform, three-fold symmetric anchors: not the generic 40 roots. The
+    start system's count equals a random-start complex Newton's at the same parameters, the
+    real set a random-start LM's; the offset trace test does not pass here, the pencil's does."""
+    from roots import newton_roots
+
+    from scdk_sym.algebraic import algebraic_form
+    from scdk_sym.algebraic.scaled import scaled_form
+    from scdk_sym.backends import resolve
+    from scdk_sym.solvers.homotopy_modes import model_start_system
+
+    model = shipped("stewart_gough")
+    theta = np.array([0.66, 0.63, 0.65, 0.62, 0.64, 0.66])
+    sols = sc.assembly_modes(model, theta)
+    assert_certified(model, sols)
+    assert "trace test on the curve of an offset line" in sols.report
+    form = scaled_form(algebraic_form(model, resolve("auto", "modes")))
+    start = model_start_system(form, 0)
+    roots = newton_roots(form, start.p, 3000, 80, np.random.default_rng(3), b=start.b)
+    assert len(roots) == sols.root_count == 28
+    A = np.array([model.placement(model.home, f"base_anchor_{i}")[:3, 3] for i in range(1, 7)])
+    P0 = model.placement(model.home, "platform")
+    B = np.array(
+        [
+            np.linalg.solve(P0, model.placement(model.home, f"platform_anchor_{i}"))[:3, 3]
+            for i in range(1, 7)
+        ]
+    )
+    ref = stewart_reference(A, B, theta, 4000, seed=2)
+    assert len(ref) == 8
+    assert_same_stewart_poses(list(sols), ref)

@@ -174,6 +174,7 @@ def monodromy_solve(
     progress: bool = True,
     test: Callable[[np.ndarray, np.ndarray, np.ndarray], float] | None = None,
     target: int | None = None,
+    start: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> StartSystem:
     """A complete start system by monodromy loops and a trace test.
 
@@ -196,6 +197,8 @@ def monodromy_solve(
             at most ``trace_tol``.
         target: the number of solutions at which the test runs at once (an upper bound on
             the isolated solutions: no loop can add one beyond it); ``None``: no target.
+        start: ``(z0 (n,), p (n_params,), b (n,))``, a known solution ``G(z0, p) + b = 0``
+            to start the loops from (default: ``system.random_point`` with ``b = -G``).
 
     Returns:
         A :class:`StartSystem` (``trace_passed`` False if the budget ran out, ``reason``
@@ -208,16 +211,22 @@ def monodromy_solve(
 
     rng = np.random.default_rng(seed)
     offs = np.asarray(system.offset_rows, dtype=bool)
-    z0, p = system.random_point(rng)
-    z0, p = np.asarray(z0, dtype=complex), np.asarray(p, dtype=complex)
-    G, _, _ = system.evaluate(z0[None], p[None])
-    G = G[0]
-    if np.abs(G[~offs]).max(initial=0.0) > 1e-10 * (1.0 + np.abs(z0).max()):
-        raise HomotopyError(
-            f"random_point gives structural residual {np.abs(G[~offs]).max():.1e}; "
-            "fix the system's random_point so structural rows vanish"
-        )
-    b = np.where(offs, -G, 0.0)
+    if start is None:
+        z0, p = system.random_point(rng)
+        z0, p = np.asarray(z0, dtype=complex), np.asarray(p, dtype=complex)
+        G, _, _ = system.evaluate(z0[None], p[None])
+        G = G[0]
+        if np.abs(G[~offs]).max(initial=0.0) > 1e-10 * (1.0 + np.abs(z0).max()):
+            raise HomotopyError(
+                f"random_point gives structural residual {np.abs(G[~offs]).max():.1e}; "
+                "fix the system's random_point so structural rows vanish"
+            )
+        b = np.where(offs, -G, 0.0)
+    else:
+        z0, p, b = (np.asarray(x, dtype=complex) for x in start)
+        G = system.evaluate(z0[None], p[None])[0][0] + b
+        if np.abs(G).max(initial=0.0) > 1e-10 * (1.0 + np.abs(z0).max()):
+            raise HomotopyError(f"the given start is no solution (residual {np.abs(G).max():.1e})")
     sols = z0[None].copy()
     pscale, bscale = 1.0 + np.abs(p).max(), 1.0 + np.abs(b).max()
     residual, passed, stable, loops = float("inf"), False, 0, 0

@@ -65,7 +65,7 @@ MAX_LOOPS = 60
 #: Largest relative trace residual of a complete start system.
 TRACE_TOL = 1e-9
 #: Version of the start-system test (part of the cache file name).
-MODES_CACHE_VERSION = "5"
+MODES_CACHE_VERSION = "6"
 #: Budget of the BKK root bound of a form [s of CPU time]; beyond it only the trace tests
 #: remain.
 ROOT_BOUND_BUDGET = 2.0
@@ -197,11 +197,13 @@ def model_start_system(
     (:func:`complete_by_bound`: no isolated root is missing), or when the trace of the
     frames' placements (:func:`frame_trace_map`) along a random offset
     pencil is a polynomial of degree 1 (:func:`scdk_sym.algebraic.trace_test`, relative
-    residual <= :data:`TRACE_TOL`). No weaker test certifies: a rational fit of the trace
-    on a circle of the pencil is passed by the trace of a subset that no branch point
-    inside the circle connects to the rest (a random 6-6 platform with 38 of its 40 roots
-    passed one), so where solutions escape to infinity and neither test applies the set
-    stays uncertified.
+    residual <= :data:`TRACE_TOL`), or, where solutions escape along that pencil, when the
+    trace over the curve of an offset line is
+    (:func:`scdk_sym.algebraic.pencil.pencil_trace_test`, the hyperplane on the first
+    unknown's coordinates), which is linear for every form. No weaker test certifies: a
+    rational fit of the trace on a circle of the pencil is passed by the trace of a subset
+    that no branch point inside the circle connects to the rest (a random 6-6 platform with
+    38 of its 40 roots passed one).
 
     Every result, proven or not, is stored on disk under the form's content hash and kept in
     memory on the model; a stored failure (with its ``reason``) is returned as it is, without
@@ -223,6 +225,7 @@ def model_start_system(
         trace test's (NaN if none ran).
     """
     from ..algebraic import monodromy_solve, trace_test
+    from ..algebraic.pencil import pencil_trace_test
 
     products = form.model.products
     key = (form.backend, seed, max_loops)
@@ -250,7 +253,17 @@ def model_start_system(
             verdict["trace"] = linear
             if linear <= TRACE_TOL:
                 verdict["certificate"] = f"linear trace test (residual {linear:.1e})"
-            return linear
+                return linear
+            pencil = pencil_trace_test(
+                form, sols, p, b, rng, coords=np.array(form.rows.slots[0].z), tol=TRACE_TOL
+            )
+            verdict["trace"] = pencil.residual
+            if pencil.passed:
+                verdict["certificate"] = (
+                    f"trace test on the curve of an offset line ({pencil.witnesses} "
+                    f"witnesses on a hyperplane, residual {pencil.residual:.1e})"
+                )
+            return pencil.residual
 
         start = monodromy_solve(
             form, seed, stable_loops=5, max_loops=max_loops, trace_tol=TRACE_TOL,
