@@ -30,14 +30,20 @@ def dietmaier():
     return system, start
 
 
-def test_collinear_residual_of_a_line_and_of_a_parabola():
+def test_collinear_residual_cancelling_bends_and_a_missing_point():
     rng = np.random.default_rng(0)
     ts = np.array([0.0, 0.3 + 0.2j, -0.1 + 0.4j])
-    a, b = rng.normal(size=(2, 5, 3)) + 1j * rng.normal(size=(2, 5, 3))
-    line = [a + t * b for t in ts]
-    assert collinear_residual(line, ts) < 1e-15
-    bent = [a + t * b + t**2 * b for t in ts]
-    assert collinear_residual(bent, ts) > 1e-3
+    a, b, c = rng.normal(size=(3, 5, 3)) + 1j * rng.normal(size=(3, 5, 3))
+    c -= c.mean(axis=0)  # the bends cancel in the sum: a complete fibre
+    paths = [a + t * b + t**2 * c for t in ts]
+    assert collinear_residual(paths, ts) < 1e-14
+    # without a point, its bend is left: of the order of 1 / R of the bends
+    assert collinear_residual([f[1:] for f in paths], ts) > 1e-2
+    # a far-away point does not hide a missing one near the origin
+    far = [np.vstack([f, 1e6 * (1 + t) * np.ones((1, 3))]) for f, t in zip(paths, ts, strict=True)]
+    assert collinear_residual([f[1:] for f in far], ts) > 1e-2
+    # straight paths: the test cannot tell
+    assert collinear_residual([a + t * b for t in ts], ts) == np.inf
 
 
 @pytest.mark.parametrize("coords", [[0], [3, 4, 5, 6]])

@@ -73,8 +73,8 @@ class PencilTrace:
     """The verdict of :func:`pencil_trace_test`, with the pencil it was drawn on.
 
     Attributes:
-        residual: distance of the three traces from a line, relative to the mean sum of
-            ``|(z_K, lambda)|_inf`` over the fibre; ``inf`` when a path failed or two met.
+        residual: the sum's deviation from a line in ``t``, relative to the points' own
+            (:func:`collinear_residual`); ``inf`` when a path failed or two met.
         witnesses: number of points of the curve on the hyperplane found by monodromy.
         loops: monodromy loops run on the hyperplane.
         passed: ``residual <= tol``.
@@ -172,19 +172,29 @@ class _Pencil:
 
 
 def collinear_residual(fibres: list[np.ndarray], ts: np.ndarray) -> float:
-    """Distance of the fibres' sums from a line in ``t``, relative to their mean size.
+    """How far the fibres' sum is from a line in ``t``, relative to the points' own bends.
+
+    Each point's deviation from the chord through its values at ``ts[0] = 0`` and ``ts[1]``,
+    ``d_j = w_j(t2) - w_j(0) - (t2 / t1) (w_j(t1) - w_j(0))``, is its path's bend; the sum's
+    deviation is the sum of the bends. A complete fibre's bends cancel (to rounding); a
+    fibre without the point ``j`` keeps ``-d_j``. Normalising by the bends (not by the size
+    of the coordinates) makes the test scale free: a missing point near the origin counts
+    as much as one far out.
 
     Args:
         fibres: three (R, m) complex point sets at ``ts[0] = 0``, ``ts[1]``, ``ts[2]``.
         ts: (3,) complex pencil values.
 
     Returns:
-        ``|s2 - s0 - (t2 / t1) (s1 - s0)|_inf / mean_k sum_j |w_j(t_k)|_inf``.
+        ``max_i |sum_j d_ji| / max_i sum_j |d_ji|``; ``inf`` when the bends are below
+        ``1e-8`` of the coordinates (the paths are too straight for the test to tell).
     """
-    s = [f.sum(axis=0) for f in fibres]
-    dev = s[2] - s[0] - (ts[2] / ts[1]) * (s[1] - s[0])
-    scale = np.mean([np.abs(f).max(axis=1).sum() for f in fibres])
-    return float(np.abs(dev).max() / scale)
+    d = fibres[2] - fibres[0] - (ts[2] / ts[1]) * (fibres[1] - fibres[0])
+    bends = np.abs(d).sum(axis=0).max()
+    size = max(np.abs(f).sum(axis=0).max() for f in fibres)
+    if not bends > 1e-8 * size:
+        return float("inf")
+    return float(np.abs(d.sum(axis=0)).max() / bends)
 
 
 def _fibre(solutions: np.ndarray, witnesses: np.ndarray) -> np.ndarray:
