@@ -68,6 +68,10 @@ ATLAS_SWEEPS = Key("atlas_sweeps", "the atlas sweeps of the model", "the model o
 PINOCCHIO_MODEL = Key(
     "pinocchio_model", "Pinocchio model of the edited joint tree", "the model only"
 )
+#: The block whose joints alone place the reported frame (:mod:`scdk_sym.solvers.blocks`).
+PLACING_BLOCK = Key(
+    "placing_block", "index of the block that alone places the reported frame", "the model only"
+)
 
 #: Every declared key, by name.
 KEYS: dict[str, Key] = {
@@ -85,6 +89,7 @@ KEYS: dict[str, Key] = {
         START_SYSTEM,
         ATLAS_SWEEPS,
         PINOCCHIO_MODEL,
+        PLACING_BLOCK,
     )
 }
 

@@ -43,7 +43,7 @@ from ..symbolic.system import Symbolic
 #: inverse kinematics.
 GROUPS = (
     ("closure", "predict", "newton", "polish", "tangent", "step"),
-    ("pose", "recentre", "check"),
+    ("pose", "recentre", "check", "gjp", "jsdir"),
     ("ik_step",),
 )
 #: Kernels compiled without optimisation (``-O0``): the inverse kinematics, called only to
@@ -78,6 +78,11 @@ class TrackerKernels:
             inverse kinematics over ``z = (y, theta)`` (square workspaces only).
         check: (y, theta, c) -> max |closure row|, the dropped redundant rows included (the
             residual that verifies every sample, as ``model.residual``).
+        gjp: (y, theta, c) -> (g[m], J_p[m,m]): the closures without ``J_s``, for the Newton
+            iterations of a smooth track (on a leg whose actuators sit at the root of every
+            loop, ``J_s`` costs as much as ``g`` and ``J_p`` together).
+        jsdir: (y, theta, c, dtheta[k]) -> J_s dtheta[m] [model length unit]: ``J_s`` along
+            one direction of the actuators (one forward sweep, not ``k``).
     """
 
     closure: ca.Function
@@ -90,6 +95,8 @@ class TrackerKernels:
     recentre: ca.Function
     ik_step: ca.Function
     check: ca.Function
+    gjp: ca.Function
+    jsdir: ca.Function
 
     def all(self) -> list[ca.Function]:
         """Every kernel, in declaration order."""
@@ -164,6 +171,7 @@ def build_tracker_kernels(
             y_out[j] = 0
     recentre = ca.Function(f"{prefix}_recentre", [y, c], [y_out, c_out], ["y", "c"], ["y0", "c0"])
 
+    dtheta = ca.SX.sym("dtheta", sym.theta.numel())
     kernels = dict(
         closure=closure,
         pose=base.pose,
@@ -180,6 +188,16 @@ def build_tracker_kernels(
             [ca.norm_inf(sym.g_check)],
             ["y", "theta", "c"],
             ["residual"],
+        ),
+        gjp=ca.Function(
+            f"{prefix}_gjp", [y, theta, c], [sym.g, sym.J_p], ["y", "theta", "c"], ["g", "J_p"]
+        ),
+        jsdir=ca.Function(
+            f"{prefix}_jsdir",
+            [y, theta, c, dtheta],
+            [-ca.jtimes(sym.g, theta, dtheta)],
+            ["y", "theta", "c", "dtheta"],
+            ["js_dtheta"],
         ),
     )
     return TrackerKernels(

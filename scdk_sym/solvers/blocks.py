@@ -14,6 +14,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..products import PLACING_BLOCK
 from ..results import Configuration, Crossing, SolveResult, TrackResult
 from ..robot import Model
 from ..robot.blocks import Block
@@ -38,7 +39,11 @@ def _expand(model: Model, sub: Model, c: Crossing, y: np.ndarray, theta: np.ndar
 
 def _placing_block(model: Model, subs: tuple[Model, ...]) -> int | None:
     """The index of the block whose unknowns and actuators alone place the reported frame
-    (every other joint fixed), or ``None``."""
+    (every other joint fixed), or ``None`` (computed once per model)."""
+    return model.products.get(PLACING_BLOCK, lambda: _find_placing_block(model, subs))
+
+
+def _find_placing_block(model: Model, subs: tuple[Model, ...]) -> int | None:
     import casadi as ca
 
     sym = model.symbolic
