@@ -276,3 +276,58 @@ def test_track_follows_a_motion_through_a_fold(name: str) -> None:
         np.testing.assert_allclose(r.y, ys, rtol=0, atol=1e-8)  # every sample, no jump
         assert [c.kind for c in r.crossings] == ["fold"]
         assert abs(r.crossings[0].index - fold) <= 1
+
+
+def random_start_assemblies(gm: gl.GepettoModel, theta: np.ndarray, links: list[str],
+                            starts: int, seed: int) -> list[np.ndarray]:  # fmt: skip
+    """Distinct real assemblies at ``theta`` by Pinocchio projections from random ``q``: the
+    motors held, every other joint uniform (balls: uniform rotations), each assembly the
+    origins of ``links``."""
+    import pinocchio as pin
+
+    pin.seed(int(seed))
+    found: list[np.ndarray] = []
+    nq = gm.model.nq
+    for _ in range(starts):
+        q = pin.randomConfiguration(gm.model, -np.pi * np.ones(nq), np.pi * np.ones(nq))
+        q[list(gm.motor_q_indices)] = theta
+        try:
+            q = gl.project(gm, q, fixed_q_indices=gm.motor_q_indices, max_iter=100)
+        except gl.ProjectionError:
+            continue
+        places = gl.link_placements(gm, q)
+        key = np.concatenate([places[k][:3, 3] for k in links])
+        if all(np.abs(key - f).max() > 1e-6 for f in found):
+            found.append(key)
+    return found
+
+
+@pytest.mark.parametrize("name", ("talos_like",))
+def test_assembly_modes_certified_equal_to_a_random_start_reference(name: str) -> None:
+    m, gm = model(name), gepetto(name)
+    theta = m.home.theta + 0.05
+    sols = sc.assembly_modes(m, theta)
+    assert sols.certified, sols.report
+    import pinocchio as pin
+
+    # links not carried by a ball joint of Gepetto's model: a rod's spin about its own axis
+    # (free there, locked here) moves the bodies it carries off that axis
+    pm = gm.model
+    balls = {i for i, j in enumerate(pm.joints) if j.nq == 4}
+    carried = {f.name for f in pm.frames if set(pm.supports[f.parentJoint].tolist()) & balls}
+    bodies = gl.link_placements(gm, pin.neutral(pm))
+    links = [k for k in moving_links(m, gm) if k in bodies and k not in carried]
+    assert m.frame in links
+    keys = [np.concatenate([m.placements(c)[k][:3, 3] for k in links]) for c in sols]
+    ours: list[np.ndarray] = []
+    for key in keys:  # configurations of the URDF's joints -> assemblies of the links
+        if all(np.abs(key - o).max() > 1e-6 for o in ours):
+            ours.append(key)
+    reference = random_start_assemblies(gm, theta, links, 120, seed=7)
+    assert len(reference) == len(ours)
+    for key in reference:
+        assert min(np.abs(key - o).max() for o in ours) < 1e-7
+    # each assembly is reached by as many joint configurations: the revolute triple of a
+    # ball has two angle triples per rotation, the universal joint two angle pairs
+    counts = [sum(np.abs(k - o).max() <= 1e-6 for k in keys) for o in ours]
+    assert len(sols) == 8 and counts == [4] * len(ours), counts

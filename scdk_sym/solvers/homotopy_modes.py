@@ -50,6 +50,10 @@ REAL_TOL = 1e-8
 #: Endpoints with a relative imaginary part in (REAL_TOL, UNDECIDED_TOL] leave the set
 #: uncertified: a real solution computed with that much error would be missed.
 UNDECIDED_TOL = 1e-5
+#: A singular endpoint at which a weld's ``tr(R_a^T R_b)`` is within this of -1 lies on a
+#: set of roots of the form closing that weld with a half turn (the trace is -1 or 3 there,
+#: constant on a connected set): none of its points is a closure (:func:`weld_traces`).
+HALF_TURN = 1.0
 #: Largest max |g| of a polished real solution [model length unit].
 RESIDUAL = 1e-9
 #: A real root of the form with max |g| above this many model sizes, before and after Newton,
@@ -117,6 +121,49 @@ def frame_trace_map(form, p: np.ndarray):
         return (np.array(out[0]) + 1j * np.array(out[1])).T
 
     return trace_map
+
+
+def weld_traces(form, p: np.ndarray):
+    """The traces of ``R_a^T R_b`` of the model's 6d closures, as polynomial maps of ``z``.
+
+    A 6d closure's rotation rows ``vee(R_a^T R_b) = 0`` hold exactly where ``R_a^T R_b`` is
+    symmetric, i.e. (an orthogonal matrix, complex or real) the identity, of trace 3, or a
+    half turn, of trace -1. Trace being continuous and two valued on that set, a connected
+    set of roots of the form keeps one trace: a component on which it is -1 holds no closure
+    of the model, real or complex.
+
+    Args:
+        form: an :class:`~scdk_sym.algebraic.form.AlgebraicForm` (scaled or not).
+        p: (n_params,) complex parameters.
+
+    Returns:
+        ``f(z (N, n)) -> (N, W)`` complex traces, one column per 6d closure (``W`` may be 0).
+    """
+    from ..algebraic.pairs import complexify
+    from ..algebraic.polynomial import _joint_values, _motion
+
+    model = form.model
+    z, ps = ca.SX.sym("z", form.n), ca.SX.sym("p", form.n_params)
+    values, _ = _joint_values(model, form.rows.slots, z, ps)
+    T = {model.tree.root: ca.SX.eye(4)}
+    for j in model.tree.joints:
+        M = T[j.parent] @ ca.DM(j.origin)
+        if j.movable:
+            M = M @ _motion(j.type, j.axis, values[j.name])
+        T[j.child] = M
+    welds = [cl for cl in model.closures if cl.type == "6d"]
+    traces = [ca.trace(T[cl.frame_a][:3, :3].T @ T[cl.frame_b][:3, :3]) for cl in welds]
+    F = complexify(ca.Function("welds", [z, ps], [ca.vertcat(*traces, 0)]), "welds_c")
+    p = np.asarray(p, dtype=complex)
+
+    def trace_of(Z: np.ndarray) -> np.ndarray:
+        Z = np.atleast_2d(Z)
+        N = len(Z)
+        out = F.map(N)(Z.real.T, Z.imag.T, np.tile(p.real[:, None], (1, N)),
+                       np.tile(p.imag[:, None], (1, N)))  # fmt: skip
+        return (np.array(out[0]) + 1j * np.array(out[1])).T[:, : len(welds)]
+
+    return trace_of
 
 
 def form_root_bound(form, p: np.ndarray, seed: int = 0):
@@ -432,6 +479,16 @@ def homotopy_modes(
     if n_failed:
         reasons.append(f"{n_failed} of {len(res.status)} paths failed before t = 1")
     singular = res.endpoints[res.status == "singular"]
+    half_turns = 0
+    if len(singular):
+        # roots on a set where a weld's rotation rows close with a half turn: no closures
+        p0 = form.params(theta0)
+        traces = weld_traces(form, p0)(singular)
+        G, _, _ = form.evaluate(singular, np.broadcast_to(p0, (len(singular), form.n_params)))
+        near = np.abs(G).max(axis=1) <= 1e-6 * (1.0 + np.abs(singular).max(axis=1))
+        on_half_turn = near & (np.abs(traces + 1.0) < HALF_TURN).any(axis=1)
+        half_turns = int(on_half_turn.sum())
+        singular = singular[~on_half_turn]
     if len(singular):
         n_real = int(np.sum(form.is_real(singular, 1e-6)))
         reasons.append(
@@ -502,6 +559,11 @@ def homotopy_modes(
             )
     else:
         report = "not certified: " + "; ".join(reasons)
+    if half_turns:
+        report += (
+            f"; {half_turns} path(s) ended on roots of the form that close a weld with a half "
+            "turn (tr R_a^T R_b = -1 on all of them): no closures"
+        )
     return AssemblyModes(
         solutions=tuple(cfgs),
         certified=certified,
