@@ -73,6 +73,8 @@ if TYPE_CHECKING:
 FORM_VERSION = "1"
 #: Scale of the imaginary parts of random complex angles (start points and angle parameters).
 ANGLE_IMAG = 0.1
+#: Step of the monodromy loops in an angle parameter [rad] (:attr:`AlgebraicForm.param_widths`).
+LOOP_ANGLE = 0.5
 #: Batch sizes whose mapped Functions are kept per form.
 _MAPS_KEPT = 16
 
@@ -206,6 +208,14 @@ class AlgebraicForm:
         widths = np.array([scale if k == "length" else ANGLE_IMAG for k in self.rows.param_kinds])
         p = self.model.home.theta + widths * cnormal(self.n_params)
         return z, p
+
+    @property
+    def param_widths(self) -> np.ndarray:
+        """(n_params,) size of the monodromy loops' steps in each parameter: the model's
+        size for lengths, :data:`LOOP_ANGLE` for angles (a complex angle step of order one
+        swings a chain's rotations by ``e`` per joint, and half of the loops' paths fail)."""
+        scale = float(self.model.length_scale) or 1.0
+        return np.array([scale if k == "length" else LOOP_ANGLE for k in self.rows.param_kinds])
 
     def content_hash(self) -> str:
         """Hex digest of everything ``G`` depends on: the model's kernel cache key (its files,

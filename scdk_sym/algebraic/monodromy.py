@@ -228,7 +228,11 @@ def monodromy_solve(
         if np.abs(G).max(initial=0.0) > 1e-10 * (1.0 + np.abs(z0).max()):
             raise HomotopyError(f"the given start is no solution (residual {np.abs(G).max():.1e})")
     sols = z0[None].copy()
-    pscale, bscale = 1.0 + np.abs(p).max(), 1.0 + np.abs(b).max()
+    bscale = 1.0 + np.abs(b).max()
+    # the system's own step per parameter if it has one (a form's angles), else |p|'s size
+    pscale = getattr(system, "param_widths", None)
+    if pscale is None:
+        pscale = 1.0 + np.abs(p).max()
     residual, passed, stable, loops = float("inf"), False, 0, 0
     failed_count = -1  # solution count at the last failed completeness test
     if test is None:

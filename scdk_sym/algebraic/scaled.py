@@ -78,6 +78,11 @@ class ScaledForm:
         w = self.weights
         return G * w, Jz * w[:, None], Jp * w[:, None]
 
+    @property
+    def param_widths(self) -> np.ndarray:
+        """The form's loop steps in its parameters."""
+        return self.form.param_widths
+
     def random_point(self, rng: np.random.Generator):
         """The form's random point."""
         return self.form.random_point(rng)
