@@ -243,6 +243,10 @@ class AssemblyModes(Sequence):
         certificates: one :class:`~scdk_sym.algebraic.certify.Certificate` per solution (in the
             order of ``solutions``); empty when none were computed.
         method: ``"homotopy"`` or ``"curves"``.
+        blocks: for a model solved one block at a time
+            (:mod:`scdk_sym.solvers.block_modes`), each block's sets: one
+            :class:`~scdk_sym.solvers.block_modes.BlockModes` per value of its inputs, with
+            their own certificates; empty otherwise.
     """
 
     solutions: tuple[Configuration, ...] = ()
@@ -251,10 +255,12 @@ class AssemblyModes(Sequence):
     report: str = ""
     certificates: tuple = ()
     method: str = "homotopy"
+    blocks: tuple = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "solutions", tuple(self.solutions))
         object.__setattr__(self, "certificates", tuple(self.certificates))
+        object.__setattr__(self, "blocks", tuple(self.blocks))
 
     def __len__(self) -> int:
         return len(self.solutions)

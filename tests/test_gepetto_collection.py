@@ -302,12 +302,21 @@ def random_start_assemblies(gm: gl.GepettoModel, theta: np.ndarray, links: list[
     return found
 
 
-@pytest.mark.parametrize("name", ("talos_like",))
-def test_assembly_modes_certified_equal_to_a_random_start_reference(name: str) -> None:
+@pytest.mark.parametrize(
+    ("name", "blocks", "count"),
+    [("talos_like", 0, 8), ("cassie_like", 2, 64)],  # cassie: its knee, then its ankle
+)
+def test_assembly_modes_certified_equal_to_a_random_start_reference(
+    name: str, blocks: int, count: int
+) -> None:
     m, gm = model(name), gepetto(name)
     theta = m.home.theta + 0.05
     sols = sc.assembly_modes(m, theta)
     assert sols.certified, sols.report
+    assert len({id(b.block) for b in sols.blocks}) == blocks
+    assert all(b.modes.certified for b in sols.blocks)
+    for cfg in sols:
+        assert m.residual(cfg.y, cfg.theta) <= m.tolerance
     import pinocchio as pin
 
     # links not carried by a ball joint of Gepetto's model: a rod's spin about its own axis
@@ -328,6 +337,40 @@ def test_assembly_modes_certified_equal_to_a_random_start_reference(name: str) -
     for key in reference:
         assert min(np.abs(key - o).max() for o in ours) < 1e-7
     # each assembly is reached by as many joint configurations: the revolute triple of a
-    # ball has two angle triples per rotation, the universal joint two angle pairs
+    # ball has two angle triples per rotation, a universal joint two angle pairs
     counts = [sum(np.abs(k - o).max() <= 1e-6 for k in keys) for o in ours]
-    assert len(sols) == 8 and counts == [4] * len(ours), counts
+    assert len(sols) == count and len(set(counts)) == 1, counts
+
+
+@pytest.mark.parametrize(("name", "sizes"), [("cassie_like", [6, 6]), ("digit_like", [6, 12])])
+def test_a_leg_is_block_triangular_as_finite_differences_see_it(name: str, sizes) -> None:
+    """The knee block's rows do not move with the ankle's unknowns; the ankle's rows move
+    with the knee's only through its inputs (finite differences of g at home)."""
+    from scdk_sym.robot.blocks import triangular_blocks, triangular_models
+
+    m = model(name)
+    blocks = triangular_blocks(m)
+    assert [len(b.unknowns) for b in blocks] == sizes
+    assert m.chart.size == 0  # revolute unknowns only: y is its own chart
+    y0, theta, g = m.home.y, m.home.theta, m.kernels.g
+    base = np.array(g(y0, theta, np.zeros(0))).ravel()
+    moved = np.zeros((m.m, m.m), dtype=bool)  # moved[row, unknown]
+    for j in range(m.m):
+        y = y0.copy()
+        y[j] += 1e-6
+        moved[:, j] = np.abs(np.array(g(y, theta, np.zeros(0))).ravel() - base) > 1e-12
+    seen: set[int] = set()
+    for b in blocks:
+        rows, own = list(b.rows), set(b.unknowns)
+        allowed = own | set(b.inputs)
+        assert set(b.inputs) <= seen  # the inputs are solved by earlier blocks
+        for j in range(m.m):
+            if j not in allowed:
+                assert not moved[rows, j].any(), (b, m.unknowns[j])
+        assert moved[np.ix_(rows, sorted(own))].any(axis=0).all()
+        seen |= own
+    subs = triangular_models(m)
+    assert [s.m for s in subs] == sizes
+    assert subs[1].actuated[-len(blocks[1].inputs) :] == tuple(
+        m.unknowns[i] for i in blocks[1].inputs
+    )

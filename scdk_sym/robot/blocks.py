@@ -30,12 +30,15 @@ class Block:
         actuated: (k_b,) indices into ``model.actuated`` of the actuators its rows involve.
         rows: (m_b,) indices into the model's kept closure rows ``g``.
         closures: indices into ``model.closures`` of the closures its rows belong to.
+        inputs: indices into ``model.unknowns`` of the unknowns of earlier blocks that its
+            rows involve (a block of :func:`triangular_blocks`; empty for an independent one).
     """
 
     unknowns: tuple[int, ...]
     actuated: tuple[int, ...]
     rows: tuple[int, ...]
     closures: tuple[int, ...]
+    inputs: tuple[int, ...] = ()
 
 
 def independent_blocks(model: Model) -> tuple[Block, ...]:
@@ -71,6 +74,114 @@ def independent_blocks(model: Model) -> tuple[Block, ...]:
     return tuple(blocks)
 
 
+def _matching(P: np.ndarray) -> list[int]:
+    """A perfect matching of rows to columns of the square sparsity ``P`` (augmenting
+    paths); ``match[row] = column``, -1 where none exists."""
+    n_rows, n_cols = P.shape
+    col_of_row, row_of_col = [-1] * n_rows, [-1] * n_cols
+
+    def augment(r: int, seen: set[int]) -> bool:
+        for col in np.flatnonzero(P[r]):
+            c = int(col)
+            if c in seen:
+                continue
+            seen.add(c)
+            if row_of_col[c] < 0 or augment(row_of_col[c], seen):
+                col_of_row[r], row_of_col[c] = c, r
+                return True
+        return False
+
+    for r in range(n_rows):
+        augment(r, set())
+    return col_of_row
+
+
+def _strong_components(edges: list[list[int]]) -> list[list[int]]:
+    """Strongly connected components of a digraph (Tarjan), each listed after every
+    component it has an edge to: a dependency comes first."""
+    index: dict[int, int] = {}
+    low: dict[int, int] = {}
+    stack: list[int] = []
+    on_stack: set[int] = set()
+    out: list[list[int]] = []
+    counter = [0]
+
+    def visit(v: int) -> None:
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on_stack.add(v)
+        for w in edges[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            out.append(sorted(comp))
+
+    for v in range(len(edges)):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def triangular_blocks(model: Model) -> tuple[Block, ...]:
+    """The block-triangular decomposition of ``model``'s closure system, dependencies first.
+
+    The rows are matched to the unknowns they determine (a perfect matching of the
+    structural sparsity of ``J_p``); a row that involves the unknown matched to another row
+    depends on that row; the strongly connected components of that dependency graph are the
+    blocks (Dulmage-Mendelsohn's fine decomposition of a square system). Each block solves
+    its unknowns from its rows once the unknowns of earlier blocks it involves (its
+    ``inputs``) are known: a leg's knee four-bar, then its ankle mechanism. One block when the
+    system does not split, or when its sparsity has no perfect matching.
+    """
+    sym = model.symbolic
+    P = np.array(ca.DM(sym.J_p.sparsity(), 1), dtype=bool)
+    S = np.array(ca.DM(ca.jacobian(sym.g, sym.theta).sparsity(), 1), dtype=bool)
+    m = model.m
+    match = _matching(P)
+    whole = Block(tuple(range(m)), tuple(range(model.k)), tuple(range(m)),
+                  tuple(range(len(model.closures))))  # fmt: skip
+    if m == 0 or min(match) < 0:
+        return (whole,)
+    row_of_col = {c: r for r, c in enumerate(match)}
+    edges = [sorted({row_of_col[int(c)] for c in np.flatnonzero(P[r])} - {r}) for r in range(m)]
+    owner = _row_closures(model)
+    blocks = []
+    for rows in _strong_components(edges):
+        cols = sorted(match[r] for r in rows)
+        involved = set(np.flatnonzero(P[rows].any(axis=0)).tolist())
+        actuated = [a for a in range(model.k) if S[rows, a].any()]
+        closures = sorted({owner[model.rows[r]] for r in rows})
+        blocks.append(Block(tuple(cols), tuple(actuated), tuple(rows), tuple(closures),
+                            tuple(sorted(involved - set(cols)))))  # fmt: skip
+    return tuple(blocks)
+
+
+def triangular_models(model: Model) -> tuple[Model, ...]:
+    """One model per block of :func:`triangular_blocks`, the model itself when it does not
+    split. A block's inputs (unknowns of earlier blocks) are actuators of its model, after
+    the model's own: its modes at ``(theta, inputs)`` are the block's solutions given the
+    earlier blocks' (see :func:`scdk_sym.solvers.block_modes.block_modes`). ``None`` when an
+    input is not a one-coordinate joint (a ball's rotation cannot be an actuator)."""
+    blocks = triangular_blocks(model)
+    if len(blocks) == 1:
+        return (model,)
+    single = set(model.tree.single_coordinate_joints)
+    if any(model.unknowns[i] not in single for b in blocks for i in b.inputs):
+        return ()
+    return tuple(_block_model(model, b, i) for i, b in enumerate(blocks))
+
+
 def _row_closures(model: Model) -> list[int]:
     """Closure index of each row of ``g_all``."""
     out: list[int] = []
@@ -97,6 +208,7 @@ def _block_model(model: Model, block: Block, index: int) -> Model:
     """The model of one block (see :meth:`Model.restricted`)."""
     unknowns = tuple(model.unknowns[i] for i in block.unknowns)
     actuated = tuple(model.actuated[a] for a in block.actuated)
+    actuated += tuple(model.unknowns[i] for i in block.inputs)
     held = dict(model.home.joints)
     for name in (*unknowns, *actuated):
         held.pop(name, None)

@@ -667,7 +667,8 @@ class Model:
         Args:
             parent: the whole model.
             unknowns: the block's unknowns (canonical, in the parent's order).
-            actuated: the actuators the block's rows involve.
+            actuated: the actuators the block's rows involve (and, for a block of a
+                triangular decomposition, the unknowns of earlier blocks they involve).
             closures: the block's closures (frames resolved to links).
             rows: indices of the kept rows in the block's closure rows.
             held: every other joint coordinate -> value [rad or length unit].
@@ -684,7 +685,14 @@ class Model:
         sub.chart = Chart.for_unknowns(unknowns, parent.tree.rotation_joints)
         home = parent.home
         sub._home_y = np.array([home.y[parent.unknowns.index(n)] for n in unknowns])
-        sub._home_theta = np.array([home.theta[parent.actuated.index(n)] for n in actuated])
+        sub._home_theta = np.array(
+            [
+                home.theta[parent.actuated.index(n)]
+                if n in parent.actuated
+                else home.y[parent.unknowns.index(n)]  # an earlier block's unknown as input
+                for n in actuated
+            ]
+        )
         sub.block = block
         sub._restriction = ("block", *unknowns, "|", *actuated, "|", *map(str, rows))
         return sub

@@ -534,7 +534,7 @@ def homotopy_modes(
         kept.append(i)
     if dropped:
         reasons.append(f"{dropped} real endpoint(s) did not polish to max |g| <= {RESIDUAL:.0e}")
-    cfgs.sort(key=_sort_key)
+    cfgs.sort(key=sort_key)
     certs: tuple = ()
     if cfgs:
         ys = np.vstack([c.y for c in cfgs])
@@ -574,5 +574,6 @@ def homotopy_modes(
     )
 
 
-def _sort_key(cfg: Configuration) -> tuple:
+def sort_key(cfg: Configuration) -> tuple:
+    """The order of assembly modes: ``x``, then ``y``, each rounded to 1e-8."""
     return (*(round(float(v), 8) for v in cfg.x), *(round(float(v), 8) for v in cfg.y))

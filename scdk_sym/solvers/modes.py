@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike
 from ..backends import DEFAULTS
 from ..errors import InputError
 from ..results import AssemblyModes
-from ..robot import Model
+from ..robot import Model, as_vector
 from .curve_modes import (  # noqa: F401  (the curve search's names, also importable from here)
     Curve,
     ModeSearch,
@@ -94,13 +94,18 @@ def assembly_modes(
                 f"option(s) {', '.join(sorted(extra))} belong to method='curves'; "
                 "the homotopy takes seed, progress, backend, max_loops, cache, rebuild"
             )
+        from .block_modes import block_modes, split
+
+        chosen = backend or DEFAULTS["modes"]
+        parts = split(model)
+        if parts is not None:
+            theta = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
+            return block_modes(
+                model, theta, parts[0], parts[1], seed=seed, progress=progress, backend=chosen,
+                **options,
+            )  # fmt: skip
         return homotopy_modes(
-            model,
-            theta0,
-            seed=seed,
-            progress=progress,
-            backend=backend or DEFAULTS["modes"],
-            **options,
+            model, theta0, seed=seed, progress=progress, backend=chosen, **options
         )
     extra = set(options) - set(_CURVE_DEFAULTS)
     if extra:
