@@ -45,6 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import AlgebraicFormError, DependencyError, HomotopyError
+from ..graphs import triangular_decomposition
 
 #: Coefficients below this fraction of a row's largest one are rounding residues (zero).
 ZERO_COEFFICIENT = 1e-11
@@ -320,59 +321,8 @@ def _with_origin(points: np.ndarray) -> np.ndarray:
 def _blocks(supports: list[np.ndarray]) -> list[tuple[list[int], list[int]]] | None:
     """Irreducible blocks ``(rows, variables)`` in counting order (each block's rows use only
     its variables and those of earlier blocks); ``None`` without a row-variable matching."""
-    n = len(supports)
     uses = [set(np.flatnonzero(np.any(P != 0, axis=0)).tolist()) for P in supports]
-    match_var: dict[int, int] = {}  # variable -> row
-
-    def augment(r: int, seen: set[int]) -> bool:
-        for v in uses[r]:
-            if v in seen:
-                continue
-            seen.add(v)
-            if v not in match_var or augment(match_var[v], seen):
-                match_var[v] = r
-                return True
-        return False
-
-    for r in range(n):
-        if not augment(r, set()):
-            return None
-    row_of = match_var
-    var_of = {r: v for v, r in row_of.items()}
-    # row r -> row s when r uses the variable matched to s; blocks = strongly connected
-    # components, counted sinks first (Tarjan emits them in that order)
-    succ = [[row_of[v] for v in uses[r]] for r in range(n)]
-    order: list[list[int]] = []
-    idx: dict[int, int] = {}
-    low: dict[int, int] = {}
-    stack: list[int] = []
-    on: set[int] = set()
-    counter = itertools.count()
-
-    def strong(v: int) -> None:
-        idx[v] = low[v] = next(counter)
-        stack.append(v)
-        on.add(v)
-        for w in succ[v]:
-            if w not in idx:
-                strong(w)
-                low[v] = min(low[v], low[w])
-            elif w in on:
-                low[v] = min(low[v], idx[w])
-        if low[v] == idx[v]:
-            comp = []
-            while True:
-                w = stack.pop()
-                on.discard(w)
-                comp.append(w)
-                if w == v:
-                    break
-            order.append(comp)
-
-    for v in range(n):
-        if v not in idx:
-            strong(v)
-    return [(sorted(c), sorted(var_of[r] for r in c)) for c in order]
+    return triangular_decomposition(uses)
 
 
 def _scipy():

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from ..graphs import triangular_decomposition
 from .model import Model
 
 
@@ -74,65 +75,6 @@ def independent_blocks(model: Model) -> tuple[Block, ...]:
     return tuple(blocks)
 
 
-def _matching(P: np.ndarray) -> list[int]:
-    """A perfect matching of rows to columns of the square sparsity ``P`` (augmenting
-    paths); ``match[row] = column``, -1 where none exists."""
-    n_rows, n_cols = P.shape
-    col_of_row, row_of_col = [-1] * n_rows, [-1] * n_cols
-
-    def augment(r: int, seen: set[int]) -> bool:
-        for col in np.flatnonzero(P[r]):
-            c = int(col)
-            if c in seen:
-                continue
-            seen.add(c)
-            if row_of_col[c] < 0 or augment(row_of_col[c], seen):
-                col_of_row[r], row_of_col[c] = c, r
-                return True
-        return False
-
-    for r in range(n_rows):
-        augment(r, set())
-    return col_of_row
-
-
-def _strong_components(edges: list[list[int]]) -> list[list[int]]:
-    """Strongly connected components of a digraph (Tarjan), each listed after every
-    component it has an edge to: a dependency comes first."""
-    index: dict[int, int] = {}
-    low: dict[int, int] = {}
-    stack: list[int] = []
-    on_stack: set[int] = set()
-    out: list[list[int]] = []
-    counter = [0]
-
-    def visit(v: int) -> None:
-        index[v] = low[v] = counter[0]
-        counter[0] += 1
-        stack.append(v)
-        on_stack.add(v)
-        for w in edges[v]:
-            if w not in index:
-                visit(w)
-                low[v] = min(low[v], low[w])
-            elif w in on_stack:
-                low[v] = min(low[v], index[w])
-        if low[v] == index[v]:
-            comp = []
-            while True:
-                w = stack.pop()
-                on_stack.discard(w)
-                comp.append(w)
-                if w == v:
-                    break
-            out.append(sorted(comp))
-
-    for v in range(len(edges)):
-        if v not in index:
-            visit(v)
-    return out
-
-
 def triangular_blocks(model: Model) -> tuple[Block, ...]:
     """The block-triangular decomposition of ``model``'s closure system, dependencies first.
 
@@ -148,17 +90,14 @@ def triangular_blocks(model: Model) -> tuple[Block, ...]:
     P = np.array(ca.DM(sym.J_p.sparsity(), 1), dtype=bool)
     S = np.array(ca.DM(ca.jacobian(sym.g, sym.theta).sparsity(), 1), dtype=bool)
     m = model.m
-    match = _matching(P)
     whole = Block(tuple(range(m)), tuple(range(model.k)), tuple(range(m)),
                   tuple(range(len(model.closures))))  # fmt: skip
-    if m == 0 or min(match) < 0:
+    parts = triangular_decomposition([set(np.flatnonzero(row).tolist()) for row in P])
+    if m == 0 or parts is None:
         return (whole,)
-    row_of_col = {c: r for r, c in enumerate(match)}
-    edges = [sorted({row_of_col[int(c)] for c in np.flatnonzero(P[r])} - {r}) for r in range(m)]
     owner = _row_closures(model)
     blocks = []
-    for rows in _strong_components(edges):
-        cols = sorted(match[r] for r in rows)
+    for rows, cols in parts:
         involved = set(np.flatnonzero(P[rows].any(axis=0)).tolist())
         actuated = [a for a in range(model.k) if S[rows, a].any()]
         closures = sorted({owner[model.rows[r]] for r in rows})

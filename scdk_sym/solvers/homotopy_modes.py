@@ -81,6 +81,34 @@ REGULAR_COND = 1e10
 DISTINCT = 1e-6
 
 
+def _complex_map(form, p: np.ndarray, name: str, entries):
+    """``f(z (N, n)) -> (N, E)`` complex: ``entries(T)`` (SX, a function of the links' world
+    placements ``T``, link name -> (4, 4) SX, polynomial in ``z``) at fixed parameters ``p``."""
+    from ..algebraic.pairs import complexify
+    from ..algebraic.polynomial import _joint_values, _motion
+
+    model = form.model
+    z, ps = ca.SX.sym("z", form.n), ca.SX.sym("p", form.n_params)
+    values, _ = _joint_values(model, form.rows.slots, z, ps)
+    T = {model.tree.root: ca.SX.eye(4)}
+    for j in model.tree.joints:
+        M = T[j.parent] @ ca.DM(j.origin)
+        if j.movable:
+            M = M @ _motion(j.type, j.axis, values[j.name])
+        T[j.child] = M
+    F = complexify(ca.Function(name, [z, ps], [entries(T)]), f"{name}_c")
+    p = np.asarray(p, dtype=complex)
+
+    def evaluate(Z: np.ndarray) -> np.ndarray:
+        Z = np.atleast_2d(Z)
+        N = len(Z)
+        out = F.map(N)(Z.real.T, Z.imag.T, np.tile(p.real[:, None], (1, N)),
+                       np.tile(p.imag[:, None], (1, N)))  # fmt: skip
+        return (np.array(out[0]) + 1j * np.array(out[1])).T
+
+    return evaluate
+
+
 def frame_trace_map(form, p: np.ndarray):
     """The traced functions of a form: placements of the model frame and the closure frames.
 
@@ -96,31 +124,14 @@ def frame_trace_map(form, p: np.ndarray):
         ``f(z) -> (N, 12 F)`` complex: translation and rotation entries of the ``F`` frames,
         polynomial in ``z``.
     """
-    from ..algebraic.pairs import complexify
-    from ..algebraic.polynomial import _joint_values, _motion
-
     model = form.model
-    z, ps = ca.SX.sym("z", form.n), ca.SX.sym("p", form.n_params)
-    values, _ = _joint_values(model, form.rows.slots, z, ps)
-    T = {model.tree.root: ca.SX.eye(4)}
-    for j in model.tree.joints:
-        M = T[j.parent] @ ca.DM(j.origin)
-        if j.movable:
-            M = M @ _motion(j.type, j.axis, values[j.name])
-        T[j.child] = M
     frames = [model.frame] + [f for cl in model.closures for f in (cl.frame_a, cl.frame_b)]
-    entries = ca.vertcat(*[ca.vec(T[f][:3, :]) for f in dict.fromkeys(frames)])
-    F = complexify(ca.Function("frames", [z, ps], [entries / model.length_scale]), "frames_c")
-    p = np.asarray(p, dtype=complex)
 
-    def trace_map(Z: np.ndarray) -> np.ndarray:
-        Z = np.atleast_2d(Z)
-        N = len(Z)
-        out = F.map(N)(Z.real.T, Z.imag.T, np.tile(p.real[:, None], (1, N)),
-                       np.tile(p.imag[:, None], (1, N)))  # fmt: skip
-        return (np.array(out[0]) + 1j * np.array(out[1])).T
+    def entries(T):
+        out = ca.vertcat(*[ca.vec(T[f][:3, :]) for f in dict.fromkeys(frames)])
+        return out / model.length_scale
 
-    return trace_map
+    return _complex_map(form, p, "frames", entries)
 
 
 def weld_traces(form, p: np.ndarray):
@@ -139,31 +150,14 @@ def weld_traces(form, p: np.ndarray):
     Returns:
         ``f(z (N, n)) -> (N, W)`` complex traces, one column per 6d closure (``W`` may be 0).
     """
-    from ..algebraic.pairs import complexify
-    from ..algebraic.polynomial import _joint_values, _motion
+    welds = [cl for cl in form.model.closures if cl.type == "6d"]
 
-    model = form.model
-    z, ps = ca.SX.sym("z", form.n), ca.SX.sym("p", form.n_params)
-    values, _ = _joint_values(model, form.rows.slots, z, ps)
-    T = {model.tree.root: ca.SX.eye(4)}
-    for j in model.tree.joints:
-        M = T[j.parent] @ ca.DM(j.origin)
-        if j.movable:
-            M = M @ _motion(j.type, j.axis, values[j.name])
-        T[j.child] = M
-    welds = [cl for cl in model.closures if cl.type == "6d"]
-    traces = [ca.trace(T[cl.frame_a][:3, :3].T @ T[cl.frame_b][:3, :3]) for cl in welds]
-    F = complexify(ca.Function("welds", [z, ps], [ca.vertcat(*traces, 0)]), "welds_c")
-    p = np.asarray(p, dtype=complex)
+    def entries(T):
+        traces = [ca.trace(T[cl.frame_a][:3, :3].T @ T[cl.frame_b][:3, :3]) for cl in welds]
+        return ca.vertcat(*traces, 0)
 
-    def trace_of(Z: np.ndarray) -> np.ndarray:
-        Z = np.atleast_2d(Z)
-        N = len(Z)
-        out = F.map(N)(Z.real.T, Z.imag.T, np.tile(p.real[:, None], (1, N)),
-                       np.tile(p.imag[:, None], (1, N)))  # fmt: skip
-        return (np.array(out[0]) + 1j * np.array(out[1])).T[:, : len(welds)]
-
-    return trace_of
+    f = _complex_map(form, p, "welds", entries)
+    return lambda Z: f(Z)[:, : len(welds)]
 
 
 def form_root_bound(form, p: np.ndarray, seed: int = 0):
