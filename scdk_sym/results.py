@@ -272,12 +272,16 @@ class AssemblyModes(Sequence):
         return iter(self.solutions)
 
     def to_dict(self) -> dict:
-        """JSON-ready: ``solutions`` (each with its ``certified`` flag), ``count``,
-        ``certified``, ``root_count``, ``report``, ``method``."""
+        """JSON-ready: ``solutions`` (each with its ``certified`` flag: its certificate's, or
+        for a set certified block by block the set's), ``count``, ``certified``,
+        ``root_count``, ``report``, ``method``."""
         sols = []
         for i, s in enumerate(self.solutions):
             d = dict(s.to_dict(), crossings=[], status="converged")
-            d["certified"] = bool(i < len(self.certificates) and self.certificates[i].proven)
+            if self.blocks and not self.certificates:  # certified block by block
+                d["certified"] = bool(self.certified)
+            else:
+                d["certified"] = bool(i < len(self.certificates) and self.certificates[i].proven)
             sols.append(d)
         return {
             "solutions": sols,

@@ -374,3 +374,12 @@ def test_a_leg_is_block_triangular_as_finite_differences_see_it(name: str, sizes
     assert subs[1].actuated[-len(blocks[1].inputs) :] == tuple(
         m.unknowns[i] for i in blocks[1].inputs
     )
+
+
+def test_modes_certified_per_block_say_so_in_json() -> None:
+    m = model("cassie_like")
+    sols = sc.assembly_modes(m, m.home.theta + 0.05)
+    d = sols.to_dict()
+    assert d["certified"] and d["count"] == len(sols) == 64
+    assert all(s["certified"] for s in d["solutions"])
+    assert d["report"].startswith("certified complete per block")
