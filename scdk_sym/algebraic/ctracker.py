@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
-import os
 from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
@@ -67,7 +66,7 @@ def source_library(stem: str, flags: tuple[str, ...]) -> Path:
     Raises:
         BuildError: no C compiler, or the compilation failed.
     """
-    from ..kernels.cache import cache_dir
+    from ..kernels.cache import cache_dir, cached_file
     from ..kernels.compile import compiler_tag, run_compiler
 
     src = source_dir()
@@ -77,11 +76,11 @@ def source_library(stem: str, flags: tuple[str, ...]) -> Path:
     h.update(" ".join(flags).encode())
     h.update(compiler_tag().encode())
     target = cache_dir() / f"{stem}_{h.hexdigest()[:20]}.so"
-    if not target.exists():
-        partial = target.with_suffix(f".{os.getpid()}.tmp")
-        run_compiler([*flags, str(src / f"{stem}.c"), "-o", str(partial), "-lm"])
-        os.replace(partial, target)  # atomic: concurrent processes never load a partial file
-    return target
+
+    def build(path: Path) -> None:
+        run_compiler([*flags, str(src / f"{stem}.c"), "-o", str(path), "-lm"])
+
+    return cached_file(target, build, "compiled library")
 
 
 def tracker_library() -> Path:

@@ -25,7 +25,6 @@ chosen ``f`` only makes a complete set fail the test (a false negative), never t
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -339,38 +338,39 @@ def start_system(
     Returns:
         A :class:`StartSystem`.
     """
+    from ..kernels.cache import read_entry, write_entry
+
+    def read(path: Path) -> StartSystem | None:
+        with np.load(path) as f:
+            s = StartSystem(
+                p=f["p"],
+                b=f["b"],
+                solutions=f["solutions"],
+                root_count=int(f["root_count"]),
+                trace_residual=float(f["trace_residual"]),
+                trace_passed=bool(f["trace_passed"]),
+                loops=int(f["loops"]),
+                seed=int(f["seed"]),
+            )
+        _, ok = _refine(system, s.solutions, s.p, s.b)
+        return s if ok.all() and len(s.solutions) == s.root_count else None
+
     path = cache_path(system, seed) if cache else None
-    if path is not None and path.exists():
-        try:
-            with np.load(path) as f:
-                s = StartSystem(
-                    p=f["p"],
-                    b=f["b"],
-                    solutions=f["solutions"],
-                    root_count=int(f["root_count"]),
-                    trace_residual=float(f["trace_residual"]),
-                    trace_passed=bool(f["trace_passed"]),
-                    loops=int(f["loops"]),
-                    seed=int(f["seed"]),
-                )
-            _, ok = _refine(system, s.solutions, s.p, s.b)
-            if ok.all() and len(s.solutions) == s.root_count:
-                return s
-        except (OSError, KeyError, ValueError):
-            pass
+    stored = None if path is None else read_entry(path, read, "start system")
+    if stored is not None:
+        return stored
     s = monodromy_solve(system, seed, progress=progress, **kwargs)
     if path is not None and s.trace_passed:
-        tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
-        np.savez(
-            tmp,
-            p=s.p,
-            b=s.b,
-            solutions=s.solutions,
-            root_count=s.root_count,
-            trace_residual=s.trace_residual,
-            trace_passed=s.trace_passed,
-            loops=s.loops,
-            seed=s.seed,
-        )
-        os.replace(tmp, path)
+        fields = {name: getattr(s, name) for name in _STORED}
+        write_entry(path, lambda tmp: _savez(tmp, fields))
     return s
+
+
+#: The fields of a :class:`StartSystem` that :func:`start_system` stores.
+_STORED = ("p", "b", "solutions", "root_count", "trace_residual", "trace_passed", "loops", "seed")
+
+
+def _savez(path: Path, fields: dict) -> None:
+    """``np.savez`` to exactly ``path`` (through a file object: no ``.npz`` appended)."""
+    with open(path, "wb") as f:
+        np.savez(f, **fields)

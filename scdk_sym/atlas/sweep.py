@@ -125,16 +125,17 @@ def sweep_key(model) -> str:
 
 def sweep_library(model) -> Path:
     """The compiled sweep of a model, built into the disk cache on first use (seconds)."""
-    from ..kernels.cache import cache_dir
-    from ..kernels.compile import _compile_into, write_c
+    from ..kernels.cache import cache_dir, cached_file
+    from ..kernels.compile import compile_shared, write_c
 
-    target = cache_dir() / f"atlas_sweep_{sweep_key(model)}.so"
-    if not target.exists():
+    def build(path: Path) -> None:
         with tempfile.TemporaryDirectory() as tmp:
             funcs = [build_sweep(model, n) for n in STEPS]
             src = write_c(funcs, "scdk_atlas_sweep", Path(tmp), with_header=False)
-            _compile_into(src, target)
-    return target
+            compile_shared(src, path)
+
+    target = cache_dir() / f"atlas_sweep_{sweep_key(model)}.so"
+    return cached_file(target, build, "atlas sweep library")
 
 
 def load_sweeps(model) -> tuple[ca.Function, ...]:

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import ctypes
 import math
-import os
 import shutil
 import tempfile
 from dataclasses import dataclass, replace
@@ -20,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import BuildError
-from ..kernels.cache import cache_dir
+from ..kernels.cache import cache_dir, cached_file
 from ..kernels.compile import announce
 from ..products import C_TRACKER
 from .generate import compile_library, generate, source_key
@@ -356,12 +355,12 @@ def _build_tracker(model) -> CTracker:
     with tempfile.TemporaryDirectory() as tmp:
         src = generate(model, Path(tmp), PREFIX, split=True, inverse_kinematics=False)
         key = source_key(src)
-        target = cache_dir() / f"tracker_{key}.so"
-        if not target.exists():
+
+        def build(path: Path) -> None:
             announce(model.name)
-            partial = Path(tmp) / "libtracker.so"
-            compile_library(src, partial)
-            staged = target.with_suffix(f".{os.getpid()}.tmp")
-            shutil.copyfile(partial, staged)
-            os.replace(staged, target)
+            compiled = Path(tmp) / "libtracker.so"
+            compile_library(src, compiled)
+            shutil.copyfile(compiled, path)
+
+        target = cached_file(cache_dir() / f"tracker_{key}.so", build, "C tracker library")
     return CTracker(target, model.m, model.k, model.chart.size, len(model.workspace))

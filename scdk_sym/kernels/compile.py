@@ -27,7 +27,7 @@ from pathlib import Path
 import casadi as ca
 
 from ..errors import BuildError
-from .cache import cache_dir
+from .cache import cache_dir, cached_file
 from .functions import Kernels, build_kernels
 
 #: Optimisation level of every compiled library (``-O1``: the generated kernels are
@@ -244,28 +244,13 @@ def cached_library(
         h.update(" ".join((*flags, *LINK_FLAGS)).encode())
         h.update(f"{compiler_tag()} casadi {getattr(ca, '__version__', '')}".encode())
         target = cache_dir() / f"{name}_{h.hexdigest()[:20]}.so"
-        if not target.exists():
+
+        def build(path: Path) -> None:
             if announce_as:
                 announce(announce_as)
-            _compile_parts_into(sources, target, flags)
-    return target
+            compile_parallel(sources, path, flags)
 
-
-def _compile_into(source: Path, target: Path) -> None:
-    partial = target.with_suffix(f".{os.getpid()}.tmp")
-    compile_shared(source, partial)
-    os.replace(partial, target)  # atomic: concurrent processes never load a partial file
-
-
-def _compile_parts_into(
-    sources: Sequence[Path],
-    target: Path,
-    flags: Sequence[str] = COMPILE_FLAGS,
-    unoptimised: Sequence[Path] = (),
-) -> None:
-    partial = target.with_suffix(f".{os.getpid()}.tmp")
-    compile_parallel(sources, partial, flags, unoptimised=unoptimised)
-    os.replace(partial, target)  # atomic: concurrent processes never load a partial file
+        return cached_file(target, build, "compiled library")
 
 
 def compile_shared(source: Path, target: Path) -> Path:
@@ -360,8 +345,8 @@ def model_library(
     Raises:
         BuildError: see :func:`run_compiler`.
     """
-    target = library_path(model, name, groups, unoptimised)
-    if not target.exists():
+
+    def build(path: Path) -> None:
         announce(model.name)
         with tempfile.TemporaryDirectory() as tmp:
             sources, _ = write_c_parts(groups, name, Path(tmp))
@@ -370,8 +355,9 @@ def model_library(
                 for src, group in zip(sources, groups, strict=True)
                 if all(f.name() in unoptimised for f in group)
             ]
-            _compile_parts_into(sources, target, unoptimised=cold)
-    return target
+            compile_parallel(sources, path, unoptimised=cold)
+
+    return cached_file(library_path(model, name, groups, unoptimised), build, "kernel library")
 
 
 def compiled_kernels(model) -> Kernels:

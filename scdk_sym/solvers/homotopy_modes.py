@@ -28,7 +28,6 @@ homotopy attempts, Newton steps).
 from __future__ import annotations
 
 import functools
-import os
 from dataclasses import replace
 from typing import Any
 
@@ -39,6 +38,7 @@ from numpy.typing import ArrayLike
 from ..backends import resolve
 from ..errors import ScdkError
 from ..follower.geometry import features
+from ..kernels.cache import read_entry, write_entry
 from ..kernels.fastcall import model_calls
 from ..model.rotations import rot_exp
 from ..products import START_SYSTEM
@@ -275,8 +275,8 @@ def model_start_system(
         return stored
     path = _cache_path(form, seed) if cache else None
     start = None
-    if path is not None and path.exists() and not rebuild:
-        start = _load(form, path)
+    if path is not None and not rebuild:
+        start = read_entry(path, lambda p: _load(form, p), "start system")
     if start is None:
         _, p_star = form.random_point(np.random.default_rng(seed))
         trace_map = frame_trace_map(form, p_star)
@@ -338,24 +338,23 @@ def _cache_path(form, seed: int):
 
 
 def _load(form, path):
+    """The start system stored at ``path`` (raises when unreadable), or ``None`` when it
+    no longer refines to its own solutions."""
     from ..algebraic.monodromy import StartSystem, _refine
 
-    try:
-        with np.load(path) as f:
-            s = StartSystem(**{name: f[name] for name in _FIELDS})
-        s = replace(
-            s,
-            root_count=int(s.root_count),
-            trace_residual=float(s.trace_residual),
-            trace_passed=bool(s.trace_passed),
-            loops=int(s.loops),
-            seed=int(s.seed),
-            reason=str(s.reason),
-            root_bound=int(s.root_bound),
-            certificate=str(s.certificate),
-        )
-    except (OSError, KeyError, ValueError, TypeError):
-        return None
+    with np.load(path) as f:
+        s = StartSystem(**{name: f[name] for name in _FIELDS})
+    s = replace(
+        s,
+        root_count=int(s.root_count),
+        trace_residual=float(s.trace_residual),
+        trace_passed=bool(s.trace_passed),
+        loops=int(s.loops),
+        seed=int(s.seed),
+        reason=str(s.reason),
+        root_bound=int(s.root_bound),
+        certificate=str(s.certificate),
+    )
     if len(s.solutions) != s.root_count:
         return None
     if not s.trace_passed:
@@ -365,9 +364,13 @@ def _load(form, path):
 
 
 def _save(s, path) -> None:
-    tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
-    np.savez(tmp, **{name: getattr(s, name) for name in _FIELDS})
-    os.replace(tmp, path)
+    fields = {name: getattr(s, name) for name in _FIELDS}
+
+    def write(tmp) -> None:
+        with open(tmp, "wb") as f:
+            np.savez(f, **fields)
+
+    write_entry(path, write)
 
 
 _FIELDS = (
