@@ -151,6 +151,37 @@ class StoreMismatchError(AtlasError):
     """An existing atlas store was written for another model, grid or set of options."""
 
 
+class StoreLockedError(AtlasError):
+    """Another run is writing the atlas store.
+
+    Attributes:
+        path: the store.
+        holder: what the lock file says of the writer (``pid``, ``host``, ``started``).
+    """
+
+    def __init__(self, message: str, path: str = "", holder: dict | None = None):
+        super().__init__(message)
+        self.path = path
+        self.holder = dict(holder or {})
+
+
+class Interrupted(KeyboardInterrupt):
+    """A long run was stopped by SIGINT or SIGTERM; what it finished is kept.
+
+    Not a failure, so not an :class:`ScdkError`: a ``KeyboardInterrupt``, which ``except
+    Exception`` does not swallow and ``except KeyboardInterrupt`` catches as before.
+
+    Attributes:
+        signal: the signal's name (``"SIGINT"``, ``"SIGTERM"``).
+        resume: how to resume, when the run can be resumed (empty otherwise).
+    """
+
+    def __init__(self, message: str, signal: str = "SIGINT", resume: str = ""):
+        super().__init__(message)
+        self.signal = signal
+        self.resume = resume
+
+
 class OutputError(ScdkError):
     """An output file or folder cannot be written.
 

@@ -75,9 +75,7 @@ def _run(cache: Path, out: Path) -> tuple[dict, str]:
 
 
 def _entries(cache: Path) -> list[Path]:
-    return sorted(
-        p for p in cache.rglob("*") if p.is_file() and not p.name.endswith(DIGEST_SUFFIX)
-    )
+    return sorted(p for p in cache.rglob("*") if p.is_file() and not p.name.endswith(DIGEST_SUFFIX))
 
 
 @needs_compiler()

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError, PathError, ScdkError, SolveError, VerificationError
+from ..interrupts import check
 from ..products import ATLAS_SWEEPS
 
 #: Status codes of an atlas point (stored in the store's attributes as well).
@@ -150,6 +151,7 @@ def solve_chunk(model, start, thetas: np.ndarray, modes: bool = False) -> ChunkR
         swept += idx.size
         todo = todo[~ok]
     for i in todo:
+        check()  # a stop between points: the chunk is not written, a rerun redoes it
         try:
             r = solve(
                 model,
@@ -169,14 +171,17 @@ def solve_chunk(model, start, thetas: np.ndarray, modes: bool = False) -> ChunkR
             x[i] = r.x
             det[i] = _det_local(model, r.y, r.theta)
             status[i] = SINGULAR if r.status == "singular" else SOLVED
+    check()  # an interrupt some library reported as a failed solve is not a failed point
     n_modes = np.full(N, -1, dtype=np.int16)
     if modes:
         from ..solvers.modes import assembly_modes
 
         for row in range(N):
+            check()
             try:
                 sols = assembly_modes(model, thetas[row], backend="compiled")
                 n_modes[row] = len(sols) if sols.certified else -1
             except ScdkError:
                 n_modes[row] = -1
+        check()
     return ChunkResult(x, det, status, n_modes, swept)

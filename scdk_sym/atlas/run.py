@@ -12,19 +12,26 @@ not grow with the grid.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import multiprocessing
+import os
+import sys
 import time
 import uuid
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from ..errors import AtlasError, InputError
+from ..errors import AtlasError, InputError, Interrupted
+from ..interrupts import check, stop_on_signals
 from ..optional import require
 from .chunk import _MODELS, STATUS, ModelSource, model_source, solve_chunk, worker_model
 from .grid import Grid, make_grid
+from .lock import store_lock
 from .store import FORMAT, Layout, create_or_check, write_chunk
 
 _pkg = "scdk_sym"
@@ -32,6 +39,8 @@ _pkg = "scdk_sym"
 DEFAULT_CHUNK = 4096
 #: Tasks in flight per worker.
 IN_FLIGHT = 3
+#: Seconds the client and the local cluster get to close (an interrupt must end in ~2 s).
+CLOSE_TIMEOUT = 1.0
 #: What produced n_modes (recorded in the store).
 MODES_METHOD = (
     "scdk_sym.assembly_modes(model, theta, backend='compiled'): the number of real solutions "
@@ -113,6 +122,7 @@ def atlas(
     chunk: int = DEFAULT_CHUNK,
     progress: bool = True,
     on_chunk: Callable[[int, int], None] | None = None,
+    wait: bool = False,
 ) -> AtlasRun:
     """Convergent direct kinematics at every point of a joint grid, into a Zarr store.
 
@@ -137,6 +147,8 @@ def atlas(
         chunk: points per chunk (task and Zarr chunk); memory per task is O(chunk).
         progress: a tqdm progress bar on stderr.
         on_chunk: called on the client after each chunk as ``on_chunk(points_done, total)``.
+        wait: when another run is writing ``out``, wait for it to end (then solve what it
+            left) instead of refusing.
 
     Returns:
         The :class:`AtlasRun` summary; the data is in the store (see
@@ -146,7 +158,13 @@ def atlas(
         InputError: bad grid, thetas, chunk or worker count.
         UnknownNameError: a grid name is not an actuated joint.
         StoreMismatchError: ``out`` holds an atlas of another model, grid or options.
+        StoreLockedError: another run is writing ``out`` (and ``wait`` is False).
         AtlasError: Dask or Zarr missing, workers lost (re-run to resume).
+        Interrupted: SIGINT or SIGTERM (within about a second; the chunks written are kept
+            and the same call resumes; a ``KeyboardInterrupt``).
+
+    A store has one writer at a time (:mod:`scdk_sym.atlas.lock`). Worker processes do not
+    re-import the calling script, so a script needs no ``if __name__ == "__main__":`` guard.
     """
     from ..solvers.sc import _singular_start, validate_start
 
@@ -158,6 +176,11 @@ def atlas(
         raise InputError(f"atlas: chunk must be a positive number of points, got {chunk!r}")
     if workers is not None and (not isinstance(workers, int | np.integer) or workers < 0):
         raise InputError(f"atlas: workers must be a non-negative integer, got {workers!r}")
+    if workers and getattr(multiprocessing.current_process(), "_inheriting", False):
+        raise AtlasError(
+            "atlas: called while a worker process was starting (it re-imported the script "
+            "that starts the workers); put the call under 'if __name__ == \"__main__\":'"
+        )
     if workers and scheduler is not None:
         raise InputError("atlas: give workers (a local cluster) or scheduler, not both")
     grid, thetas, what = _points(model, grid_or_thetas, start)
@@ -185,6 +208,41 @@ def atlas(
         **({"n_modes_method": MODES_METHOD} if modes else {}),
     }
     out = Path(out)
+    with stop_on_signals(), store_lock(out, wait=wait):
+        try:
+            plan = _Plan(model, out, layout, grid, thetas, start, modes, progress, on_chunk)
+            return _run(plan, meta, workers, scheduler, t0)
+        except Interrupted as stop:
+            chunks = _chunks_done(out)
+            raise Interrupted(
+                f"atlas stopped by {stop.signal}: {chunks} of {layout.chunks} chunks are written "
+                f"to {str(out)!r}; run the same command again to resume",
+                stop.signal,
+                resume=f"the same call with out={str(out)!r}",
+            ) from None
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """The checked inputs of one :func:`atlas` call."""
+
+    model: Any
+    out: Path
+    layout: Layout
+    grid: Grid | None
+    thetas: np.ndarray | None
+    start: Any
+    modes: bool
+    progress: bool
+    on_chunk: Callable[[int, int], None] | None
+
+
+def _run(plan: _Plan, meta: dict, workers, scheduler, t0: float) -> AtlasRun:
+    """The run of :func:`atlas` on its checked inputs, under the store's lock."""
+    model, out, layout, grid, thetas, start = (
+        plan.model, plan.out, plan.layout, plan.grid, plan.thetas, plan.start
+    )  # fmt: skip
+    modes, progress, on_chunk, points = plan.modes, plan.progress, plan.on_chunk, layout.points
     done = create_or_check(out, layout, meta)
     todo = [i for i in range(layout.chunks) if not done[i]]
     _prebuild(model)
@@ -218,6 +276,7 @@ def atlas(
         if scheduler is None and not workers:
             _MODELS.setdefault(model.content_hash, model)  # this process: the caller's model
             for i in todo:
+                check()
                 finished(*_task(*args(i)))
         else:
             _distributed(todo, args, finished, workers, scheduler)
@@ -284,8 +343,10 @@ def _distributed(todo, args, finished, workers, scheduler) -> None:
     from distributed import Client, LocalCluster, as_completed
 
     cluster = client = None
+    hidden = contextlib.ExitStack()
     try:
         if scheduler is None:
+            hidden.enter_context(_main_not_reimported())
             cluster = LocalCluster(
                 n_workers=int(workers), threads_per_worker=1, processes=True, dashboard_address=":0"
             )
@@ -320,11 +381,67 @@ def _distributed(todo, args, finished, workers, scheduler) -> None:
                 pending.add(
                     client.submit(_task, *args(nxt), key=f"scdk-atlas-{run}-{nxt}", pure=False)
                 )
+    except BaseException:
+        if cluster is not None:  # an interrupt or a failure: end the chunks in flight now
+            _kill_workers(cluster)
+        raise
     finally:
-        if client is not None and client is not scheduler:
-            client.close()
-        if cluster is not None:
-            cluster.close()
+        with contextlib.suppress(Exception):
+            if client is not None and client is not scheduler:
+                client.close(timeout=CLOSE_TIMEOUT)
+            if cluster is not None:
+                cluster.close(timeout=CLOSE_TIMEOUT)
+        hidden.close()
+
+
+def _kill_workers(cluster) -> None:
+    """SIGKILL the worker processes of a local cluster (their nannies stay to be closed).
+
+    What a killed worker was writing has no done-marker yet, so a rerun solves it again:
+    nothing finished is lost, and closing does not wait for chunks that take seconds.
+    """
+    import signal
+
+    for nanny in list(getattr(cluster, "workers", {}).values()):
+        pid = getattr(getattr(getattr(nanny, "process", None), "process", None), "pid", None)
+        if pid:
+            with contextlib.suppress(OSError):
+                os.kill(pid, signal.SIGKILL)
+
+
+@contextlib.contextmanager
+def _main_not_reimported():
+    """While local workers live, their processes do not run the caller's ``__main__``.
+
+    A spawned process re-imports the main script (or module) of its parent before it
+    unpickles its task, so a script that calls :func:`atlas` with workers outside an ``if
+    __name__ == "__main__":`` block would start workers within workers. The workers only
+    run this package's tasks, so they are started as from an interactive session: the main
+    module's ``__file__`` and ``__spec__`` are hidden from multiprocessing meanwhile.
+    """
+    main = sys.modules.get("__main__")
+    names = ("__file__", "__spec__")
+    saved: dict[str, Any] = {k: getattr(main, k) for k in names if hasattr(main, k)}
+    try:
+        if main is not None:
+            if hasattr(main, "__file__"):
+                delattr(main, "__file__")
+            main.__spec__ = None
+        yield
+    finally:
+        if main is not None:
+            for k, v in saved.items():
+                setattr(main, k, v)
+
+
+def _chunks_done(out: Path) -> int:
+    """How many chunks of the store at ``out`` are written (0 when it is not created yet)."""
+    from .store import done_mask, open_atlas
+
+    try:
+        return int(np.count_nonzero(done_mask(out, int(open_atlas(out)["done"].shape[0]))))
+    except AtlasError:
+        return 0
 
 
 def _counts(out: Path, size: int) -> dict[int, int]:

@@ -99,7 +99,7 @@ def create_or_check(path: str | Path, layout: Layout, meta: dict) -> np.ndarray:
                 f"store {str(p)!r} was written for another run (differs in: {', '.join(diff)}); "
                 "use a new --out path or the same model, grid and options"
             )
-        return np.asarray(group["done"][:]) == 1
+        return done_mask(p, layout.chunks, group)
     # built beside its place and renamed into it: a store is complete or absent
     tmp = p.with_name(f".{p.name}.{os.getpid()}.partial")
     if tmp.exists():
@@ -123,6 +123,28 @@ def create_or_check(path: str | Path, layout: Layout, meta: dict) -> np.ndarray:
         create(name, shape=shape, chunks=chunks, dtype=dtype, fill_value=fill)
     os.replace(tmp, p)
     return np.zeros(layout.chunks, dtype=bool)
+
+
+def done_mask(path: str | Path, chunks: int, group=None) -> np.ndarray:
+    """(chunks,) bool: the chunks of the store at ``path`` whose done-marker is written.
+
+    On a local store the markers are read from the directory listing (a marker is stored
+    only once written, as 1, and never with the fill value 0): one listing instead of a
+    read per chunk, which for 10^4 chunks is milliseconds instead of seconds. Any other
+    store is read through Zarr (``group``, opened when not given).
+    """
+    folder = Path(path) / "done"
+    if (folder / "zarr.json").is_file():  # zarr 3, default chunk keys: done/c/<i>
+        names = os.listdir(folder / "c") if (folder / "c").is_dir() else []
+    elif (folder / ".zarray").is_file():  # zarr 2: done/<i>
+        names = [n for n in os.listdir(folder) if not n.startswith(".")]
+    else:
+        group = group if group is not None else _zarr().open_group(str(path), mode="r")
+        return np.asarray(group["done"][:]) == 1
+    mask = np.zeros(chunks, dtype=bool)
+    index = np.array([int(n) for n in names if n.isdigit()], dtype=np.int64)
+    mask[index[index < chunks]] = True
+    return mask
 
 
 def write_chunk(path: str, layout: Layout, index: int, theta, result) -> None:

@@ -14,7 +14,8 @@ import textwrap
 from collections.abc import Sequence
 from importlib import import_module
 
-from ..errors import ScdkError
+from ..errors import Interrupted, ScdkError
+from ..interrupts import stop_on_signals
 from .common import (
     COMMANDS,
     FROM_X_HELP,
@@ -157,16 +158,26 @@ def _help_in_model_units(parser: argparse.ArgumentParser, argv: list[str]) -> No
 EXIT_BROKEN_PIPE = 141
 
 
+#: Exit codes after SIGINT and SIGTERM stopped a command (128 + the signal's number).
+EXIT_SIGNAL = {"SIGINT": 130, "SIGTERM": 143}
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (0 ok, 1 error of the package, 2 usage, 141 when the
-    reader of the output closed it early, e.g. ``| head``, which ends the command quietly)."""
+    reader of the output closed it early, e.g. ``| head``, which ends the command quietly;
+    130 and 143 after SIGINT and SIGTERM, which stop any command within about a second with
+    one line saying what was kept, see :mod:`scdk_sym.interrupts`)."""
     parser = build_parser()
     _help_in_model_units(parser, sys.argv[1:] if argv is None else list(argv))
     args = parser.parse_args(argv)
     try:
-        code = int(args.run(args))
+        with stop_on_signals():
+            code = int(args.run(args))
         sys.stdout.flush()
         return code
+    except Interrupted as stop:
+        print(f"scdk {args.command}: {stop}", file=sys.stderr)
+        return EXIT_SIGNAL.get(stop.signal, 130)
     except BrokenPipeError:
         _silence_stdout()
         return EXIT_BROKEN_PIPE

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 
 from ..errors import InputError
 from .common import (
@@ -61,6 +60,12 @@ def _atlas_args(p: argparse.ArgumentParser) -> None:
         help="progress bar on stderr (default: on)",
     )
     p.add_argument(
+        "--wait",
+        action="store_true",
+        help="when another run is writing --out, wait for it to end, then solve what it "
+        "left (default: refuse in one line)",
+    )
+    p.add_argument(
         "--json",
         action="store_true",
         help="print the run's summary as one JSON object instead of the text",
@@ -79,25 +84,18 @@ def _atlas(args: argparse.Namespace) -> int:
 
     model = load(args)
     start = start_configuration(model, args)
-    try:
-        run = atlas(
-            model,
-            args.grid,
-            args.out,
-            workers=args.workers,
-            scheduler=args.scheduler,
-            modes=args.modes,
-            start=start,
-            chunk=args.chunk,
-            progress=args.progress,
-        )
-    except KeyboardInterrupt:
-        print(
-            f"scdk atlas: interrupted; the chunks written are kept: re-run the same command "
-            f"to resume ({args.out})",
-            file=sys.stderr,
-        )
-        return 130
+    run = atlas(
+        model,
+        args.grid,
+        args.out,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        modes=args.modes,
+        start=start,
+        chunk=args.chunk,
+        progress=args.progress,
+        wait=args.wait,
+    )
     statuses = [
         (code, STATUS.get(code, "not written").split(":")[0], n)
         for code, n in sorted(run.counts.items())

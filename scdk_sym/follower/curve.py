@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from ..interrupts import check
 from ..kernels.fastcall import model_calls
 from ..results import Crossing, PathSamples
 from .geometry import features, in_chart, local_features, periodic
@@ -243,6 +244,7 @@ class _Cvodes:
         try:
             X = self.eng.integrate(q, np.concatenate([p, c]))
         except RuntimeError:
+            check()  # CasADi reports an interrupt as a RuntimeError: not a failed chunk
             X = np.full((m + 1, GRID), np.nan)
         Q = np.hstack([q[:, None], X])
         bad = _Chunk(Q[:, :1], t[:, None], np.array([det]), 0, False)

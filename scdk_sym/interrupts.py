@@ -1,0 +1,73 @@
+"""Stopping long runs on SIGINT and SIGTERM, promptly and without losing finished work.
+
+Within :func:`stop_on_signals` (the CLI wraps every command in it; :func:`scdk_sym.atlas`
+wraps its run), SIGINT and SIGTERM raise :class:`~scdk_sym.errors.Interrupted` in the main
+thread and set a flag. The raise stops Python code where it is; the flag catches the places
+where a library turns the raise into its own error (CasADi's integrators report an interrupt
+as a ``RuntimeError``): code that catches such errors calls :func:`check` first, so an
+interrupt is never taken for a failed point. A second signal while the first is being
+handled is the same stop.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+from collections.abc import Iterator
+from types import FrameType
+
+from .errors import Interrupted
+
+#: The signals that stop a run.
+SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+_state: dict[str, object] = {"signal": None, "depth": 0}
+
+
+def requested() -> str | None:
+    """The name of the signal that asked to stop (``None`` when none did)."""
+    sig = _state["signal"]
+    return None if sig is None else str(sig)
+
+
+def check() -> None:
+    """Raise :class:`~scdk_sym.errors.Interrupted` when a stop was requested.
+
+    Raises:
+        Interrupted: SIGINT or SIGTERM arrived within :func:`stop_on_signals`.
+    """
+    sig = requested()
+    if sig is not None:
+        raise Interrupted(f"stopped by {sig}", sig)
+
+
+def _handler(signum: int, frame: FrameType | None) -> None:
+    name = signal.Signals(signum).name
+    _state["signal"] = name
+    raise Interrupted(f"stopped by {name}", name)
+
+
+@contextlib.contextmanager
+def stop_on_signals() -> Iterator[None]:
+    """SIGINT and SIGTERM raise :class:`~scdk_sym.errors.Interrupted` inside the block (see
+    the module docs); the previous handlers are restored after it. Nested uses share one
+    installation; outside the main thread (where Python cannot install handlers) it does
+    nothing."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    depth = int(_state["depth"])  # type: ignore[call-overload]
+    previous = {}
+    if depth == 0:
+        _state["signal"] = None
+        previous = {s: signal.signal(s, _handler) for s in SIGNALS}
+    _state["depth"] = depth + 1
+    try:
+        yield
+    finally:
+        _state["depth"] = depth
+        if depth == 0:
+            for s, h in previous.items():
+                signal.signal(s, h)
+            _state["signal"] = None
