@@ -5,8 +5,10 @@ wraps its run), SIGINT and SIGTERM raise :class:`~scdk_sym.errors.Interrupted` i
 thread and set a flag. The raise stops Python code where it is; the flag catches the places
 where a library turns the raise into its own error (CasADi's integrators report an interrupt
 as a ``RuntimeError``): code that catches such errors calls :func:`check` first, so an
-interrupt is never taken for a failed point. A second signal while the first is being
-handled is the same stop.
+interrupt is never taken for a failed point. Where a library turns the raise into some other
+error on its way out (CasADi's argument conversion reports a ``NotImplementedError``), the
+error leaving :func:`stop_on_signals` after a signal is the stop: :func:`stop_for` names it.
+A second signal while the first is being handled is the same stop.
 """
 
 from __future__ import annotations
@@ -42,6 +44,20 @@ def check() -> None:
         raise Interrupted(f"stopped by {sig}", sig)
 
 
+def stop_for(exc: BaseException) -> Interrupted | None:
+    """The stop an exception stands for: itself when it is an :class:`Interrupted`, an
+    :class:`Interrupted` (caused by it) when it was raised after a stop was requested, else
+    ``None`` (a real error)."""
+    if isinstance(exc, Interrupted):
+        return exc
+    sig = requested()
+    if sig is None or not isinstance(exc, Exception):
+        return None
+    stop = Interrupted(f"stopped by {sig}", sig)
+    stop.__cause__ = exc
+    return stop
+
+
 def _handler(signum: int, frame: FrameType | None) -> None:
     name = signal.Signals(signum).name
     _state["signal"] = name
@@ -65,6 +81,11 @@ def stop_on_signals() -> Iterator[None]:
     _state["depth"] = depth + 1
     try:
         yield
+    except Exception as exc:
+        stop = stop_for(exc)
+        if stop is None:
+            raise
+        raise stop from exc
     finally:
         _state["depth"] = depth
         if depth == 0:

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import AtlasError, InputError, Interrupted
-from ..interrupts import check, stop_on_signals
+from ..interrupts import check, stop_for, stop_on_signals
 from ..optional import require
 from .chunk import _MODELS, STATUS, ModelSource, model_source, solve_chunk, worker_model
 from .grid import Grid, make_grid
@@ -212,7 +212,10 @@ def atlas(
         try:
             plan = _Plan(model, out, layout, grid, thetas, start, modes, progress, on_chunk)
             return _run(plan, meta, workers, scheduler, t0)
-        except Interrupted as stop:
+        except (Interrupted, Exception) as exc:  # a stop, or the error a library made of one
+            stop = stop_for(exc)
+            if stop is None:
+                raise
             chunks = _chunks_done(out)
             raise Interrupted(
                 f"atlas stopped by {stop.signal}: {chunks} of {layout.chunks} chunks are written "

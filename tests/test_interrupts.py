@@ -1,0 +1,45 @@
+"""SIGINT/SIGTERM inside :func:`stop_on_signals`: the stop is raised, also when a library
+turned it into its own error on the way out (CasADi reports an interrupt during argument
+conversion as a ``NotImplementedError``), and a real error stays itself."""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import pytest
+
+from scdk_sym.errors import Interrupted
+from scdk_sym.interrupts import check, requested, stop_for, stop_on_signals
+
+
+def _library_call_interrupted_by(sig: signal.Signals) -> None:
+    """What a wrapped library does: it catches the raise and reports its own error."""
+    try:
+        os.kill(os.getpid(), sig)  # the handler runs before os.kill returns
+        raise AssertionError("the signal handler did not raise")
+    except BaseException as exc:
+        raise NotImplementedError("Wrong number or type of arguments") from exc
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_an_error_a_library_made_of_a_signal_leaves_the_block_as_the_stop(sig):
+    with pytest.raises(Interrupted) as info, stop_on_signals():
+        _library_call_interrupted_by(sig)
+    assert info.value.signal == sig.name
+    assert isinstance(info.value.__cause__, NotImplementedError)
+    assert requested() is None  # cleared once the outermost block is left
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_nested_blocks_convert_at_the_inner_one_and_a_real_error_stays_itself():
+    with stop_on_signals():
+        with pytest.raises(Interrupted) as info, stop_on_signals():
+            _library_call_interrupted_by(signal.SIGINT)
+        assert requested() == "SIGINT"  # still inside the outer block: check() stops too
+        with pytest.raises(Interrupted):
+            check()
+    assert stop_for(ValueError("a real error")) is None  # no stop requested any more
+    assert stop_for(info.value) is info.value
+    with pytest.raises(ValueError, match="a real error"), stop_on_signals():
+        raise ValueError("a real error")
