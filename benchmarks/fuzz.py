@@ -36,6 +36,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from references import (  # noqa: E402  (references shared with the tests)
+    ALL_NAMES,
     NAMES,
     Report,
     draw_scenarios,
@@ -62,7 +63,14 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--count", type=int, default=100_000, help="total solves")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--models", nargs="+", default=list(NAMES), choices=NAMES)
+    parser.add_argument(
+        "--models",
+        nargs="+",
+        default=list(NAMES),
+        choices=ALL_NAMES,
+        help="models (default: the shipped ones and the Gepetto fixtures with an effector; "
+        "the legged robots " + ", ".join(n for n in ALL_NAMES if n not in NAMES) + " on request)",
+    )
     parser.add_argument("--backend", default="cvodes", choices=("cvodes", "compiled"))
     parser.add_argument("--tracks", type=int, default=20, help="commanded motions per model")
     parser.add_argument("--samples", type=int, default=100, help="samples per motion")

@@ -58,7 +58,14 @@ SHIPPED = (
 )
 #: Gepetto fixtures (tests/fixtures/gepetto/<name>, loaded with frame="effector").
 GEPETTO_NAMES = ("5bar_linkage", "5bar_linkage_iso3d", "5bar_linkage_iso6d", "robot_delta")
+#: Legged robots of the Gepetto collection whose URDF needs no joint edit (every joint one
+#: coordinate in Pinocchio), loaded with no option: the pose reported is the model's frame.
+GEPETTO_LEGGED = ("cassie_like", "digit_like", "disney_like", "talos_like", "wl16_like")
+#: The models fuzzed by default.
 NAMES = SHIPPED + GEPETTO_NAMES
+#: Every model the fuzz can draw for; a new name goes last (each model's draws are seeded by
+#: its index here).
+ALL_NAMES = NAMES + GEPETTO_LEGGED
 
 #: Closure residual accepted as a solution [model length unit or rad].
 RESIDUAL_TOL = 1e-7
@@ -537,7 +544,13 @@ class GepettoReference(Reference):
 
     has_ik = False
 
-    def __init__(self, name: str, home_joints: Mapping[str, float], locked: Iterable[str]):
+    def __init__(
+        self,
+        name: str,
+        home_joints: Mapping[str, float],
+        locked: Iterable[str],
+        frame: str = "effector",
+    ):
         import pinocchio as pin
 
         self.pin = pin
@@ -559,7 +572,7 @@ class GepettoReference(Reference):
         self.locked = {n: float(home_joints[n]) for n in locked}
         self.unknowns = [n for n in self.names if n not in self.actuated and n not in self.locked]
         self.free = [self.index[n] for n in self.unknowns]
-        self.effector = self.pm.getFrameId("effector")
+        self.effector = self.pm.getFrameId(frame)
         self.scale = 1.0
         self.home_q = self.q_of(home_joints)
         self.home_theta = self.home_q[self.motors]
@@ -689,7 +702,8 @@ def reference(name: str) -> Reference:
     if name in SHIPPED:
         return _rod_reference(name)
     model = load(name)
-    return GepettoReference(name, model.home.joints, model.locked)
+    frame = "effector" if name in GEPETTO_NAMES else model.frame
+    return GepettoReference(name, model.home.joints, model.locked, frame)
 
 
 @cache
@@ -699,6 +713,8 @@ def load(name: str):
 
     if name in SHIPPED:
         return sc.load_model(MODELS / name)
+    if name in GEPETTO_LEGGED:
+        return sc.load_model(GEPETTO / name)
     return sc.load_model(GEPETTO / name, frame="effector")
 
 
@@ -713,6 +729,8 @@ def model_expr(name: str) -> str:
     """Python expression that loads the model (for reproducers; run from the repo root)."""
     if name in SHIPPED:
         return f"sc.load_model('models/{name}')"
+    if name in GEPETTO_LEGGED:
+        return f"sc.load_model('tests/fixtures/gepetto/{name}')"
     return f"sc.load_model('tests/fixtures/gepetto/{name}', frame='effector')"
 
 
@@ -1019,7 +1037,7 @@ def _draw_gepetto(ref: GepettoReference, model, rng, kind: str) -> Scenario | No
 def draw_scenarios(name: str, count: int, seed: int, kinds: Mapping[str, float] = KINDS):
     """``count`` seeded scenarios of model ``name`` (kinds drawn with the given weights)."""
     ref, model = reference(name), load(name)
-    rng = np.random.default_rng([seed, NAMES.index(name)])
+    rng = np.random.default_rng([seed, ALL_NAMES.index(name)])
     names = list(kinds)
     weights = np.array([kinds[k] for k in names], dtype=float)
     out: list[Scenario] = []
@@ -1277,7 +1295,7 @@ def _gepetto_track(ref: GepettoReference, model, rng, kind: str, samples: int) -
 def draw_tracks(name: str, count: int, seed: int, samples: int = 100) -> list[Track]:
     """``count`` seeded commanded motions (half smooth, half through a singularity)."""
     ref, model = reference(name), load(name)
-    rng = np.random.default_rng([seed, NAMES.index(name), 7])
+    rng = np.random.default_rng([seed, ALL_NAMES.index(name), 7])
     out: list[Track] = []
     draw = _pose_track if isinstance(ref, PoseReference) else _gepetto_track
     for i in range(count):

@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 from references import (
     BOX,
+    GEPETTO_LEGGED,
     GEPETTO_NAMES,
     KINDS,
     NAMES,
@@ -114,7 +115,7 @@ def test_det_sign_changes_at_the_published_singular_configurations(
     assert ref.det_sign(xa, ref.ik(xa)) == -ref.det_sign(xb, ref.ik(xb)) != 0
 
 
-@pytest.mark.parametrize("name", GEPETTO_NAMES)
+@pytest.mark.parametrize("name", GEPETTO_NAMES + GEPETTO_LEGGED)
 def test_gepetto_reference_walks_on_the_closure_manifold(name: str) -> None:
     ref, model = reference(name), load(name)
     assert np.abs(ref.closure(ref.home_q, ref.home_theta)).max() <= 1e-12
