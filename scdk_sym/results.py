@@ -233,7 +233,10 @@ class AssemblyModes(Sequence):
     Behaves like the tuple of its configurations (``len``, iteration, indexing, slicing).
 
     Attributes:
-        solutions: the configurations, sorted by ``x`` then ``y``.
+        solutions: the configurations, sorted by ``x`` then ``y``; for a model whose blocks
+            fall in independent groups (a biped's legs), a
+            :class:`~scdk_sym.solvers.block_modes.ModeProduct` of the groups' sorted sets,
+            whose configurations are built and verified when read (see ``groups``).
         certified: the set is proven complete and every member certified: the start system
             passed its trace test, every path reached ``t = 1`` at a regular endpoint or at
             infinity, and every real solution has a Krawczyk certificate, the boxes pairwise
@@ -247,18 +250,24 @@ class AssemblyModes(Sequence):
             (:mod:`scdk_sym.solvers.block_modes`), each block's sets: one
             :class:`~scdk_sym.solvers.block_modes.BlockModes` per value of its inputs, with
             their own certificates; empty otherwise.
+        groups: the sizes of the independent groups' sets whose product ``solutions`` is
+            (e.g. ``(8, 8)`` for a biped with 8 assemblies per leg); empty when ``solutions``
+            is a plain tuple.
     """
 
-    solutions: tuple[Configuration, ...] = ()
+    solutions: Sequence[Configuration] = ()
     certified: bool = False
     root_count: int = 0
     report: str = ""
     certificates: tuple = ()
     method: str = "homotopy"
     blocks: tuple = ()
+    groups: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "solutions", tuple(self.solutions))
+        if not self.groups:
+            object.__setattr__(self, "solutions", tuple(self.solutions))
+        object.__setattr__(self, "groups", tuple(int(g) for g in self.groups))
         object.__setattr__(self, "certificates", tuple(self.certificates))
         object.__setattr__(self, "blocks", tuple(self.blocks))
 
@@ -274,7 +283,8 @@ class AssemblyModes(Sequence):
     def to_dict(self) -> dict:
         """JSON-ready: ``solutions`` (each with its ``certified`` flag: its certificate's, or
         for a set certified block by block the set's), ``count``, ``certified``,
-        ``root_count``, ``report``, ``method``."""
+        ``root_count``, ``report``, ``method``, and ``groups`` for a product of groups' sets
+        (every combination is listed)."""
         sols = []
         for i, s in enumerate(self.solutions):
             d = dict(s.to_dict(), crossings=[], status="converged")
@@ -290,4 +300,5 @@ class AssemblyModes(Sequence):
             "root_count": int(self.root_count),
             "report": self.report,
             "method": self.method,
+            **({"groups": list(self.groups)} if self.groups else {}),
         }

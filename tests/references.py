@@ -1147,6 +1147,11 @@ def _template(message: str) -> str:
     return text[:140]
 
 
+#: Time given to building a model's assembly-mode start system before a fuzz [s]
+#: (digit_like's 12-unknown ankle block does not finish: its solves go without).
+MODES_WARM_UP = 180.0
+
+
 @cache
 def warm_up(name: str, backend: str, modes: bool = False) -> None:
     """Build (or load from the cache) what a backend compiles, outside any time limit; with
@@ -1168,8 +1173,9 @@ def warm_up(name: str, backend: str, modes: bool = False) -> None:
 
         follower_kernels(model, backend)
         if modes:  # the start system the divergent branch's last way reads
-            sc.assembly_modes(model, theta)
-    except sc.ScdkError:
+            with time_limit(MODES_WARM_UP):
+                sc.assembly_modes(model, theta)
+    except (sc.ScdkError, SolveTimeout):
         pass
 
 

@@ -14,11 +14,14 @@ assembled configuration is verified on the whole model.
 
 from __future__ import annotations
 
+import operator
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from ..errors import VerificationError
 from ..results import AssemblyModes, Configuration
 from ..robot import Model
 from ..robot.blocks import Block, triangular_blocks, triangular_models
@@ -60,6 +63,115 @@ def split(model: Model) -> tuple[tuple[Block, ...], tuple[Model, ...]] | None:
     return blocks, subs
 
 
+def groups(blocks: tuple[Block, ...]) -> list[list[int]]:
+    """The blocks that depend on one another, grouped: indices into ``blocks``, each group in
+    block order, groups in the order of their first block. Blocks of different groups share
+    no unknown (the two legs of a biped), so the model's modes are the product of the
+    groups' sets."""
+    owner = {u: i for i, b in enumerate(blocks) for u in b.unknowns}
+    parent = list(range(len(blocks)))
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for i, b in enumerate(blocks):
+        for u in b.inputs:
+            parent[find(i)] = find(owner[u])
+    out: dict[int, list[int]] = {}
+    for i in range(len(blocks)):
+        out.setdefault(find(i), []).append(i)
+    return list(out.values())
+
+
+class ModeProduct(Sequence[Configuration]):
+    """Every combination of one part per group of blocks, each a :class:`Configuration`
+    built (and verified on the whole model) when it is read; the last group varies fastest.
+
+    Args:
+        model: the model.
+        theta: (k,) actuated values [rad or model length unit].
+        unknowns: per group, the indices into ``model.unknowns`` it solves.
+        parts: per group, (n_g, len(unknowns[g])) its verified solutions' unknowns.
+    """
+
+    def __init__(
+        self,
+        model: Model,
+        theta: np.ndarray,
+        unknowns: tuple[tuple[int, ...], ...],
+        parts: tuple[np.ndarray, ...],
+    ) -> None:
+        self.model = model
+        self.theta = np.asarray(theta, dtype=float)
+        self.unknowns = unknowns
+        self.parts = parts
+        self.sizes = tuple(len(p) for p in parts)
+
+    def __len__(self) -> int:
+        return int(np.prod(self.sizes, dtype=np.int64)) if self.sizes else 0
+
+    def __repr__(self) -> str:
+        return f"ModeProduct({' x '.join(map(str, self.sizes))} = {len(self)} assemblies)"
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return tuple(self[i] for i in range(*index.indices(len(self))))
+        n = len(self)
+        i = operator.index(index)
+        if not -n <= i < n:
+            raise IndexError(f"assembly {index} of {n}")
+        i %= n
+        y = np.empty(self.model.m)
+        for g in reversed(range(len(self.sizes))):
+            i, j = divmod(i, self.sizes[g])
+            y[list(self.unknowns[g])] = self.parts[g][j]
+        cfg = self.model.configuration(y, self.theta)
+        residual = self.model.residual(cfg.y, cfg.theta)
+        if not residual <= self.model.tolerance:  # the groups' rows are disjoint: never met
+            raise VerificationError(
+                f"assembly {index} of {n} (a product of per-group sets) fails the model's "
+                f"closure by {residual:.3g} > {self.model.tolerance:.3g} at theta="
+                f"{self.theta.tolist()}; report it with the model",
+                residual,
+            )
+        return cfg
+
+
+def _group_parts(
+    model: Model,
+    theta0: np.ndarray,
+    blocks: tuple[Block, ...],
+    subs: tuple[Model, ...],
+    group: list[int],
+    found: list[BlockModes],
+    options: dict[str, Any],
+) -> list[np.ndarray]:
+    """The group's solutions, block after block: (m,) unknowns, NaN outside the group."""
+    from .homotopy_modes import homotopy_modes
+
+    partial = [np.full(model.m, np.nan)]
+    for bi in group:
+        block, sub = blocks[bi], subs[bi]
+        memo: dict[bytes, AssemblyModes] = {}
+        extended = []
+        for y in partial:
+            inputs = y[list(block.inputs)]
+            key = inputs.tobytes()
+            if key not in memo:
+                params = np.concatenate([theta0[list(block.actuated)], inputs])
+                memo[key] = homotopy_modes(sub, params, **options)
+                found.append(BlockModes(block, inputs, memo[key]))
+            for cfg in memo[key]:
+                z = y.copy()
+                z[list(block.unknowns)] = cfg.y
+                extended.append(z)
+        partial = extended
+    return partial
+
+
 def block_modes(
     model: Model,
     theta0: np.ndarray,
@@ -78,48 +190,66 @@ def block_modes(
 
     Returns:
         :class:`~scdk_sym.results.AssemblyModes`: every assembled configuration (verified on
-        the model, sorted as the homotopy sorts them), ``certified`` when every block's set
-        is, ``root_count`` the sum of the complex solutions tracked, ``blocks`` each block's
-        sets (:class:`BlockModes`, one per value of its inputs), ``report`` per block.
+        the model), ``certified`` when every block's set is, ``root_count`` the sum of the
+        complex solutions tracked, ``blocks`` each block's sets (:class:`BlockModes`, one per
+        value of its inputs), ``report`` per block. With one group of blocks
+        (:func:`groups`) the configurations are a tuple sorted as the homotopy sorts them;
+        with several (a biped's legs) they are a :class:`ModeProduct` of the groups' sorted
+        sets, ``groups`` their sizes, built when read.
     """
-    from .homotopy_modes import homotopy_modes, sort_key
+    from .homotopy_modes import sort_key
 
     theta0 = np.asarray(theta0, dtype=float)
-    partial = [np.full(model.m, np.nan)]
     found: list[BlockModes] = []
-    for block, sub in zip(blocks, subs, strict=True):
-        memo: dict[bytes, AssemblyModes] = {}
-        extended = []
-        for y in partial:
-            inputs = y[list(block.inputs)]
-            key = inputs.tobytes()
-            if key not in memo:
-                params = np.concatenate([theta0[list(block.actuated)], inputs])
-                memo[key] = homotopy_modes(sub, params, **options)
-                found.append(BlockModes(block, inputs, memo[key]))
-            for cfg in memo[key]:
-                z = y.copy()
-                z[list(block.unknowns)] = cfg.y
-                extended.append(z)
-        partial = extended
-    cfgs: list[Configuration] = []
+    grouped = groups(blocks)
+    parts = [_group_parts(model, theta0, blocks, subs, g, found, dict(options)) for g in grouped]
+    # each part verified on the whole model with every other group at its first part (rows
+    # of different groups share no unknown, so any combination of verified parts closes)
+    base = np.full(model.m, np.nan)
+    for p in parts:
+        if p:
+            base[np.isfinite(p[0])] = p[0][np.isfinite(p[0])]
+    kept: list[list[Configuration]] = []
     failed = 0
-    for y in partial:
-        cfg = model.configuration(y, theta0)
-        if model.residual(cfg.y, cfg.theta) <= model.tolerance:
-            cfgs.append(cfg)
-        else:
-            failed += 1
-    cfgs.sort(key=sort_key)
+    for p in parts:
+        cfgs = []
+        for y in p:
+            z = np.where(np.isfinite(y), y, base)
+            cfg = model.configuration(z, theta0) if np.all(np.isfinite(z)) else None
+            if cfg is not None and model.residual(cfg.y, cfg.theta) <= model.tolerance:
+                cfgs.append(cfg)
+            else:
+                failed += 1
+        cfgs.sort(key=sort_key)
+        kept.append(cfgs)
+    solutions: Sequence[Configuration]
+    if len(kept) == 1:
+        solutions = tuple(kept[0])
+        total = len(solutions)
+    else:
+        unknowns = tuple(tuple(u for bi in g for u in blocks[bi].unknowns) for g in grouped)
+        solutions = ModeProduct(
+            model,
+            theta0,
+            unknowns,
+            tuple(np.array([c.y[list(u)] for c in cs]).reshape(len(cs), len(u))
+                  for cs, u in zip(kept, unknowns, strict=True)),
+        )  # fmt: skip
+        total = len(solutions)
     certified = all(b.modes.certified for b in found) and failed == 0
     sizes = [len(b.unknowns) for b in blocks]
     counts = ", ".join(
         f"block {blocks.index(b.block)}: {len(b.modes)} real of {b.modes.root_count}" for b in found
     )
+    product = (
+        f" ({' x '.join(str(len(k)) for k in kept)} from {len(kept)} independent groups)"
+        if len(kept) > 1
+        else ""
+    )
     if certified:
         report = (
             f"certified complete per block ({len(blocks)} blocks of {sizes} unknowns, "
-            f"{len(found)} block solves: {counts}); {len(cfgs)} assemblies, each verified"
+            f"{len(found)} block solves: {counts}); {total} assemblies{product}, each verified"
         )
     else:
         why = [f"block {blocks.index(b.block)}: {b.modes.report}" for b in found
@@ -128,11 +258,12 @@ def block_modes(
             why.append(f"{failed} assembled configuration(s) fail the model's residual")
         report = "not certified: " + "; ".join(why)
     return AssemblyModes(
-        solutions=tuple(cfgs),
+        solutions=solutions,
         certified=certified,
         root_count=sum(b.modes.root_count for b in found),
         report=report,
         certificates=(),
         method="homotopy",
         blocks=tuple(found),
+        groups=tuple(len(k) for k in kept) if len(kept) > 1 else (),
     )
