@@ -9,9 +9,9 @@ from factories import MODELS, SEED_THETA0, hexapod, needs_compiler, shipped
 
 import scdk_sym as sc
 from scdk_sym.errors import BuildError
-from scdk_sym.follower.kernels import closure_function
 from scdk_sym.kernels import compile as comp
 from scdk_sym.kernels.cache import cache_dir
+from scdk_sym.kernels.curve import closure_function
 from scdk_sym.kernels.functions import build_kernels
 
 pytestmark = needs_compiler()

@@ -1,5 +1,9 @@
 """Imports run one way: description (scdk_sym.model) -> symbolic -> kernels -> robot -> ...
 
+Over the whole package, every import (module level or inside a function) goes from a
+subpackage or top-level module to one on a lower tier of :data:`TIERS`: no cycle, no
+upward import.
+
 Checked twice, independently: by importing a layer in a fresh interpreter and listing
 ``sys.modules``, and by reading every import statement of the layer's source (including the
 imports inside functions, which the first check cannot see until they run).
@@ -25,6 +29,50 @@ ALLOWED = {
     "model": {"scdk_sym.errors", "scdk_sym.results"},
     "symbolic": {"scdk_sym.errors", "scdk_sym.results", "scdk_sym.model"},
 }
+
+
+#: The package's subpackages and top-level modules, bottom tier first; an import goes only to
+#: a lower tier (``<init>``: the package's ``__init__``, which loads the API on first use).
+TIERS = (
+    ("errors", "graphs"),
+    ("interrupts", "products", "optional", "schema"),
+    ("model",),
+    ("results",),
+    ("symbolic",),
+    ("kernels",),
+    ("backends",),
+    ("robot",),
+    ("follower", "drawing", "algebraic", "builders"),
+    ("codegen",),
+    ("solvers",),
+    ("plot", "verify"),
+    ("atlas", "view"),
+    ("<init>",),
+    ("cli",),
+    ("__main__",),
+)
+
+
+def _unit(module: str) -> str:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else "<init>"
+
+
+def test_every_import_goes_to_a_lower_tier():
+    rank = {u: i for i, tier in enumerate(TIERS) for u in tier}
+    units, upward = set(), {}
+    for f in sorted(PACKAGE.rglob("*.py")):
+        rel = f.relative_to(PACKAGE.parent).with_suffix("")
+        module = ".".join(p for p in rel.parts if p != "__init__")
+        here = _unit(module)
+        units.add(here)
+        for target in _package_imports(f):
+            there = _unit(target)
+            if there != here and not rank.get(there, -1) < rank.get(here, -1):
+                upward.setdefault(str(f.relative_to(PACKAGE)), []).append(target)
+    assert units - set(rank) == set(), "place the new subpackage or module in TIERS"
+    assert len(units) >= 20  # the walk saw the package
+    assert not upward, upward
 
 
 def _loaded_after(code: str) -> list[str]:

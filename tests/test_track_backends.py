@@ -18,6 +18,7 @@ from stewart import fold_path
 
 from scdk_sym.codegen import library as clib
 from scdk_sym.errors import TrackError
+from scdk_sym.follower import track_rule as constants
 from scdk_sym.model.rotations import rpy_matrix
 from scdk_sym.solvers import track as rule
 from scdk_sym.solvers.track import track
@@ -276,7 +277,7 @@ def test_random_paths_never_deviate_silently_and_both_backends_decide_alike():
 def test_generated_defaults_are_the_rule_constants(hexapod):
     opt = clib.tracker_library(hexapod).default_options()
     assert (opt.accept, opt.margin, opt.arc_budget, opt.max_steps, opt.order) == (
-        rule.ACCEPT, rule.MARGIN, rule.BUDGET, rule.MAX_STEPS, 2,
+        constants.ACCEPT, constants.MARGIN, constants.BUDGET, constants.MAX_STEPS, 2,
     )  # fmt: skip
     assert clib.ERR_UNDECIDABLE == rule.ERR_UNDECIDABLE == -9 and -9 in clib.STATUS
     assert (clib.ERR_NO_SOLUTION, clib.ERR_VERIFY) == (rule.ERR_NO_SOLUTION, rule.ERR_VERIFY)
@@ -305,7 +306,7 @@ def test_refusal_in_the_c_tracker_keeps_the_state_and_names_both_candidates(seed
     assert np.all(np.isnan(out.x[1:])) and np.isinf(out.refusal.step)
     r = out.refusal
     assert r.x.shape == (2, 3) and r.y.shape == (2, seed.m)
-    assert r.miss[0] <= r.miss[1] <= rule.MARGIN * max(r.miss[0], r.accuracy)
+    assert r.miss[0] <= r.miss[1] <= constants.MARGIN * max(r.miss[0], r.accuracy)
     np.testing.assert_array_equal(r.theta, thetas[1])
     # each candidate is an assembled configuration at the reading, with the reported pose
     for y, x in zip(r.y, r.x, strict=True):

@@ -17,8 +17,8 @@ whether the answer is that solution:
 A point the sweep cannot vouch for is solved by :func:`scdk_sym.solve` itself; both give the
 same root to rounding (the test suite compares them to 1e-12).
 
-The steps are the curve follower's: :func:`scdk_sym.follower.kernels.rk4_in_s` (whose stage
-``J_p`` gives the ``det J_p`` checks) and :func:`scdk_sym.follower.kernels.newton_correction`.
+The steps are the curve follower's: :func:`scdk_sym.kernels.curve.rk4_in_s` (whose stage
+``J_p`` gives the ``det J_p`` checks) and :func:`scdk_sym.kernels.curve.newton_correction`.
 The kernel is generated, compiled once per model into the disk cache (keyed by the model's
 kernel hash and the sources it is built from) and loaded with ``casadi.external``; mapped
 over a chunk of points it is one call per chunk.
@@ -43,8 +43,8 @@ POLISH = 2
 def build_sweep(model, steps: int) -> ca.Function:
     """The sweep Function of a model, on the curve follower's kernels.
 
-    Each step is one :func:`~scdk_sym.follower.kernels.rk4_in_s` step followed by
-    :data:`NEWTON` :func:`~scdk_sym.follower.kernels.newton_correction` steps; ``det J_p`` is
+    Each step is one :func:`~scdk_sym.kernels.curve.rk4_in_s` step followed by
+    :data:`NEWTON` :func:`~scdk_sym.kernels.curve.newton_correction` steps; ``det J_p`` is
     taken at every RK stage from the ``J_p`` the stage's slope is solved with. The answer is
     re-centred with :meth:`scdk_sym.model.chart.Chart.recentred`.
 
@@ -55,7 +55,7 @@ def build_sweep(model, steps: int) -> ca.Function:
     ``residual`` the largest verification row at the end, ``J_p0`` in the chart centred on
     the solution (as :func:`scdk_sym.solve` checks it).
     """
-    from ..follower.kernels import newton_correction, rk4_in_s
+    from ..kernels.curve import newton_correction, rk4_in_s
 
     sym = model.symbolic
     y, theta, c = sym.y, sym.theta, sym.c

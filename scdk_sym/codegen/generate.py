@@ -294,8 +294,9 @@ def _follower_constants() -> dict[str, str]:
 
 
 def _rule_constants() -> dict[str, str]:
-    """The constants of the judging rule, shared with :mod:`scdk_sym.solvers.track`."""
-    from ..solvers import track as rule
+    """The constants of the judging rule (:mod:`scdk_sym.follower.track_rule`), shared with
+    :mod:`scdk_sym.solvers.track`."""
+    from ..follower import track_rule as rule
 
     floats = ("ACCEPT", "MARGIN", "BUDGET", "SMOOTH", "PARTNER_STEP")
     ints = ("FAST_ITERATIONS", "NEWTON_CALLS", "PREDICTED_CALLS", "PARTNER_ITERATIONS",

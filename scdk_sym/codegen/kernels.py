@@ -18,8 +18,8 @@ step and of the Newton corrector), renamed with the C prefix and made dense:
   polish that finishes a crossing of ``s = 1``).
 
 Every kernel that evaluates the closures calls one Function of them
-(:func:`scdk_sym.follower.kernels.closure_function`) and every linear solve calls one Function
-per matrix pattern (:func:`~scdk_sym.follower.kernels.linear_solver`): the generated C holds
+(:func:`scdk_sym.kernels.curve.closure_function`) and every linear solve calls one Function
+per matrix pattern (:func:`~scdk_sym.kernels.curve.linear_solver`): the generated C holds
 one copy of each per source file (:data:`GROUPS`) instead of one per use, and compiles in a
 fraction of the time. The closure Function is itself a kernel (``closure``: ``g``, ``J_p`` and
 ``J_s`` in one evaluation, written straight into the caller's dense arrays), the one the
@@ -32,7 +32,8 @@ from dataclasses import dataclass, fields
 
 import casadi as ca
 
-from ..follower.kernels import build_follower_kernels, closure_function
+from ..follower.kernels import build_follower_kernels
+from ..kernels.curve import closure_function
 from ..kernels.functions import build_kernels
 from ..model.rotations import cayley
 from ..symbolic.system import Symbolic

@@ -5,7 +5,7 @@ kernels, :func:`model_library`) is compiled once, the files in parallel
 (:func:`compile_parallel`), into the cache directory and loaded with ``casadi.external``;
 :func:`compiled_kernels` returns a :class:`~scdk_sym.kernels.functions.Kernels` with the same
 signatures. The kernels of one source that evaluate the closures call one Function of them
-(:func:`~scdk_sym.follower.kernels.closure_function`), written once in it. The first
+(:func:`~scdk_sym.kernels.curve.closure_function`), written once in it. The first
 compilation for a model prints ``compiling kernels for MODEL...`` to stderr
 (:func:`announce`).
 """
@@ -48,6 +48,7 @@ KERNEL_SOURCES = (
     "symbolic",
     "kernels/functions.py",
     "kernels/compile.py",
+    "kernels/curve.py",
     "follower/kernels.py",
 )
 #: Root of the package, the folder the source lists are relative to.
@@ -365,13 +366,13 @@ def compiled_kernels(model) -> Kernels:
     ``casadi.external`` (the others: ``model.kernels``'s SX Functions).
 
     The compiled ones call one Function of the closures
-    (:func:`~scdk_sym.follower.kernels.closure_function`); :func:`model_library` compiles
+    (:func:`~scdk_sym.kernels.curve.closure_function`); :func:`model_library` compiles
     them (cached on disk: only the first call for a model generates and compiles, seconds).
     The field is loaded with finite differences for its derivatives: CVODES's functional
     iteration (:data:`~scdk_sym.follower.cvodes.CVODES_OPTIONS`) never evaluates the Jacobian
     that CasADi builds at the integrator's creation, so none is compiled.
     """
-    from ..follower.kernels import closure_function
+    from .curve import closure_function
 
     kern = build_kernels(model.symbolic, closure=closure_function(model.symbolic))
     target = model_library(model, "kernels", kernel_groups(kern))

@@ -15,7 +15,7 @@ The solvers re-centre ``v`` on the current tangent at every chunk, so ``v . nu``
 positive. The tangent is normalised in the metric ``|dy|^2 + (|dtheta| ds)^2`` (arc length
 in joint space), and the stabilising term ``[H; v^T]^{-1} [-K g; 0]`` makes ``g`` decay as
 ``exp(-K tau)``. The bordered solve, the Newton correction and the RK4 steps in ``s`` are the
-curve follower's (:func:`scdk_sym.follower.kernels.bordered_tangent`, ``newton_correction``,
+curve follower's (:func:`scdk_sym.kernels.curve.bordered_tangent`, ``newton_correction``,
 ``rk4_in_s``): one definition of each in the package.
 """
 
@@ -25,8 +25,8 @@ from dataclasses import dataclass, fields
 
 import casadi as ca
 
-from ..follower.kernels import bordered_tangent, newton_correction, rk4_in_s
 from ..symbolic.system import Symbolic
+from .curve import bordered_tangent, newton_correction, rk4_in_s
 
 #: RK4 steps of the warm (fast-path) kernel: warm solves move little.
 WARM_RK_STEPS = 1
@@ -93,7 +93,7 @@ def build_kernels(sym: Symbolic, name: str = "scdk", closure: ca.Function | None
     Args:
         sym: the model's symbolic system (``model.symbolic``).
         name: prefix of the Functions' names.
-        closure: the :func:`~scdk_sym.follower.kernels.closure_function` that the field, the
+        closure: the :func:`~scdk_sym.kernels.curve.closure_function` that the field, the
             probe and the warm kernel call to evaluate the closures and their Jacobians
             (the same operations, one copy of them in generated C: the compiled backend's
             choice); default: written out in each.

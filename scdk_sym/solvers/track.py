@@ -12,8 +12,8 @@ coarse to tell them apart.
 
 The judging rule
 ----------------
-Both backends apply this rule with the same constants (the module constants below, which
-:mod:`scdk_sym.codegen.generate` writes into the generated tracker) and the same kernels:
+Both backends apply this rule with the same constants (:mod:`scdk_sym.follower.track_rule`,
+which :mod:`scdk_sym.codegen.generate` writes into the generated tracker) and the same kernels:
 ``backend="cvodes"`` (this module) follows the SC curve with CVODES
 (:func:`~scdk_sym.solvers.sc.trace`), ``backend="c"`` with the follower's RK4
 predictor-corrector steps (:mod:`scdk_sym.follower.kernels`, code-generated) in the generated C
@@ -121,38 +121,24 @@ import numpy as np
 from ..backends import resolve
 from ..errors import InputError, PathError, TrackError
 from ..follower.geometry import periodic
+from ..follower.track_rule import (  # the rule's constants (stated above)
+    ACCEPT,
+    BUDGET,
+    FAST_ITERATIONS,
+    HITS_PER_DIRECTION,
+    MARGIN,
+    NEWTON_CALLS,
+    PARTNER_ITERATIONS,
+    PARTNER_STEP,
+    PREDICTED_CALLS,
+    SMOOTH,
+)
 from ..kernels.fastcall import Buffered, model_calls
 from ..model.rotations import gibbs, gibbs_product, rot_exp
 from ..products import TRACK_KERNELS
 from ..results import Configuration, Crossing, TrackResult
 from ..robot import Model
 from .sc import null_direction, trace, validate_start
-
-#: R2, R4: the best candidate must miss the prediction by at most this fraction of the step.
-ACCEPT = 0.5
-#: R2, R4: the runner-up must miss the prediction by more than this many times the best miss
-#: and the prediction's accuracy.
-MARGIN = 3.0
-#: R1: with two increments known, the extrapolation is quadratic if the motion's second
-#: difference is at most this fraction of its step.
-SMOOTH = 0.5
-#: R3: arc length followed along the curve in each direction, in units of ``ell``.
-BUDGET = 40.0
-#: R2: evaluations of g and J_p (Newton iterations + 1) of the fast continuation.
-FAST_ITERATIONS = 4
-#: R2: Newton calls of the cheap continuation.
-NEWTON_CALLS = 3
-#: R3: Newton calls from the prediction and of the polish of each candidate.
-PREDICTED_CALLS = 8
-#: R3: inverse-iteration steps for the smallest singular pair of J_p (fold partners).
-PARTNER_ITERATIONS = 3
-#: R3: finite-difference step of the fold's curvature, relative to max(1, length scale).
-PARTNER_STEP = 1e-7
-#: R3: crossings of s = 1 collected per direction.
-HITS_PER_DIRECTION = 2
-#: Predictor-corrector steps per direction of the C tracker's curve follower (a safety limit:
-#: the arc budget ends the search first).
-MAX_STEPS = 2000
 
 #: Status codes shared with the C tracker (:data:`scdk_sym.codegen.library.STATUS`).
 OK, OK_PATH, OK_PREDICTED = 0, 1, 2
