@@ -49,7 +49,7 @@ def require_matplotlib() -> None:
     )  # fmt: skip
 
 
-def _figure(width: float = 6.0, height: float = 4.5):
+def new_figure(width: float = 6.0, height: float = 4.5):
     require_matplotlib()
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -59,7 +59,7 @@ def _figure(width: float = 6.0, height: float = 4.5):
     return fig
 
 
-def _save(fig, path: str | Path) -> Path:
+def save_figure(fig, path: str | Path) -> Path:
     p = Path(path)
     try:
         p.parent.mkdir(parents=True, exist_ok=True)
@@ -92,7 +92,7 @@ def plot_configurations(
     Returns:
         The path written.
     """
-    return _save(configurations_figure(model, configurations, title), path)
+    return save_figure(configurations_figure(model, configurations, title), path)
 
 
 def is_spatial(model: Model, configurations: Sequence[Configuration]) -> bool:
@@ -141,7 +141,7 @@ def configurations_figure(
     from matplotlib.lines import Line2D
     from matplotlib.patches import Polygon
 
-    fig = _figure(6.0, 6.0)
+    fig = new_figure(6.0, 6.0)
     ax = fig.add_subplot(1, 1, 1)
     handles = []
     for n, (label, cfg, color) in enumerate(configurations):
@@ -174,7 +174,7 @@ def _configurations_3d(model, configurations, title):
     from matplotlib.lines import Line2D
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    fig = _figure(6.5, 6.0)
+    fig = new_figure(6.5, 6.0)
     ax = fig.add_subplot(1, 1, 1, projection="3d")
     handles, seen = [], []
     for n, (label, cfg, color) in enumerate(configurations):
@@ -258,7 +258,7 @@ def _branch_curves(results: Sequence[SolveResult]):
 
 def _plot_along_s(results, path, which: int, ylabel: str, title: str):
     """One curve per solve against ``s``: ``which`` 2 is det J_p, 3 is s'."""
-    fig = _figure()
+    fig = new_figure()
     ax = fig.add_subplot(1, 1, 1)
     for curve in _branch_curves(results):
         r, s, v, style = curve[0], curve[1], curve[which], curve[4]
@@ -275,7 +275,7 @@ def _plot_along_s(results, path, which: int, ylabel: str, title: str):
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="small")
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_det_jp(results: Sequence[SolveResult], path: str | Path, title: str | None = None):
@@ -346,13 +346,13 @@ def plot_solve(
     ]
     out = Path(out_dir)
     prefix = prefix or model.name
-    shown = [("start " + _fmt(start.x), start, "gray")]
+    shown = [("start " + format_vector(start.x), start, "gray")]
     for r in results:
-        shown.append((f"{r.branch} " + _fmt(r.x), r.configuration, COLORS[r.branch]))
+        shown.append((f"{r.branch} " + format_vector(r.x), r.configuration, COLORS[r.branch]))
     for r in results:
         for c in r.crossings:
             cfg = model.configuration(c.y, c.theta)
-            shown.append(("singular " + _fmt(cfg.x), cfg, COLORS["singular"]))
+            shown.append(("singular " + format_vector(cfg.x), cfg, COLORS["singular"]))
     return [
         plot_configurations(model, shown, out / f"{prefix}_configurations.png"),
         plot_det_jp(results, out / f"{prefix}_det_jp.png"),
@@ -360,7 +360,7 @@ def plot_solve(
     ]
 
 
-def _fmt(x: np.ndarray) -> str:
+def format_vector(x: np.ndarray) -> str:
     return "x = [" + ", ".join(f"{0.0 if abs(v) < 1e-9 else v:.4g}" for v in np.asarray(x)) + "]"
 
 
@@ -387,7 +387,7 @@ def plot_track(
             f"track result x must have shape (N, {len(model.workspace)}), got {x.shape}"
         )
     n = x.shape[1]
-    fig = _figure(7.0, 1.6 + 1.4 * n)
+    fig = new_figure(7.0, 1.6 + 1.4 * n)
     t = np.arange(len(x))
     axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
     for i, (ax, name) in enumerate(zip(axes, model.workspace, strict=True)):
@@ -407,7 +407,7 @@ def plot_track(
         axes[0].legend(fontsize="small", loc="best")
     fig.suptitle(title or f"{model.name}: tracked pose ({len(result.crossings)} crossing(s))")
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 __all__ = [

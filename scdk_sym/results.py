@@ -13,7 +13,7 @@ if TYPE_CHECKING:
     from .model.model import Model
 
 
-def _frozen(a: np.ndarray) -> np.ndarray:
+def frozen_array(a: np.ndarray) -> np.ndarray:
     a = np.array(a, dtype=float)
     a.setflags(write=False)
     return a
@@ -41,7 +41,7 @@ class Configuration:
 
     def __post_init__(self) -> None:
         for name in ("theta", "y", "x", "platform_pose"):
-            object.__setattr__(self, name, _frozen(getattr(self, name)))
+            object.__setattr__(self, name, frozen_array(getattr(self, name)))
         object.__setattr__(self, "joints", MappingProxyType(dict(self.joints)))
 
     def to_dict(self) -> dict:
@@ -84,7 +84,7 @@ class Crossing:
 
     def __post_init__(self) -> None:
         for name in ("x", "y", "theta"):
-            object.__setattr__(self, name, _frozen(getattr(self, name)))
+            object.__setattr__(self, name, frozen_array(getattr(self, name)))
         object.__setattr__(self, "index", int(self.index))
         if self.kind not in CROSSING_KINDS:
             raise ValueError(f"unknown crossing kind {self.kind!r}; kinds: fold, bifurcation")
@@ -194,7 +194,7 @@ class TrackResult:
 
     def __post_init__(self) -> None:
         for name in ("x", "y", "theta", "residual"):
-            object.__setattr__(self, name, _frozen(getattr(self, name)))
+            object.__setattr__(self, name, frozen_array(getattr(self, name)))
 
     def configurations(self, model: Model) -> tuple[Configuration, ...]:
         """Each sample as a :class:`Configuration` (platform pose and joint values included).

@@ -45,7 +45,7 @@ def test_shipped_model_is_the_builders_output(name: str) -> None:
     shipped = sc.load_model(MODELS / name)
     model = built(name)
     assert shipped.content_hash == model.content_hash
-    assert (MODELS / name / "robot.urdf").read_text() == model._urdf_text
+    assert (MODELS / name / "robot.urdf").read_text() == model.urdf_text
     assert (MODELS / name / "robot.yaml").read_text() == model.spec.to_yaml()
     assert shipped.reduction is None and model.reduction is None
 

@@ -186,3 +186,15 @@ def test_atlas_stays_the_function_after_its_subpackage_is_imported():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["True", "True", "scdk_sym.atlas.run"]
+
+
+def test_no_private_name_is_imported_from_another_module():
+    crossing = {}
+    for f in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(f.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module != "__future__":
+                private = [a.name for a in node.names
+                           if a.name.startswith("_") and not a.name.startswith("__")]  # fmt: skip
+                if private:
+                    crossing.setdefault(str(f.relative_to(PACKAGE)), []).extend(private)
+    assert not crossing, crossing

@@ -36,7 +36,7 @@ def _moved_origin(urdf: str, joint: str, dx: float) -> str:
 def _corrupted() -> Model:
     """planar_hexa whose symbolic build reads the shipped URDF but Pinocchio a moved joint."""
     good = shipped("planar_hexa")
-    text = _moved_origin(good._urdf_text, MOVED_JOINT, SHIFT)
+    text = _moved_origin(good.urdf_text, MOVED_JOINT, SHIFT)
     return Model(good.tree, good.spec, good.path, None, urdf_text=text)
 
 

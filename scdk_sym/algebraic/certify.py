@@ -47,7 +47,7 @@ from numpy.typing import ArrayLike
 from ..errors import InputError
 from ..kernels.fastcall import Buffered
 from ..model.rotations import gibbs, rot_exp
-from ..results import _frozen
+from ..results import frozen_array
 from .ckrawczyk import IntervalKrawczyk, interval_krawczyk
 from .interval import FunctionCache, IntervalFunction, as_sx_function, interval_function
 
@@ -98,7 +98,7 @@ class Certificate:
 
     def __post_init__(self) -> None:
         for name in ("box", "domain", "x"):
-            object.__setattr__(self, name, _frozen(getattr(self, name)))
+            object.__setattr__(self, name, frozen_array(getattr(self, name)))
 
     def contains(self, point: ArrayLike) -> bool:
         """Whether ``point`` (n,) lies in ``box``."""

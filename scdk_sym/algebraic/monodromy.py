@@ -86,7 +86,7 @@ def _track_segment(system, z, pa, pb, ba, bb, options):
     )
 
 
-def _refine(system, z, p, b):
+def refine_solutions(system, z, p, b):
     """Newton-polish points at (p, b); returns the points and a mask of the converged ones."""
     if len(z) == 0:
         return z, np.zeros(0, dtype=bool)
@@ -257,7 +257,7 @@ def monodromy_solve(
             for (pa, ba), (pc, bc) in zip(nodes[:-1], nodes[1:], strict=True):
                 ends = _track_segment(system, z, pa, pc, ba, bc, options)
                 z = ends.z[ends.status == "success"]
-            z, ok = _refine(system, z, p, b)
+            z, ok = refine_solutions(system, z, p, b)
             before = len(sols)
             for row in z[ok]:
                 if rel_norm(sols - row[None], sols).min() > 1e-8:
@@ -352,7 +352,7 @@ def start_system(
                 loops=int(f["loops"]),
                 seed=int(f["seed"]),
             )
-        _, ok = _refine(system, s.solutions, s.p, s.b)
+        _, ok = refine_solutions(system, s.solutions, s.p, s.b)
         return s if ok.all() and len(s.solutions) == s.root_count else None
 
     path = cache_path(system, seed) if cache else None

@@ -102,7 +102,7 @@ class PolynomialRows:
         return int(self.p.numel())
 
 
-def _motion(kind: str, axis: np.ndarray, value) -> ca.SX:
+def polynomial_motion(kind: str, axis: np.ndarray, value) -> ca.SX:
     T = ca.SX.eye(4)
     if kind == "prismatic":
         T[:3, 3] = ca.DM(axis) * value
@@ -156,7 +156,7 @@ def _slots(model: Model) -> tuple[tuple[Slot, ...], tuple[str, ...]]:
     return tuple(slots), tuple(names)
 
 
-def _joint_values(
+def polynomial_joint_values(
     model: Model, slots: tuple[Slot, ...], z: ca.SX, p: ca.SX
 ) -> tuple[dict, list[str]]:
     values: dict[str, object] = {}
@@ -224,12 +224,12 @@ def polynomial_rows(model: Model) -> PolynomialRows:
     slots, names = _slots(model)
     z = ca.SX.sym("z", len(names))
     p = ca.SX.sym("p", model.k)
-    values, kinds = _joint_values(model, slots, z, p)
+    values, kinds = polynomial_joint_values(model, slots, z, p)
     T: dict[str, ca.SX] = {tree.root: ca.SX.eye(4)}
     for j in tree.joints:
         M = T[j.parent] @ ca.DM(j.origin)
         if j.movable:
-            M = M @ _motion(j.type, j.axis, values[j.name])
+            M = M @ polynomial_motion(j.type, j.axis, values[j.name])
         T[j.child] = M
     rows: list[ca.SX] = []
     labels: list[str] = []

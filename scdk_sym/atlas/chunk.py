@@ -63,10 +63,16 @@ class ChunkResult:
 
 def model_source(model) -> ModelSource:
     """The transportable description of a model."""
-    return ModelSource(model._urdf_text, model.spec.to_yaml(), model.frame, model.content_hash)
+    return ModelSource(model.urdf_text, model.spec.to_yaml(), model.frame, model.content_hash)
 
 
 _MODELS: dict[str, object] = {}
+
+
+def keep_model(model) -> None:
+    """Let :func:`worker_model` in this process return ``model`` itself for its source (the
+    caller's model, when chunks are solved in the calling process)."""
+    _MODELS.setdefault(model.content_hash, model)
 
 
 def worker_model(source: ModelSource):

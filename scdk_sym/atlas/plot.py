@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, UnknownNameError
-from ..plot import PlotError, _figure, _save
+from ..plot import PlotError, new_figure, save_figure
 from .chunk import STATUS
 from .store import open_atlas
 
@@ -99,7 +99,7 @@ def plot_atlas(
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    fig = _figure(4.6 * len(panels), 4.8)
+    fig = new_figure(4.6 * len(panels), 4.8)
     model = meta["model"]["name"]
     held = {**fixed, **meta["grid"].get("fixed", {})}  # other axes, and joints not in the grid
     where = ", ".join(f"{k} = {val:.4g}" for k, val in held.items())
@@ -153,7 +153,7 @@ def plot_atlas(
                 frameon=False,
             )
     fig.tight_layout()
-    return _save(fig, out)
+    return save_figure(fig, out)
 
 
 def count_boundaries(u: np.ndarray, v: np.ndarray, counts: np.ndarray) -> np.ndarray:

@@ -29,7 +29,7 @@ import numpy as np
 from ..errors import AtlasError, InputError, Interrupted
 from ..interrupts import check, stop_for, stop_on_signals
 from ..optional import require
-from .chunk import _MODELS, STATUS, ModelSource, model_source, solve_chunk, worker_model
+from .chunk import STATUS, ModelSource, keep_model, model_source, solve_chunk, worker_model
 from .grid import Grid, make_grid
 from .lock import store_lock
 from .store import FORMAT, Layout, create_or_check, write_chunk
@@ -166,11 +166,11 @@ def atlas(
     A store has one writer at a time (:mod:`scdk_sym.atlas.lock`). Worker processes do not
     re-import the calling script, so a script needs no ``if __name__ == "__main__":`` guard.
     """
-    from ..solvers.sc import _singular_start, validate_start
+    from ..solvers.sc import singular_start, validate_start
 
     t0 = time.perf_counter()
     start = validate_start(model, start)
-    if _singular_start(model, start):
+    if singular_start(model, start):
         raise InputError("atlas: the start configuration is singular; start from a regular one")
     if not isinstance(chunk, int | np.integer) or chunk < 1:
         raise InputError(f"atlas: chunk must be a positive number of points, got {chunk!r}")
@@ -277,7 +277,7 @@ def _run(plan: _Plan, meta: dict, workers, scheduler, t0: float) -> AtlasRun:
 
     try:
         if scheduler is None and not workers:
-            _MODELS.setdefault(model.content_hash, model)  # this process: the caller's model
+            keep_model(model)  # this process: the caller's model
             for i in todo:
                 check()
                 finished(*_task(*args(i)))

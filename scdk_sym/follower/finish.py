@@ -16,7 +16,7 @@ from ..errors import PathError
 from ..kernels.fastcall import model_calls
 from ..results import SolveResult
 from .kernels import follower_calls
-from .singular import _det_sign
+from .singular import det_sign
 
 
 def jacobian(model, y_loc, theta, c) -> np.ndarray:
@@ -82,7 +82,7 @@ def parity_checked(model, res: SolveResult, sign0: float) -> SolveResult:
     if res.status == "singular":
         return res
     n = len(res.crossings)
-    got = _det_sign(model, res)
+    got = det_sign(model, res)
     if got * sign0 * (-1.0) ** n > 0:
         return res
     raise PathError(

@@ -134,7 +134,7 @@ def across(
         if walk.hits and walk.hits[0].level == 0.0 and walk.hits[0].crossings:
             hit = walk.hits[0]
             cfg = model.configuration(hit.y, start.theta)
-            if cfg.residual <= tol and _det_sign(model, cfg) * sign0 < 0:
+            if cfg.residual <= tol and det_sign(model, cfg) * sign0 < 0:
                 return Across(cfg, walk.singular[hit.crossings - 1], 0, walk.path)
     if paper_only:
         return None
@@ -146,7 +146,7 @@ def across(
         length = min(max(2.0 * reach, 1e-3 * scale), 2.0 * scale)
         line = Line(np.array(cur.theta, dtype=float), length * d)
         lines.append(line)
-        walk = follow(model, line, cur.y, 0.0, _det_sign(model, cur), predictor=predictor,
+        walk = follow(model, line, cur.y, 0.0, det_sign(model, cur), predictor=predictor,
                       backend=backend, levels=(0.0, 1.0), max_hits=1,
                       max_steps=AIM_STEPS)  # fmt: skip
         if not walk.hits:
@@ -162,14 +162,14 @@ def across(
             yh, ch = model.chart.to_local(cfg.y)
             d, _det, reach = _descent(model, kern, yh, cfg.theta, ch)
             continue
-        if _det_sign(model, cfg) * sign0 > 0:
+        if det_sign(model, cfg) * sign0 > 0:
             return None  # crossed back: not the other side
         crossing = walk.singular[hit.crossings - 1]
         # come back on the other sheet along the lines followed, to the start's theta
         back = [] if hit.level == 0.0 else [line]
         back += lines[-2::-1]
         for ln in back:
-            w = follow(model, ln, cfg.y, 1.0, -_det_sign(model, cfg), predictor=predictor,
+            w = follow(model, ln, cfg.y, 1.0, -det_sign(model, cfg), predictor=predictor,
                        backend=backend, levels=(0.0,), max_hits=1)  # fmt: skip
             if not w.hits or w.hits[0].crossings:
                 break  # the other sheet turns: start from where we are
@@ -181,7 +181,7 @@ def across(
     return None
 
 
-def _det_sign(model, cfg: Configuration | SolveResult) -> float:
+def det_sign(model, cfg: Configuration | SolveResult) -> float:
     """Sign of det J_p at a configuration (or a solve result)."""
     y, c = model.chart.to_local(cfg.y)
     return 1.0 if np.linalg.det(np.array(model_calls(model).jac(y, cfg.theta, c)[0])) > 0 else -1.0
@@ -482,7 +482,7 @@ def across_fold(
     from .geometry import difference
 
     kern = follower_calls(model, backend)
-    sign0 = _det_sign(model, start)
+    sign0 = det_sign(model, start)
     candidates: list[tuple[np.ndarray, list[Crossing]]] = []
     end = theta0 if leg_to is None else leg_to
     leg = from_fold(model, fold, end, sign0, backend=backend, predictor=predictor)
@@ -568,7 +568,7 @@ def nearest_across(
         f = features(model, cfg.y)[0]
         if f_exclude is not None and float(np.max(np.abs(f - f_exclude))) <= 1e-7 * scale:
             continue
-        if not any_sign and _det_sign(model, cfg) * sign0 > 0:
+        if not any_sign and det_sign(model, cfg) * sign0 > 0:
             continue
         dist = float(np.max(np.abs(f - f_anchor)))
         if best is None or dist < best[0] - 1e-9 * scale:

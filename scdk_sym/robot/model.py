@@ -638,6 +638,11 @@ class Model:
         """Number of actuated joints."""
         return len(self.actuated)
 
+    @property
+    def urdf_text(self) -> str:
+        """The URDF the model was built from (as read, or written from its tree)."""
+        return self._urdf_text
+
     @cached_property
     def content_hash(self) -> str:
         """SHA-256 of the URDF, the YAML and the reported frame (cache key); of a block model

@@ -85,16 +85,16 @@ def _complex_map(form, p: np.ndarray, name: str, entries):
     """``f(z (N, n)) -> (N, E)`` complex: ``entries(T)`` (SX, a function of the links' world
     placements ``T``, link name -> (4, 4) SX, polynomial in ``z``) at fixed parameters ``p``."""
     from ..algebraic.pairs import complexify
-    from ..algebraic.polynomial import _joint_values, _motion
+    from ..algebraic.polynomial import polynomial_joint_values, polynomial_motion
 
     model = form.model
     z, ps = ca.SX.sym("z", form.n), ca.SX.sym("p", form.n_params)
-    values, _ = _joint_values(model, form.rows.slots, z, ps)
+    values, _ = polynomial_joint_values(model, form.rows.slots, z, ps)
     T = {model.tree.root: ca.SX.eye(4)}
     for j in model.tree.joints:
         M = T[j.parent] @ ca.DM(j.origin)
         if j.movable:
-            M = M @ _motion(j.type, j.axis, values[j.name])
+            M = M @ polynomial_motion(j.type, j.axis, values[j.name])
         T[j.child] = M
     F = complexify(ca.Function(name, [z, ps], [entries(T)]), f"{name}_c")
     p = np.asarray(p, dtype=complex)
@@ -199,12 +199,12 @@ def complete_by_bound(form, solutions: np.ndarray, p: np.ndarray, b: np.ndarray,
         ``(complete, note)``: the verdict and one line saying why.
     """
     from ..algebraic.homotopy import scaled_cond
-    from ..algebraic.monodromy import _refine
+    from ..algebraic.monodromy import refine_solutions
 
     count = len(solutions)
     if count != bound:
         return False, f"{count} roots found, root bound {bound}"
-    z, ok = _refine(form, np.asarray(solutions, dtype=complex), p, b)
+    z, ok = refine_solutions(form, np.asarray(solutions, dtype=complex), p, b)
     if not ok.all():
         return False, f"{int((~ok).sum())} of {count} roots do not refine by Newton"
     _, Jz, _ = form.evaluate(z, np.broadcast_to(p, (count, form.n_params)))
@@ -340,7 +340,7 @@ def _cache_path(form, seed: int):
 def _load(form, path):
     """The start system stored at ``path`` (raises when unreadable), or ``None`` when it
     no longer refines to its own solutions."""
-    from ..algebraic.monodromy import StartSystem, _refine
+    from ..algebraic.monodromy import StartSystem, refine_solutions
 
     with np.load(path) as f:
         s = StartSystem(**{name: f[name] for name in _FIELDS})
@@ -359,7 +359,7 @@ def _load(form, path):
         return None
     if not s.trace_passed:
         return s  # a stored failure: its reason stands until a rebuild
-    _, ok = _refine(form, s.solutions, s.p, s.b)
+    _, ok = refine_solutions(form, s.solutions, s.p, s.b)
     return s if ok.all() else None
 
 

@@ -30,7 +30,7 @@ from ..errors import (
 from ..follower.curve import Hit, Line, Walk, follow, null_direction  # noqa: F401
 from ..follower.cvodes import GRID, Engine, engine  # noqa: F401
 from ..follower.finish import jacobian, parity_checked, singular_jp, touching
-from ..follower.singular import _det_sign
+from ..follower.singular import det_sign
 from ..kernels.fastcall import model_calls
 from ..results import Configuration, Crossing, PathSamples, SolveResult
 from ..robot import Model, as_vector
@@ -199,12 +199,12 @@ def solve(
     same = _same_theta(theta0, start.theta)
     if b is not None:
         if same:
-            return _result(model, start.y, theta0, (), "convergent", 1.0, start, None)
+            return solve_result(model, start.y, theta0, (), "convergent", 1.0, start, None)
         direction = 1.0 if b > 0 else -1.0
         name = "convergent" if direction * det0 > 0 else "divergent"
         return _along_line(model, theta0, start, 1.0 if det0 > 0 else -1.0, direction, name,
                            backend, max_arc, record_path, nu)  # fmt: skip
-    if _singular_start(model, start, Jp):
+    if singular_start(model, start, Jp):
         raise SolveError(
             f"the start configuration is singular (J_p singular, det {det0:.3g}): the branch "
             "is undefined; pass b=+1 or b=-1, or start from a nearby non-singular configuration"
@@ -212,7 +212,7 @@ def solve(
     sign = 1.0 if det0 > 0 else -1.0
     if branch == "convergent":
         if same:
-            return _result(model, start.y, theta0, (), "convergent", sign, start, None)
+            return solve_result(model, start.y, theta0, (), "convergent", sign, start, None)
         return _along_line(model, theta0, start, sign, sign, "convergent", backend, max_arc,
                            record_path, nu, detour=True)  # fmt: skip
     return _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu)
@@ -222,7 +222,7 @@ def _same_theta(a: np.ndarray, b: np.ndarray) -> bool:
     return float(np.linalg.norm(a - b)) <= 1e-14 * max(1.0, float(np.linalg.norm(a)))
 
 
-def _singular_start(model: Model, start: Configuration, Jp: np.ndarray | None = None) -> bool:
+def singular_start(model: Model, start: Configuration, Jp: np.ndarray | None = None) -> bool:
     if Jp is None:
         y_loc, c = model.chart.to_local(start.y)
         Jp = model_calls(model).jac(y_loc, start.theta, c)[0]
@@ -249,7 +249,7 @@ def _along_line(model, theta0, start, sign0, direction, name, backend, max_arc, 
     def first_hit(tr: Walk) -> SolveResult:
         hit = tr.hits[0]
         crossings = tuple(tr.singular[: hit.crossings])
-        res = _result(model, hit.y, theta0, crossings, name, direction, start, tr.path)
+        res = solve_result(model, hit.y, theta0, crossings, name, direction, start, tr.path)
         return parity_checked(model, res, sign0)
 
     tr = walk("cvodes")
@@ -278,7 +278,7 @@ def _along_line(model, theta0, start, sign0, direction, name, backend, max_arc, 
     if touch is not None:
         y, n = touch
         crossings = tuple(tr.singular[:n])
-        res = _result(model, y, theta0, crossings, name, direction, start, tr.path)
+        res = solve_result(model, y, theta0, crossings, name, direction, start, tr.path)
         return parity_checked(model, res, sign0)
     if tr.stalled:
         why = "the curve could not be followed further"
@@ -352,7 +352,7 @@ def _detour(
                 cfg = None
                 break
         if cfg is not None:
-            return _result(model, cfg.y, theta0, (), "convergent", direction, start, None)
+            return solve_result(model, cfg.y, theta0, (), "convergent", direction, start, None)
     return None
 
 
@@ -460,7 +460,7 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
         cfg, met = leg
         crossings = (_on_path(near, start, theta0), *met)
         y = cfg.y if leg_to is None else _near_start(model, cfg.y, start)  # angles went round
-        res = _result(model, y, theta0, crossings, "divergent", -sign, start, None)
+        res = solve_result(model, y, theta0, crossings, "divergent", -sign, start, None)
         return other_than_convergent(res, how)
 
     # 2. across the nearest singular configuration (where branches cross there, any
@@ -607,7 +607,7 @@ def _across_by_modes(
         anchor.y,
         theta0,
         [(cfg.y, []) for cfg in sols],
-        _det_sign(model, start),
+        det_sign(model, start),
         any_sign=fold is not None and fold.kind != "fold",
         exclude=None if conv is None else conv.configuration,
     )
@@ -629,7 +629,7 @@ def _across_by_modes(
             tried.append("every real solution at theta0: no singular surface located between")
             return None
     crossing = _on_path(fold, start, theta0)
-    return _result(model, best[0].y, theta0, (crossing,), "divergent", -sign, start, None)
+    return solve_result(model, best[0].y, theta0, (crossing,), "divergent", -sign, start, None)
 
 
 def _same_configuration(model: Model, a, b) -> bool:
@@ -679,7 +679,7 @@ def _fast_convergent(model, theta0, start, backend) -> SolveResult | None:
     )
 
 
-def _result(model, y, theta0, crossings, branch, direction, start, path) -> SolveResult:
+def solve_result(model, y, theta0, crossings, branch, direction, start, path) -> SolveResult:
     """The verified :class:`SolveResult` of unknowns ``y`` at ``theta0`` (raises
     :class:`~scdk_sym.errors.VerificationError` when it does not close)."""
     cfg = model.configuration(y, theta0)
@@ -706,7 +706,7 @@ def _result(model, y, theta0, crossings, branch, direction, start, path) -> Solv
 
 
 #: The verified result of a solve (also of one assembled from blocks).
-verified_result = _result
+verified_result = solve_result
 
 
 def _is_singular(model: Model, cfg: Configuration) -> bool:
@@ -717,7 +717,7 @@ def _is_singular(model: Model, cfg: Configuration) -> bool:
 
 def _is_same_side(model: Model, a: Configuration, b) -> bool:
     """det J_p has the same sign at two configurations."""
-    return _det_sign(model, a) * _det_sign(model, b) > 0
+    return det_sign(model, a) * det_sign(model, b) > 0
 
 
 def _joined(first: PathSamples, rest: PathSamples, b: float) -> PathSamples:

@@ -104,9 +104,9 @@ def solve_c(
         )
     y = model.chart.to_canonical(out.y, out.c)
     if branch == "convergent":
-        from .sc import _result
+        from .sc import solve_result
 
-        return _result(model, y, th0, (), "convergent", float(np.sign(out.det)), start, None)
+        return solve_result(model, y, th0, (), "convergent", float(np.sign(out.det)), start, None)
     res = _divergent_result(model, th0, start, y, out)
     if res is None:
         return solve(model, th0, start, branch, b, **fallback)
@@ -120,15 +120,15 @@ def _divergent_result(model: Model, theta0: np.ndarray, start: Configuration, y:
     :func:`scdk_sym.solvers.sc._divergent` reports it; None where the answer is singular or
     fails its residual or parity check (the compiled solve decides those)."""
     from ..follower.finish import parity_checked
-    from ..follower.singular import _det_sign
-    from .sc import _result
+    from ..follower.singular import det_sign
+    from .sc import solve_result
 
-    sign0 = _det_sign(model, start)
+    sign0 = det_sign(model, start)
     theta_f = start.theta + out.fold_s * (theta0 - start.theta)
     y_f = model.chart.to_canonical(out.fold_y, out.fold_c)
     fold = Crossing(out.fold_s, out.fold_x, y_f, theta_f, kind="fold")
     try:
-        res = _result(model, y, theta0, (fold,), "divergent", -sign0, start, None)
+        res = solve_result(model, y, theta0, (fold,), "divergent", -sign0, start, None)
         if res.status == "singular":
             return None
         return parity_checked(model, res, sign0)

@@ -48,7 +48,7 @@ def pinocchio_model(model: Model):
     edits or a locked rod spin changed the URDF's joints (ball joints as Pinocchio's
     spherical joints, universal joints as two revolutes)."""
     if not model.spec.joint_edits and not model.spins:
-        return _pin_model(model._urdf_text)
+        return _pin_model(model.urdf_text)
     return model.products.get(PINOCCHIO_MODEL, lambda: _pin_model_of_tree(model.tree))
 
 

@@ -20,7 +20,7 @@ from types import MappingProxyType
 import numpy as np
 
 from ..errors import ViewError
-from ..plot import _fmt, first_hit, placements, rigid_groups, robot_drawing_3d
+from ..plot import first_hit, format_vector, placements, rigid_groups, robot_drawing_3d
 from ..results import Configuration, SolveResult, TrackResult
 from ..robot import Model
 
@@ -207,7 +207,7 @@ def frame(model: Model, scene: RobotScene, cfg: Configuration, caption: str = ""
         else:
             cuts.extend(S)
     names = ", ".join(model.workspace)
-    text = f"{caption}({names}) = {_fmt(cfg.x)[4:]}".strip()
+    text = f"{caption}({names}) = {format_vector(cfg.x)[4:]}".strip()
     return Frame(
         MappingProxyType({name: links[name] for name in scene.moving_links}),
         np.array(segments, dtype=np.float64).reshape(-1, 2, 3),
@@ -294,7 +294,7 @@ def _urdf_shapes(model: Model) -> tuple[list[Shape], list[str]]:
 
     logging.getLogger("yourdfpy").setLevel(logging.ERROR)
     robot = yourdfpy.URDF.load(
-        io.StringIO(model._urdf_text),
+        io.StringIO(model.urdf_text),
         build_scene_graph=False,
         load_meshes=False,
         build_collision_scene_graph=False,
