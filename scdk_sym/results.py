@@ -138,6 +138,10 @@ class SolveResult:
         b: the signed scalar of the field (+1 or -1 relative to nu).
         start: the start configuration.
         path: the sampled solution curve.
+        backend: the backend that computed it ("cvodes", "compiled" or "c").
+        fallback: why it was computed by ``backend`` rather than the one asked for (e.g. the
+            generated C follower met a singular path and handed over to "compiled"); empty
+            when the backend asked for answered.
     """
 
     x: np.ndarray
@@ -152,6 +156,8 @@ class SolveResult:
     b: float
     start: Configuration
     path: PathSamples | None = field(default=None, repr=False)
+    backend: str = ""
+    fallback: str = ""
 
     @property
     def configuration(self) -> Configuration:
@@ -165,7 +171,10 @@ class SolveResult:
             crossings=[c.to_dict() for c in self.crossings],
             status=self.status,
             branch=self.branch,
+            backend=self.backend,
         )
+        if self.fallback:
+            d["fallback"] = self.fallback
         return d
 
 

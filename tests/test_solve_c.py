@@ -75,7 +75,18 @@ def test_other_branches_and_refusals_fall_back():
                        **kw)  # fmt: skip
         np.testing.assert_allclose(res.x, ref.x, rtol=0, atol=1e-12)
         assert res.b == ref.b and len(res.crossings) == len(ref.crossings)
+        # the hand-over is reported, never silent
+        assert (res.backend, ref.backend, ref.fallback) == ("compiled", "compiled", "")
+        word = "b is solved" if "b" in kw else "max_arc"
+        assert res.fallback.startswith("backend 'c' handed over to 'compiled'") and word in (
+            res.fallback
+        )
+        assert res.to_dict()["fallback"] == res.fallback
     assert res.x[2] == pytest.approx(0.9999, abs=1e-4) and len(res.crossings) == 1
+    own = sc.solve(model, SEED_THETA0, start=start, backend="c", record_path=False)
+    assert (own.backend, own.fallback) == ("c", "") and "fallback" not in own.to_dict()
+    cv = sc.solve(model, SEED_THETA0, start=start, record_path=False)
+    assert (cv.backend, cv.to_dict()["backend"]) == ("cvodes", "cvodes")
     # behind the start on the line: the convergent curve turns at a fold before any s = 1
     # crossing, so the C call refuses and the fallback says what the reference says
     lib = clib.tracker_library(model)

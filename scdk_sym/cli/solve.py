@@ -113,6 +113,8 @@ def _solve(args: argparse.Namespace) -> int:
             print(f"{r.branch:>10}: x = {fmt(r.x)}  residual {r.residual:.1e}  crossings {n}")
             for c in r.crossings:
                 print(f"{'':>12}singular crossing ({c.kind}) at s = {c.s:.6f}: x = {fmt(c.x)}")
+            if r.fallback:
+                print(f"{'':>12}{r.fallback}")
     if len(failed) == len(results):
         for br, err in failed:
             print(f"scdk {args.command}: error: {br}: {one_line(err)}", file=sys.stderr)

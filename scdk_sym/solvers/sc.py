@@ -14,6 +14,7 @@ tracker and the assembly-mode search); :func:`solve` returns the first one.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -171,6 +172,13 @@ def solve(
             solution at ``theta0`` is listed by :func:`scdk_sym.assembly_modes`).
         VerificationError: the final configuration failed its residual check.
     """
+    name = resolve(backend, "solve")
+    res = _solve(model, theta0, start, branch, b, backend, max_arc, record_path, fast)
+    return res if res.backend else replace(res, backend=name)
+
+
+def _solve(model, theta0, start, branch, b, backend, max_arc, record_path, fast) -> SolveResult:
+    """:func:`solve` (its arguments in order); the result's backend is set by the caller."""
     subs = model.blocks
     if len(subs) > 1:  # independent blocks (the legs of a biped): one solve each
         theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")

@@ -26,6 +26,8 @@ so nothing unverified is returned.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -74,14 +76,20 @@ def solve_c(
     from .sc import solve, validate_start
 
     kwargs.pop("backend", None)
-    fallback = dict(kwargs, backend="compiled")
-    if (
-        b is not None
-        or branch not in ("convergent", "divergent")
-        or kwargs.get("record_path", False)
-        or kwargs.get("max_arc") is not None
-    ):
-        return solve(model, theta0, start, branch, b, **fallback)
+    options = dict(kwargs, backend="compiled")
+
+    def fallback(theta, why: str) -> SolveResult:
+        res = solve(model, theta, start, branch, b, **options)
+        return replace(res, fallback=f"backend 'c' handed over to 'compiled': {why}")
+
+    if b is not None:
+        return fallback(theta0, "b is solved by the compiled follower")
+    if branch not in ("convergent", "divergent"):
+        return fallback(theta0, f"branch {branch!r}")
+    if kwargs.get("record_path", False):
+        return fallback(theta0, "record_path=True (the C follower keeps no sampled curve)")
+    if kwargs.get("max_arc") is not None:
+        return fallback(theta0, "max_arc is applied by the compiled follower")
     th0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
     start = validate_start(model, start, check_residual=False)
     lib = tracker_library(model)
@@ -89,7 +97,7 @@ def solve_c(
     call = lib.solve_convergent if branch == "convergent" else lib.solve_divergent
     out = call(y1, c1, start.theta, th0)
     if out.status in (ERR_SINGULAR_PATH, ERR_NO_SOLUTION):
-        return solve(model, th0, start, branch, b, **fallback)
+        return fallback(th0, f"the C follower returned {STATUS.get(out.status, out.status)}")
     if out.status == ERR_NOT_ASSEMBLED:
         residual = model.residual(start.y, start.theta)
         raise NotAssembledError(
@@ -109,7 +117,7 @@ def solve_c(
         return solve_result(model, y, th0, (), "convergent", float(np.sign(out.det)), start, None)
     res = _divergent_result(model, th0, start, y, out)
     if res is None:
-        return solve(model, th0, start, branch, b, **fallback)
+        return fallback(th0, "its divergent answer is singular or failed its checks")
     return res
 
 
