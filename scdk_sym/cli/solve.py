@@ -86,7 +86,8 @@ def _solve(args: argparse.Namespace) -> int:
     results: list[tuple[str, SolveResult | SolveError]] = []
     for br in branches:
         try:
-            res = sc.solve(model, theta, start=start, branch=br, b=args.b, backend=backend)
+            res = sc.solve(model, theta, start=start, branch=br, b=args.b, backend=backend,
+                           record_path=False)  # fmt: skip
         except SolveError as exc:
             if not both:
                 raise
@@ -96,9 +97,7 @@ def _solve(args: argparse.Namespace) -> int:
     failed = [(br, r) for br, r in results if isinstance(r, SolveError)]
     if args.json:
         records = [
-            _failed_record(br, r, backend)
-            if isinstance(r, SolveError)
-            else dict(r.to_dict(), backend=backend)
+            _failed_record(br, r, backend) if isinstance(r, SolveError) else r.to_dict()
             for br, r in results
         ]
         dump(records[0] if not both else {"solutions": records})
