@@ -135,6 +135,21 @@ def parse_spec(text: str, path: str | None = None) -> Spec:
     Raises:
         ModelError: malformed YAML, missing keys, inconsistent lengths, unknown types.
     """
+    data = _mapping(text, path)
+    return Spec(
+        _closures(data, path),
+        _actuated(data, path),
+        _platform(data, path),
+        _workspace(data, path),
+        _home(data, path),
+        data,
+        _length_unit(data, path),
+        _joint_edits(data, path),
+    )
+
+
+def _mapping(text: str, path: str | None) -> dict:
+    """The YAML's mapping, its keys known, the required ones present, its version supported."""
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
@@ -151,6 +166,22 @@ def parse_spec(text: str, path: str | None = None) -> Spec:
     version = data.get("format_version", 1)
     if version != 1:
         raise ModelError(f"unsupported format_version {version!r}; supported: 1", path)
+    return data
+
+
+def _closure_types(data: dict, count: int, path: str | None) -> list[str]:
+    """``type``: one known closure type per loop, in either case (returned lower-case)."""
+    types = _str_list(data, "type", path)
+    if len(types) != count:
+        raise ModelError(f"'type' has {len(types)} entries but 'closed_loop' has {count}", path)
+    for t in types:
+        if t.lower() not in CLOSURE_TYPES:
+            raise ModelError(f"unknown closure type {t!r}; types: {', '.join(CLOSURE_TYPES)}", path)
+    return [t.lower() for t in types]
+
+
+def _closures(data: dict, path: str | None) -> tuple[Closure, ...]:
+    """``closed_loop``, ``type`` and ``length``: the closures, in order."""
     loops = data["closed_loop"]
     if not isinstance(loops, list) or not all(
         isinstance(p, list) and len(p) == 2 and all(isinstance(n, str) for n in p) for p in loops
@@ -158,15 +189,7 @@ def parse_spec(text: str, path: str | None = None) -> Spec:
         raise ModelError(
             f"'closed_loop' must be a list of [frame_a, frame_b] pairs, got {loops!r}", path
         )
-    types = _str_list(data, "type", path)
-    if len(types) != len(loops):
-        raise ModelError(
-            f"'type' has {len(types)} entries but 'closed_loop' has {len(loops)}", path
-        )
-    for t in types:
-        if t.lower() not in CLOSURE_TYPES:
-            raise ModelError(f"unknown closure type {t!r}; types: {', '.join(CLOSURE_TYPES)}", path)
-    types = [t.lower() for t in types]
+    types = _closure_types(data, len(loops), path)
     lengths = data.get("length")
     if not isinstance(lengths, list):
         lengths = []
@@ -187,45 +210,58 @@ def parse_spec(text: str, path: str | None = None) -> Spec:
             else:
                 length = float(value)
         closures.append(Closure(a, b, t, length, joint))
+    return tuple(closures)
+
+
+def _actuated(data: dict, path: str | None) -> tuple[str, ...]:
+    """``name_mot``: the actuated joints, at least one, no duplicate."""
     actuated = _str_list(data, "name_mot", path)
     if not actuated:
         raise ModelError("'name_mot' is empty: at least one actuated joint is needed", path)
     if len(set(actuated)) != len(actuated):
         raise ModelError(f"'name_mot' has duplicates: {actuated}", path)
+    return tuple(actuated)
+
+
+def _platform(data: dict, path: str | None) -> str | None:
     platform = data.get("platform")
     if platform is not None and not isinstance(platform, str):
         raise ModelError(f"'platform' must be a link name, got {platform!r}", path)
-    workspace = data.get("workspace")
-    if workspace is not None:
-        workspace = _str_list(data, "workspace", path)
-        for w in workspace:
-            if w not in WORKSPACE_NAMES:
-                valid = ", ".join(WORKSPACE_NAMES)
-                raise ModelError(f"unknown workspace coordinate {w!r}; coordinates: {valid}", path)
-        if "phi" in workspace and set(workspace) & {"roll", "pitch", "yaw"}:
-            raise ModelError("workspace mixes 'phi' with roll/pitch/yaw", path)
-        workspace = tuple(workspace)
+    return platform
+
+
+def _workspace(data: dict, path: str | None) -> tuple[str, ...] | None:
+    """``workspace``: known coordinates, planar ``phi`` not mixed with roll/pitch/yaw."""
+    if data.get("workspace") is None:
+        return None
+    workspace = _str_list(data, "workspace", path)
+    for w in workspace:
+        if w not in WORKSPACE_NAMES:
+            valid = ", ".join(WORKSPACE_NAMES)
+            raise ModelError(f"unknown workspace coordinate {w!r}; coordinates: {valid}", path)
+    if "phi" in workspace and set(workspace) & {"roll", "pitch", "yaw"}:
+        raise ModelError("workspace mixes 'phi' with roll/pitch/yaw", path)
+    return tuple(workspace)
+
+
+def _home(data: dict, path: str | None) -> dict[str, float]:
+    """``home``: joint name -> finite value."""
     home = data.get("home") or {}
     if not isinstance(home, dict):
         raise ModelError(f"'home' must map joint names to values, got {home!r}", path)
     for k, v in home.items():
         if not isinstance(v, (int, float)) or not math.isfinite(v):
             raise ModelError(f"home value of {k!r} must be a finite number, got {v!r}", path)
+    return {str(k): float(v) for k, v in home.items()}
+
+
+def _length_unit(data: dict, path: str | None) -> str:
     unit = data.get("length_unit", DEFAULT_LENGTH_UNIT)
     if not isinstance(unit, str) or not unit.strip():
         raise ModelError(
             f"'length_unit' must name the unit of lengths (e.g. m, cm, mm), got {unit!r}", path
         )
-    return Spec(
-        tuple(closures),
-        tuple(actuated),
-        platform,
-        workspace,
-        {str(k): float(v) for k, v in home.items()},
-        data,
-        unit.strip(),
-        _joint_edits(data, path),
-    )
+    return unit.strip()
 
 
 def _joint_edits(data: dict, path: str | None) -> tuple[tuple[str, str], ...]:
