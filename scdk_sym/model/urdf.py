@@ -170,11 +170,24 @@ def parse_urdf(text: str, path: str | None = None) -> Tree:
     Raises:
         ModelError: malformed XML, unsupported joint types, or not a tree.
     """
+    _check_structure(text, path)
+    robot = _load(text, path)
+    links = [lk.name for lk in robot.links]
+    if not links:
+        raise ModelError("URDF has no links", path)
+    if len(set(links)) != len(links):
+        raise ModelError("URDF has duplicate link names", path)
+    joints = [_joint(j, links, path) for j in robot.joints]
+    root, order_links, order_joints = _tree_order(links, joints, path)
+    return Tree(robot.name, root, order_links, order_joints)
+
+
+def _load(text: str, path: str | None):
+    """The URDF's robot as yourdfpy reads it (no meshes, no scene graph)."""
     import logging
 
     import yourdfpy
 
-    _check_structure(text, path)
     logging.getLogger("yourdfpy").setLevel(logging.ERROR)
     try:
         urdf = yourdfpy.URDF.load(
@@ -187,41 +200,46 @@ def parse_urdf(text: str, path: str | None = None) -> Tree:
     except Exception as exc:  # yourdfpy raises lxml and assorted errors
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise ModelError(f"malformed URDF: {msg}", path) from exc
-    robot = urdf.robot
-    links = [lk.name for lk in robot.links]
-    if not links:
-        raise ModelError("URDF has no links", path)
-    if len(set(links)) != len(links):
-        raise ModelError("URDF has duplicate link names", path)
-    joints = []
-    for j in robot.joints:
-        if j.type not in SUPPORTED_TYPES:
-            raise ModelError(
-                f"joint {j.name!r} has unsupported type {j.type!r}; "
-                f"supported: {', '.join(SUPPORTED_TYPES)}",
-                path,
-            )
-        for end in (j.parent, j.child):
-            if end not in links:
-                raise ModelError(f"joint {j.name!r} refers to unknown link {end!r}", path)
-        origin = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
-        axis = np.array([1.0, 0.0, 0.0]) if j.axis is None else np.asarray(j.axis, float)
-        if j.type not in ("fixed", "floating"):
-            norm = float(np.linalg.norm(axis))
-            if not np.isfinite(norm) or norm < 1e-12:
-                raise ModelError(f"joint {j.name!r} has a zero axis", path)
-            axis = axis / norm
-        lower, upper = -math.inf, math.inf
-        if j.type in ("revolute", "prismatic") and j.limit is not None:
-            if j.limit.lower is not None:
-                lower = float(j.limit.lower)
-            if j.limit.upper is not None:
-                upper = float(j.limit.upper)
-            if lower == 0.0 and upper == 0.0:  # unspecified limits in many exports
-                lower, upper = -math.inf, math.inf
-        if not np.all(np.isfinite(origin)):
-            raise ModelError(f"joint {j.name!r} has a non-finite origin", path)
-        joints.append(Joint(j.name, j.type, j.parent, j.child, origin, axis, lower, upper))
+    return urdf.robot
+
+
+def _joint(j, links: list[str], path: str | None) -> Joint:
+    """One yourdfpy joint, checked: a supported type, known links, a unit axis, a finite
+    origin; limits of 0 and 0 (unspecified in many exports) read as none."""
+    if j.type not in SUPPORTED_TYPES:
+        raise ModelError(
+            f"joint {j.name!r} has unsupported type {j.type!r}; "
+            f"supported: {', '.join(SUPPORTED_TYPES)}",
+            path,
+        )
+    for end in (j.parent, j.child):
+        if end not in links:
+            raise ModelError(f"joint {j.name!r} refers to unknown link {end!r}", path)
+    origin = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
+    axis = np.array([1.0, 0.0, 0.0]) if j.axis is None else np.asarray(j.axis, float)
+    if j.type not in ("fixed", "floating"):
+        norm = float(np.linalg.norm(axis))
+        if not np.isfinite(norm) or norm < 1e-12:
+            raise ModelError(f"joint {j.name!r} has a zero axis", path)
+        axis = axis / norm
+    lower, upper = -math.inf, math.inf
+    if j.type in ("revolute", "prismatic") and j.limit is not None:
+        if j.limit.lower is not None:
+            lower = float(j.limit.lower)
+        if j.limit.upper is not None:
+            upper = float(j.limit.upper)
+        if lower == 0.0 and upper == 0.0:  # unspecified limits in many exports
+            lower, upper = -math.inf, math.inf
+    if not np.all(np.isfinite(origin)):
+        raise ModelError(f"joint {j.name!r} has a non-finite origin", path)
+    return Joint(j.name, j.type, j.parent, j.child, origin, axis, lower, upper)
+
+
+def _tree_order(
+    links: list[str], joints: list[Joint], path: str | None
+) -> tuple[str, tuple[str, ...], tuple[Joint, ...]]:
+    """The root, and the links and joints ordered parents before children (breadth first);
+    refuses duplicate joints, a link with two parents, several roots or a disconnected tree."""
     names = [j.name for j in joints]
     if len(set(names)) != len(names):
         raise ModelError("URDF has duplicate joint names", path)
@@ -232,7 +250,6 @@ def parse_urdf(text: str, path: str | None = None) -> Tree:
     roots = [lk for lk in links if lk not in children]
     if len(roots) != 1:
         raise ModelError(f"URDF must have exactly one root link, found {roots}", path)
-    # order parents before children
     order_links = [roots[0]]
     order_joints: list[Joint] = []
     frontier = [roots[0]]
@@ -245,7 +262,7 @@ def parse_urdf(text: str, path: str | None = None) -> Tree:
                 frontier.append(j.child)
     if len(order_links) != len(links):
         raise ModelError("URDF is not a connected tree", path)
-    return Tree(robot.name, roots[0], tuple(order_links), tuple(order_joints))
+    return roots[0], tuple(order_links), tuple(order_joints)
 
 
 # ---------------------------------------------------------------------------- writing
