@@ -103,6 +103,82 @@ def _pivoted_selection(M: np.ndarray, count: int) -> list[int]:
     return sorted(chosen)
 
 
+def _closure_function(full: Symbolic, c0: np.ndarray) -> ca.Function:
+    """(y, theta) -> (g_all, dg_all/dy, g_check, dg_check/dy, dg_all/dtheta,
+    dg_check/dtheta) of the unreduced closures, in the chart ``c0``."""
+    return ca.Function(
+        "all",
+        [full.y, full.theta],
+        [
+            ca.substitute(e, full.c, ca.DM(c0))
+            for e in (
+                full.g_all,
+                ca.jacobian(full.g_all, full.y),
+                full.g_check,
+                ca.jacobian(full.g_check, full.y),
+                ca.jacobian(full.g_all, full.theta),
+                ca.jacobian(full.g_check, full.theta),
+            )
+        ],
+    )
+
+
+def _check_names(tree: Tree, spec: Spec, joint_frames: dict[str, str], path: str | None) -> None:
+    """Every name of the spec exists in the tree: closure frames (links or joints), actuated
+    joints (movable, one coordinate), length joints, home coordinates."""
+    links, movable, single = tree.links, tree.coordinates, tree.single_coordinate_joints
+    frames = (*links, *joint_frames)
+    for c in spec.closures:
+        for f in (c.frame_a, c.frame_b):
+            if f not in links and f not in joint_frames:
+                raise UnknownNameError("frame", f, frames, path)
+    kinds = {j.name: j.type for j in tree.joints}
+    for a in spec.actuated:
+        if a not in single:
+            if kinds.get(a) in ("fixed", "floating", "spherical"):
+                reason = (
+                    f"in 'name_mot' is a {kinds[a]} joint: only a movable joint with one "
+                    "coordinate can be actuated"
+                )
+                raise UnknownNameError("movable joint", a, single, path, reason)
+            raise UnknownNameError("joint", a, single, path)
+    for c in spec.closures:
+        if c.length_joint is not None and c.length_joint not in single:
+            raise UnknownNameError("joint", c.length_joint, single, path)
+    for j in spec.home:
+        if j not in movable:
+            raise UnknownNameError("joint", j, movable, path)
+
+
+def _reported_frame(
+    tree: Tree, spec: Spec, joint_frames: dict[str, str], frame: str | None, path: str | None
+) -> str:
+    """The link whose pose is reported: ``frame``, else the spec's platform, else a link
+    named ``effector``, else the distal link of the closures (a joint stands for its child)."""
+    chosen = frame or spec.platform
+    if chosen is None:
+        chosen = "effector" if "effector" in tree.links else distal_link(tree, spec.closures)
+    if chosen not in tree.links and chosen not in joint_frames:
+        raise UnknownNameError("frame", chosen, (*tree.links, *joint_frames), path)
+    return joint_frames.get(chosen, chosen)
+
+
+def _workspace(spec: Spec, path: str | None) -> tuple[str, ...]:
+    """The spec's workspace coordinates, else the pose (with a platform) or the position."""
+    if spec.workspace is not None:
+        workspace = spec.workspace
+    elif spec.platform is not None:
+        workspace = ("x", "y", "z", "roll", "pitch", "yaw")
+    else:
+        workspace = ("x", "y", "z")
+    rot = {"roll", "pitch", "yaw"} & set(workspace)
+    if rot and rot != {"yaw"} and rot != {"roll", "pitch", "yaw"}:
+        raise ModelError(
+            f"workspace {list(workspace)}: give all of roll, pitch, yaw or only yaw", path
+        )
+    return tuple(workspace)
+
+
 class Model:
     """A closed-chain manipulator: spanning tree, closures, actuated and unknown joints.
 
@@ -143,49 +219,11 @@ class Model:
         self.spec = spec
         self.path = path
         self.name = tree.name
-        links = tree.links
-        movable = tree.coordinates
-        single = tree.single_coordinate_joints
         # a frame is a link, or a joint (as in Pinocchio: the joint frame is its child link's)
-        joint_frames = {j.name: j.child for j in tree.joints if j.name not in links}
-        frames = (*links, *joint_frames)
-        for c in spec.closures:
-            for f in (c.frame_a, c.frame_b):
-                if f not in links and f not in joint_frames:
-                    raise UnknownNameError("frame", f, frames, path)
-        kinds = {j.name: j.type for j in tree.joints}
-        for a in spec.actuated:
-            if a not in single:
-                if kinds.get(a) in ("fixed", "floating", "spherical"):
-                    reason = (
-                        f"in 'name_mot' is a {kinds[a]} joint: only a movable joint with one "
-                        "coordinate can be actuated"
-                    )
-                    raise UnknownNameError("movable joint", a, single, path, reason)
-                raise UnknownNameError("joint", a, single, path)
-        for c in spec.closures:
-            if c.length_joint is not None and c.length_joint not in single:
-                raise UnknownNameError("joint", c.length_joint, single, path)
-        for j in spec.home:
-            if j not in movable:
-                raise UnknownNameError("joint", j, movable, path)
-        chosen = frame or spec.platform
-        if chosen is None:
-            chosen = "effector" if "effector" in links else distal_link(tree, spec.closures)
-        if chosen not in links and chosen not in joint_frames:
-            raise UnknownNameError("frame", chosen, frames, path)
-        self.frame = joint_frames.get(chosen, chosen)
-        if spec.workspace is not None:
-            workspace = spec.workspace
-        elif spec.platform is not None:
-            workspace = ("x", "y", "z", "roll", "pitch", "yaw")
-        else:
-            workspace = ("x", "y", "z")
-        rot = {"roll", "pitch", "yaw"} & set(workspace)
-        if rot and rot != {"yaw"} and rot != {"roll", "pitch", "yaw"}:
-            raise ModelError(
-                f"workspace {list(workspace)}: give all of roll, pitch, yaw or only yaw", path
-            )
+        joint_frames = {j.name: j.child for j in tree.joints if j.name not in tree.links}
+        _check_names(tree, spec, joint_frames, path)
+        self.frame = _reported_frame(tree, spec, joint_frames, frame, path)
+        workspace = _workspace(spec, path)
         self.workspace = tuple(workspace)
         self.actuated = tuple(spec.actuated)
         self.closures = tuple(
@@ -196,7 +234,7 @@ class Model:
             )
             for c in spec.closures
         )
-        candidates = tuple(j for j in movable if j not in self.actuated)
+        candidates = tuple(j for j in tree.coordinates if j not in self.actuated)
         if not candidates:
             raise ModelError("no unknown joints: every movable joint is actuated", path)
         if not spec.closures:
@@ -219,6 +257,9 @@ class Model:
         return float(np.max(np.linalg.norm(pos - pos[0], axis=1)))
 
     def _reduce(self, candidates: tuple[str, ...], start: dict[str, float] | None = None) -> None:
+        """Reduce the closures over ``candidates`` to a square system at home (or at
+        ``start``, projected): redundant rows dropped, idle joints locked (rod spins turned
+        into universal joints), the assembled home kept."""
         full = build_symbolic(
             self.tree,
             self.closures,
@@ -234,72 +275,11 @@ class Model:
         y0 = np.array([given.get(j, 0.0) for j in candidates])
         th0 = np.array([given.get(j, 0.0) for j in self.actuated])
         y0, c0 = chart.to_local(y0)
-        f_all = ca.Function(
-            "all",
-            [full.y, full.theta],
-            [
-                ca.substitute(e, full.c, ca.DM(c0))
-                for e in (
-                    full.g_all,
-                    ca.jacobian(full.g_all, full.y),
-                    full.g_check,
-                    ca.jacobian(full.g_check, full.y),
-                    ca.jacobian(full.g_all, full.theta),
-                    ca.jacobian(full.g_check, full.theta),
-                )
-            ],
-        )
-        check = np.abs(np.array(f_all(y0, th0)[2])).ravel()
-        if start is not None:
-            y0 = self._project(f_all, y0, th0)
-        elif self.spec.home:
-            if check.max() > self.tolerance:
-                raise NotAssembledError(
-                    f"'home' is not assembled: {self._worst(check)} "
-                    f"(tolerance {self.tolerance:.1e})",
-                    float(check.max()),
-                    self.path,
-                )
-        else:
-            y0 = self._project(f_all, y0, th0)
-            check = np.abs(np.array(f_all(y0, th0)[2])).ravel()
-            if check.max() > self.tolerance:
-                y0, th0 = self._assemble(full, c0, f_all, y0, th0, check)
+        f_all = _closure_function(full, c0)
+        y0, th0 = self._assembled(full, c0, f_all, y0, th0, start is not None)
         G = np.array(f_all(y0, th0)[1])
         nrows, ncols = G.shape
-        sv = np.linalg.svd(G, compute_uv=False)
-        rank = int(np.sum(sv > 1e-8 * max(1.0, sv[0] if sv.size else 1.0)))
-        rows = list(range(nrows))
-        keep = list(range(ncols))
-        note = None
-        if rank == 0:
-            raise NonSquareSystemError(
-                f"the closures do not constrain any unknown joint ({', '.join(candidates)})",
-                nrows,
-                ncols,
-                rank,
-                self.path,
-            )
-        labels = self._row_labels()
-        self._check_actuation(G, np.array(f_all(y0, th0)[4]), rank, labels)
-        if not (rank == nrows == ncols):
-            rows = _pivoted_selection(G.T, rank)
-            keep = _pivoted_selection(G[rows], rank)
-            if any("." in candidates[c] for c in range(ncols) if c not in keep):
-                # lock single-coordinate joints: weigh the chart coordinates up so that the
-                # pivoting keeps them (a spin is locked at a revolute of its chain)
-                weight = np.array([1e3 if "." in n else 1.0 for n in candidates])
-                keep = _pivoted_selection(G[rows] * weight, rank)
-            idle = [c for c in range(ncols) if c not in keep]
-            dropped = [labels[r] for r in range(nrows) if r not in rows]
-            if idle:
-                self._judge_idle(full, y0, th0, c0, G, rank, candidates, dropped)
-            parts = [f"{nrows} rows x {ncols} unknowns, rank {rank}"]
-            if dropped:
-                parts.append(f"dropped {len(dropped)} redundant row(s) {dropped}")
-            if idle:
-                parts.append(f"locked idle joint(s) {[candidates[c] for c in idle]} at home")
-            note = "reduced to a square system: " + "; ".join(parts)
+        rows, keep, rank, note = self._square_selection(full, f_all, G, y0, th0, c0, candidates)
         self.rows = tuple(rows)
         self.unknowns = tuple(candidates[c] for c in keep)
         floating_locked = [
@@ -327,6 +307,66 @@ class Model:
         self.chart = Chart.for_unknowns(self.unknowns, self.tree.rotation_joints)
         self._home_y = chart.to_canonical(y0, c0)[keep]
         self._home_theta = th0
+
+    def _assembled(self, full, c0, f_all, y0, th0, projected: bool):
+        """The start ``(y0, th0)`` assembled: projected (``projected``), the spec's home as
+        given (refused when it does not close), or assembled from the neutral configuration
+        when the spec has no home."""
+        check = np.abs(np.array(f_all(y0, th0)[2])).ravel()
+        if projected:
+            return self._project(f_all, y0, th0), th0
+        if self.spec.home:
+            if check.max() > self.tolerance:
+                raise NotAssembledError(
+                    f"'home' is not assembled: {self._worst(check)} "
+                    f"(tolerance {self.tolerance:.1e})",
+                    float(check.max()),
+                    self.path,
+                )
+            return y0, th0
+        y0 = self._project(f_all, y0, th0)
+        check = np.abs(np.array(f_all(y0, th0)[2])).ravel()
+        if check.max() > self.tolerance:
+            y0, th0 = self._assemble(full, c0, f_all, y0, th0, check)
+        return y0, th0
+
+    def _square_selection(self, full, f_all, G, y0, th0, c0, candidates):
+        """``(rows, keep, rank, note)``: the closure rows and unknowns of a square system of
+        full rank at the start (pivoted selections; chart coordinates of floating and ball
+        joints kept first), idle freedoms judged by what they move, and a note saying what
+        was dropped and locked (``None`` when nothing was)."""
+        nrows, ncols = G.shape
+        sv = np.linalg.svd(G, compute_uv=False)
+        rank = int(np.sum(sv > 1e-8 * max(1.0, sv[0] if sv.size else 1.0)))
+        if rank == 0:
+            raise NonSquareSystemError(
+                f"the closures do not constrain any unknown joint ({', '.join(candidates)})",
+                nrows,
+                ncols,
+                rank,
+                self.path,
+            )
+        labels = self._row_labels()
+        self._check_actuation(G, np.array(f_all(y0, th0)[4]), rank, labels)
+        if rank == nrows == ncols:
+            return list(range(nrows)), list(range(ncols)), rank, None
+        rows = _pivoted_selection(G.T, rank)
+        keep = _pivoted_selection(G[rows], rank)
+        if any("." in candidates[c] for c in range(ncols) if c not in keep):
+            # lock single-coordinate joints: weigh the chart coordinates up so that the
+            # pivoting keeps them (a spin is locked at a revolute of its chain)
+            weight = np.array([1e3 if "." in n else 1.0 for n in candidates])
+            keep = _pivoted_selection(G[rows] * weight, rank)
+        idle = [c for c in range(ncols) if c not in keep]
+        dropped = [labels[r] for r in range(nrows) if r not in rows]
+        if idle:
+            self._judge_idle(full, y0, th0, c0, G, rank, candidates, dropped)
+        parts = [f"{nrows} rows x {ncols} unknowns, rank {rank}"]
+        if dropped:
+            parts.append(f"dropped {len(dropped)} redundant row(s) {dropped}")
+        if idle:
+            parts.append(f"locked idle joint(s) {[candidates[c] for c in idle]} at home")
+        return rows, keep, rank, "reduced to a square system: " + "; ".join(parts)
 
     def _lock_spins(
         self,
