@@ -94,3 +94,15 @@ def test_independent_groups_give_a_product_equal_to_each_group_solved_alone(tmp_
         sols[len(sols)]
     d = sols.to_dict()
     assert d["groups"] == list(sols.groups) and d["count"] == len(sols)
+
+
+def test_a_group_without_an_assembly_leaves_none_and_nothing_failed(tmp_path):
+    m = sc.load_model(two_five_bars(tmp_path))
+    theta = np.array(m.home.theta, dtype=float)
+    # the second five-bar's elbows 0.6 apart, beyond the two 0.25 rods: it cannot close
+    theta[m.actuated.index("b_theta_1")], theta[m.actuated.index("b_theta_2")] = np.pi, 0.0
+    alone = sc.assembly_modes(sc.load_model(MODELS / "five_bar"), [np.pi, 0.0])
+    assert len(alone) == 0
+    sols = block_modes(m, theta, triangular_blocks(m), triangular_models(m))
+    assert len(sols) == 0 and sols.groups == (0, 0)  # no part verified without the other
+    assert sols.certified == alone.certified and "fail the model's residual" not in sols.report

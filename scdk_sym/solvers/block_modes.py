@@ -211,7 +211,8 @@ def block_modes(
             base[np.isfinite(p[0])] = p[0][np.isfinite(p[0])]
     kept: list[list[Configuration]] = []
     failed = 0
-    for p in parts:
+    empty = not all(parts)  # a group without a solution: no assembly, nothing to verify
+    for p in [] if empty else parts:
         cfgs = []
         for y in p:
             z = np.where(np.isfinite(y), y, base)
@@ -222,6 +223,8 @@ def block_modes(
                 failed += 1
         cfgs.sort(key=sort_key)
         kept.append(cfgs)
+    if empty:
+        kept = [[] for _ in parts]
     solutions: Sequence[Configuration]
     if len(kept) == 1:
         solutions = tuple(kept[0])
