@@ -173,11 +173,21 @@ def solve(
         VerificationError: the final configuration failed its residual check.
     """
     name = resolve(backend, "solve")
-    res = _solve(model, theta0, start, branch, b, backend, max_arc, record_path, fast)
+    res = _solve(model, theta0, start, branch, b, name, max_arc, record_path, fast)
     return res if res.backend else replace(res, backend=name)
 
 
-def _solve(model, theta0, start, branch, b, backend, max_arc, record_path, fast) -> SolveResult:
+def _solve(
+    model: Model,
+    theta0: ArrayLike,
+    start: Configuration | None,
+    branch: str,
+    b: float | None,
+    backend: str,
+    max_arc: float | None,
+    record_path: bool,
+    fast: bool,
+) -> SolveResult:
     """:func:`solve` (its arguments in order); the result's backend is set by the caller."""
     subs = model.blocks
     if len(subs) > 1:  # independent blocks (the legs of a biped): one solve each
