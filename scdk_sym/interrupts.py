@@ -8,13 +8,17 @@ as a ``RuntimeError``): code that catches such errors calls :func:`check` first,
 interrupt is never taken for a failed point. Where a library turns the raise into some other
 error on its way out (CasADi's argument conversion reports a ``NotImplementedError``), the
 error leaving :func:`stop_on_signals` after a signal is the stop: :func:`stop_for` names it.
-A second signal while the first is being handled is the same stop.
+A second signal while the first is being handled is the same stop. CasADi also prints the
+interrupt it turns into an error (``rhs failed: KeyboardInterrupt``) on ``sys.stderr``: after a
+signal, :class:`_QuietStop` drops those lines, and only those.
 """
 
 from __future__ import annotations
 
 import contextlib
+import re
 import signal
+import sys
 import threading
 from collections.abc import Iterator
 from types import FrameType
@@ -58,6 +62,33 @@ def stop_for(exc: BaseException) -> Interrupted | None:
     return stop
 
 
+#: What CasADi writes, in pieces, for an evaluation it stopped on an interrupt.
+_CASADI_STOP = re.compile(r"\w+ failed: |KeyboardInterrupt|Interrupted|\n")
+
+
+class _QuietStop:
+    """``sys.stderr`` within :func:`stop_on_signals`: everything passes through, except, once a
+    signal arrived, the pieces of CasADi's ``NAME failed: KeyboardInterrupt`` lines."""
+
+    def __init__(self, stream):
+        self._stream = stream
+        self._dropping = False
+
+    def write(self, text: str) -> int:
+        if requested() is not None and _CASADI_STOP.fullmatch(text):
+            if text.endswith("failed: "):
+                self._dropping = True
+            if self._dropping:
+                if text == "\n":
+                    self._dropping = False
+                return len(text)
+        self._dropping = False
+        return self._stream.write(text)
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
+
+
 def _handler(signum: int, frame: FrameType | None) -> None:
     name = signal.Signals(signum).name
     _state["signal"] = name
@@ -75,9 +106,11 @@ def stop_on_signals() -> Iterator[None]:
         return
     depth = int(_state["depth"])  # type: ignore[call-overload]
     previous = {}
+    stderr = sys.stderr
     if depth == 0:
         _state["signal"] = None
         previous = {s: signal.signal(s, _handler) for s in SIGNALS}
+        sys.stderr = _QuietStop(stderr)  # type: ignore[assignment]
     _state["depth"] = depth + 1
     try:
         yield
@@ -91,4 +124,6 @@ def stop_on_signals() -> Iterator[None]:
         if depth == 0:
             for s, h in previous.items():
                 signal.signal(s, h)
+            if isinstance(sys.stderr, _QuietStop):
+                sys.stderr = stderr
             _state["signal"] = None

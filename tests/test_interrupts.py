@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import signal
+import sys
 
 import pytest
 
@@ -43,3 +44,32 @@ def test_nested_blocks_convert_at_the_inner_one_and_a_real_error_stays_itself():
     assert stop_for(info.value) is info.value
     with pytest.raises(ValueError, match="a real error"), stop_on_signals():
         raise ValueError("a real error")
+
+
+def test_casadi_s_report_of_the_interrupt_is_not_printed_but_other_lines_are(capsys):
+    """A CVODES integration stopped by a real SIGINT: CasADi's ``rhs failed:
+    KeyboardInterrupt`` line is dropped from stderr; a line written after it, and every line
+    written before the signal, are kept."""
+    import threading
+
+    import casadi as ca
+
+    x, z = ca.MX.sym("x", 50), ca.SX.sym("z", 50)  # an oscillator, through a Function call
+    rhs = ca.Function("rhs", [z], [ca.vertcat(z[25:], -z[:25]) * (1 + 0.1 * ca.sin(ca.sum1(z)))])
+    grid = [50.0 * i for i in range(1, 200000)]  # minutes of integration: the signal ends it
+    opts = {"max_num_steps": 10**7, "abstol": 1e-14, "reltol": 1e-13}
+    F = ca.integrator("F", "cvodes", {"x": x, "ode": rhs(x)}, 0.0, grid, opts)
+    timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
+    with pytest.raises(Interrupted), stop_on_signals():
+        print("before the signal", file=sys.stderr)
+        timer.start()
+        try:
+            F(x0=1.0)
+        except RuntimeError:  # CasADi's report of the stop: check() names it
+            print("after it", file=sys.stderr)
+            check()
+        raise AssertionError("the integration was not interrupted")
+    timer.join()
+    err = capsys.readouterr().err
+    assert "failed:" not in err and "KeyboardInterrupt" not in err, err
+    assert "before the signal\n" in err and "after it\n" in err, err
