@@ -110,7 +110,7 @@ def stop_on_signals() -> Iterator[None]:
     if depth == 0:
         _state["signal"] = None
         previous = {s: signal.signal(s, _handler) for s in SIGNALS}
-        sys.stderr = _QuietStop(stderr)  # type: ignore[assignment]
+        sys.stderr = _QuietStop(stderr)
     _state["depth"] = depth + 1
     try:
         yield
