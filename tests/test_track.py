@@ -325,3 +325,18 @@ def test_fast_continuation_never_takes_another_root_next_to_the_prediction():
     y, det, code = t._fast(theta, pred)
     assert y is not None and code == rule.OK
     np.testing.assert_allclose(model.chart.to_canonical(y, t.c), cont, rtol=0, atol=1e-10)
+
+
+def test_a_start_next_to_a_fold_with_a_far_partner_guess_is_tracked_on_both_backends():
+    """Gepetto's 5bar_linkage started 0.005 sigma_max from a fold where the fold's curvature
+    about vanishes (the normal form put the "partner" 1e8 away; Newton from there came back to
+    the root, 1e-8 off, and the rule saw two candidates at one distance and refused): every
+    sample equals the commanded configuration (walked on the closure manifold by Pinocchio's
+    closures, tests/references.py) within the fuzz's tolerance, on both backends."""
+    from references import TRACK_TOL, draw_tracks, run_tracks
+
+    track = draw_tracks("5bar_linkage", 20, 0, 100)[5]
+    assert track.kind == "singular"
+    outcomes = run_tracks([track])
+    assert [(o.backend, o.status) for o in outcomes] == [("cvodes", "ok"), ("c", "ok")]
+    assert max(o.error for o in outcomes) <= TRACK_TOL

@@ -298,7 +298,7 @@ def _rule_constants() -> dict[str, str]:
     :mod:`scdk_sym.solvers.track`."""
     from ..follower import track_rule as rule
 
-    floats = ("ACCEPT", "MARGIN", "BUDGET", "SMOOTH", "PARTNER_STEP")
+    floats = ("ACCEPT", "MARGIN", "BUDGET", "SMOOTH", "PARTNER_STEP", "PARTNER_REACH")
     ints = ("FAST_ITERATIONS", "NEWTON_CALLS", "PREDICTED_CALLS", "PARTNER_ITERATIONS",
             "HITS_PER_DIRECTION", "MAX_STEPS")  # fmt: skip
     return _c_literals(rule, floats, ints)

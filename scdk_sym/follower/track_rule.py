@@ -26,6 +26,10 @@ PREDICTED_CALLS = 8
 PARTNER_ITERATIONS = 3
 #: R3: finite-difference step of the fold's curvature, relative to max(1, length scale).
 PARTNER_STEP = 1e-7
+#: R3: a fold partner farther from its root than this, relative to max(1, length scale), is
+#: none (the fold's normal form says nothing that far: where the curvature vanishes it puts
+#: the "partner" anywhere, and Newton from there lands back on the root, less polished).
+PARTNER_REACH = 1.0
 #: R3: crossings of s = 1 collected per direction.
 HITS_PER_DIRECTION = 2
 #: Predictor-corrector steps per direction of the C tracker's curve follower (a safety limit:

@@ -80,8 +80,9 @@ R3. *Candidates* (R2 not taken), in this order: ``y_c`` if valid; Newton from ``
     steps ``v <- (J^T J)^-1 v / |.|_2`` of inverse iteration from ``v = (1, ..., 1) /
     sqrt(m)``, ``sigma = |J v|_2``, ``u = J v / sigma`` and the curvature ``c = u . (J_p(r + h
     v) - J_p(r - h v)) v / (2 h)``, ``h = PARTNER_STEP max(1, length scale)``, it is ``r - (2
-    sigma / c) v``. The *miss* of a candidate is ``e = |y - y_pred|``: ``c1`` has the least,
-    ``e1`` (the first of equal ones), ``c2`` the least of the others, ``e2``.
+    sigma / c) v``, and none if that lies farther than ``PARTNER_REACH max(1, length scale)``
+    from ``r`` (or is not finite). The *miss* of a candidate is ``e = |y - y_pred|``: ``c1``
+    has the least, ``e1`` (the first of equal ones), ``c2`` the least of the others, ``e2``.
 R4. *Choice and decidability.* The answer is ``c1`` if either there is no ``c2`` or ``e2 >
     MARGIN max(e1, E) + 10 tol`` (the runner-up is clearly less consistent with the
     prediction, given its accuracy), and either ``e1 <= ACCEPT L + 10 tol`` (``c1`` agrees with
@@ -129,6 +130,7 @@ from ..follower.track_rule import (  # the rule's constants (stated above)
     MARGIN,
     NEWTON_CALLS,
     PARTNER_ITERATIONS,
+    PARTNER_REACH,
     PARTNER_STEP,
     PREDICTED_CALLS,
     SMOOTH,
@@ -402,6 +404,8 @@ class _Tracker:
             h = PARTNER_STEP * self.scale
             curv = float((Jv / sigma) @ ((jac(r + h * v) - jac(r - h * v)) @ v)) / (2.0 * h)
             y = r - (2.0 * sigma / curv) * v
+        if not _inf(y - r) <= PARTNER_REACH * self.scale:
+            return None
         return y if np.all(np.isfinite(y)) else None
 
     def canonical(self) -> np.ndarray:
