@@ -36,6 +36,7 @@ from ..kernels.curve import (
 )
 from ..kernels.fastcall import Dense
 from ..products import FOLLOWER_CALLS, FOLLOWER_KERNELS
+from ..symbolic.system import Symbolic
 
 #: Predictor-corrector steps evaluated per call of the step function.
 STEPS = 16
@@ -104,27 +105,31 @@ class FollowerKernels:
         return [getattr(self, f.name) for f in fields(self)]
 
 
-def build_follower_kernels(
-    sym,
-    inline: bool = True,
-    closure: ca.Function | None = None,
-    solver_calls: bool | None = None,
-) -> FollowerKernels:
-    """Build the follower's Functions from a model's symbolic system (``model.symbolic``).
+@dataclass(frozen=True)
+class _Curve:
+    """The symbols and inner Functions the follower's kernels share (one model, one build)."""
 
-    Args:
-        sym: the model's symbolic system.
-        inline: False to build the kernels from calls of their inner Functions (the closure
-            system and its Jacobians, tangent, corrector, Newton steps, residual, ``dy/ds``)
-            instead of inlined copies: the same operations, several times less generated C to
-            compile (the C tracker's choice).
-        closure: with ``inline`` False, the :func:`closure_function` every kernel calls
-            (default: a new one; pass the one other kernels call for one copy in C).
-        solver_calls: the tangent's and the corrector's bordered solves by calls of
-            :func:`linear_solver` (one copy in C) instead of written out in each; default:
-            ``not inline``. With ``inline`` False and written-out solves (the compiled
-            backend's choice) the steps take the time of the inlined ones for a tenth more C.
-    """
+    sym: Symbolic  # the model's symbolic system
+    inline: bool  # kernels written out (else calls of their inner Functions)
+    solve_inline: bool  # bordered solves written out (else calls of linear_solver)
+    opts: dict  # options of the inner Functions
+    closure: ca.Function | None  # the closure Function the kernels call (None: inlined)
+    q: ca.SX  # (y, s)
+    p: ca.SX  # (theta1, dtheta)
+    s: ca.SX
+    theta1: ca.SX
+    dtheta: ca.SX
+    v: ca.SX  # orientation of the tangent
+    qc: ca.SX  # a corrector's iterate
+    weight: ca.SX  # the arc-length metric's weights (1 per unknown, |dtheta|^2 for s)
+    g: ca.SX  # g(y, theta1 + s dtheta)
+    t_hat: ca.SX  # the unnormalised tangent
+    tangent: ca.Function  # (q, v, p, c) -> (t, vec(J_p)), called by the step
+    gH: ca.Function  # (q, p, c) -> (g, H')
+
+
+def _curve(sym, inline: bool, closure: ca.Function | None, solver_calls: bool | None):
+    """The shared symbols and inner Functions, and the exported tangent kernel."""
     solve_inline = not solver_calls if solver_calls is not None else inline
     opts = function_options(inline)
     if inline:
@@ -167,33 +172,42 @@ def build_follower_kernels(
     Hq = ca.horzcat(gH[1], -(gH[2] @ dtheta))
     # inlined where it is used: with calls of the closure, it is a call and a product
     f_gH = ca.Function("scdk_follow_gH", [q, p, c], [gH[0], Hq])
+    qc = ca.SX.sym("q", m + 1)
+    cv = _Curve(sym, inline, solve_inline, opts, closure, q, p, s, theta1, dtheta, v, qc,
+                weight, g, t_hat, f_tan_call, f_gH)  # fmt: skip
+    return cv, f_tan
 
-    # one predictor-corrector step, mapped STEPS times
+
+def _step_kernels(cv: _Curve) -> tuple[ca.Function, ca.Function]:
+    """(steps, step): one predictor-corrector step, and ``STEPS`` of them mapped."""
+    m, c, p = cv.sym.m, cv.sym.c, cv.p
     x = ca.SX.sym("x", 2 * (m + 1))
     h = ca.SX.sym("h")
     q0, t1 = x[: m + 1], x[m + 1 :]
-    t2 = f_tan_call(q0 + h / 2 * t1, t1, p, c)[0]
-    t3 = f_tan_call(q0 + h / 2 * t2, t1, p, c)[0]
-    t4 = f_tan_call(q0 + h * t3, t1, p, c)[0]
+    t2 = cv.tangent(q0 + h / 2 * t1, t1, p, c)[0]
+    t3 = cv.tangent(q0 + h / 2 * t2, t1, p, c)[0]
+    t4 = cv.tangent(q0 + h * t3, t1, p, c)[0]
     q_pred = q0 + h / 6 * (t1 + 2 * t2 + 2 * t3 + t4)
     # the corrector on the plane through q_pred normal to t1: one Newton step
-    qc, qp = ca.SX.sym("q", m + 1), ca.SX.sym("q_pred", m + 1)
-    row = (weight * t1).T
-    gk, Hk = f_gH(qc, p, c)
+    qc, qp = cv.qc, ca.SX.sym("q_pred", m + 1)
+    row = (cv.weight * t1).T
+    gk, Hk = cv.gH(qc, p, c)
     f_corr = ca.Function(
         "scdk_follow_correct",
         [qc, qp, t1, p, c],
-        [-solve_by_columns(ca.vertcat(Hk, row), ca.vertcat(gk, row @ (qc - qp)), solve_inline)],
-        opts,
+        [
+            -solve_by_columns(ca.vertcat(Hk, row), ca.vertcat(gk, row @ (qc - qp)), cv.solve_inline)
+        ],  # fmt: skip
+        cv.opts,
     )
     qk = q_pred
     corrections = []
     for _ in range(CORRECTIONS):
         dq = f_corr(qk, q_pred, t1, p, c)
-        corrections.append(ca.sqrt(ca.dot(weight * dq, dq)))
+        corrections.append(ca.sqrt(ca.dot(cv.weight * dq, dq)))
         qk = qk + dq
-    t_new, J_new = f_tan_call(qk, t1, p, c)
-    info = ca.vertcat(corrections[0], corrections[-1], ca.dot(weight * t_new, t1))
+    t_new, J_new = cv.tangent(qk, t1, p, c)
+    info = ca.vertcat(corrections[0], corrections[-1], ca.dot(cv.weight * t_new, t1))
     step = ca.Function(
         "scdk_follow_step",
         [x, h, p, c],
@@ -201,17 +215,22 @@ def build_follower_kernels(
         ["x", "h", "p", "c"],
         ["x_new", "info", "J_p"],
     )
-    f_steps = step.mapaccum("scdk_follow_steps", STEPS)
+    return step.mapaccum("scdk_follow_steps", STEPS), step
 
-    # the curve point on the plane through q0 normal to v
+
+def _locator_kernels(cv: _Curve) -> tuple[ca.Function, ca.Function]:
+    """(plane, fold): the curve point on the plane through ``q0`` normal to ``v``, and a
+    turning point of ``s`` (Newton on ``[g; t_s]``: ``t_s`` vanishes exactly where ``det J_p``
+    does)."""
+    m, c, p, v, qc, q = cv.sym.m, cv.sym.c, cv.p, cv.v, cv.qc, cv.q
     qa = ca.SX.sym("q0", m + 1)
-    rowv = (weight * v).T
-    gk, Hk = f_gH(qc, p, c)
+    rowv = (cv.weight * v).T
+    gk, Hk = cv.gH(qc, p, c)
     plane1 = ca.Function(
         "scdk_plane1",
         [qc, qa, v, p, c],
         [qc - ca.solve(ca.vertcat(Hk, rowv), ca.vertcat(gk, rowv @ (qc - qa)))],
-        opts,
+        cv.opts,
     )
     qk = qa
     for _ in range(PLANE_STEPS):
@@ -219,23 +238,27 @@ def build_follower_kernels(
     f_plane = ca.Function(
         "scdk_follow_plane",
         [qa, v, p, c],
-        [qk, ca.norm_inf(f_gH(qk, p, c)[0])],
+        [qk, ca.norm_inf(cv.gH(qk, p, c)[0])],
         ["q0", "v", "p", "c"],
         ["q", "residual"],
     )
-
-    # a turning point of s: Newton on [g; t_s] (t_s vanishes exactly where det J_p does)
-    F = ca.vertcat(g, t_hat[m])
-    fold1 = ca.Function("scdk_fold1", [q, v, p, c], [q - ca.solve(ca.jacobian(F, q), F)], opts)
+    F = ca.vertcat(cv.g, cv.t_hat[m])
+    fold1 = ca.Function("scdk_fold1", [q, v, p, c], [q - ca.solve(ca.jacobian(F, q), F)], cv.opts)
     qk = qa
     for _ in range(FOLD_STEPS):
         qk = fold1(qk, v, p, c)
     f_fold = ca.Function("scdk_follow_fold", [qa, v, p, c], [qk], ["q", "v", "p", "c"], ["q_fold"])
+    return f_plane, f_fold
 
-    # Newton at fixed theta: one step, iterated by the polish and the tracker's corrector
-    theta = sym.theta
-    newton1 = newton_correction(sym, inline, closure)
-    residual = ca.Function("scdk_residual", [y, theta, c], [ca.norm_inf(sym.g)], opts)
+
+def _fixed_theta_kernels(cv: _Curve) -> tuple[ca.Function, ca.Function, ca.Function]:
+    """(polish, newton, predict): Newton at fixed theta (one step, iterated by the polish and
+    the tracker's corrector), and one RK4 step in ``s`` of ``dy/ds = J_p^-1 j_s``, ``s`` from
+    0 to 1."""
+    sym, c, m = cv.sym, cv.sym.c, cv.sym.m
+    y, theta = sym.y, sym.theta
+    newton1 = newton_correction(sym, cv.inline, cv.closure)
+    residual = ca.Function("scdk_residual", [y, theta, c], [ca.norm_inf(sym.g)], cv.opts)
     yk = y
     for _ in range(POLISH_STEPS):
         yk = yk - newton1(yk, theta, c)
@@ -258,28 +281,62 @@ def build_follower_kernels(
         ["y", "theta", "c"],
         ["y_new", "residual", "correction"],
     )
-
-    # one RK4 step in s of dy/ds = J_p^-1 j_s, s from 0 to 1
     f_predict = ca.Function(
         "scdk_follow_predict",
-        [y, theta1, dtheta, c],
-        [rk4_in_s(sym, y, 0.0, 1.0, theta1, dtheta, 1, inline=inline, closure=closure)],
+        [y, cv.theta1, cv.dtheta, c],
+        [
+            rk4_in_s(
+                sym, y, 0.0, 1.0, cv.theta1, cv.dtheta, 1, inline=cv.inline, closure=cv.closure
+            )
+        ],  # fmt: skip
         ["y", "theta1", "dtheta", "c"],
         ["y1"],
     )
+    return f_polish, f_newton, f_predict
 
+
+def _singular_kernel(sym) -> ca.Function:
+    """(y, theta, c) -> (g, J_p, J_s, dJ_p/d(y, theta)), dense."""
     z = ca.vertcat(sym.y, sym.theta)
     dJ = ca.jacobian(ca.vec(sym.J_p), z)
-    f_sing = ca.Function(
+    return ca.Function(
         "scdk_follow_singular",
-        [sym.y, sym.theta, c],
+        [sym.y, sym.theta, sym.c],
         [ca.densify(e) for e in (sym.g, sym.J_p, sym.J_s, dJ)],
         ["y", "theta", "c"],
         ["g", "J_p", "J_s", "dJ_p"],
     )
+
+
+def build_follower_kernels(
+    sym,
+    inline: bool = True,
+    closure: ca.Function | None = None,
+    solver_calls: bool | None = None,
+) -> FollowerKernels:
+    """Build the follower's Functions from a model's symbolic system (``model.symbolic``).
+
+    Args:
+        sym: the model's symbolic system.
+        inline: False to build the kernels from calls of their inner Functions (the closure
+            system and its Jacobians, tangent, corrector, Newton steps, residual, ``dy/ds``)
+            instead of inlined copies: the same operations, several times less generated C to
+            compile (the C tracker's choice).
+        closure: with ``inline`` False, the :func:`closure_function` every kernel calls
+            (default: a new one; pass the one other kernels call for one copy in C).
+        solver_calls: the tangent's and the corrector's bordered solves by calls of
+            :func:`linear_solver` (one copy in C) instead of written out in each; default:
+            ``not inline``. With ``inline`` False and written-out solves (the compiled
+            backend's choice) the steps take the time of the inlined ones for a tenth more C.
+    """
+    cv, f_tan = _curve(sym, inline, closure, solver_calls)
+    f_steps, step = _step_kernels(cv)
+    f_plane, f_fold = _locator_kernels(cv)
+    f_polish, f_newton, f_predict = _fixed_theta_kernels(cv)
     return FollowerKernels(
-        f_steps, step, f_tan, f_plane, f_fold, f_polish, f_newton, f_predict, f_sing
-    )
+        f_steps, step, f_tan, f_plane, f_fold, f_polish, f_newton, f_predict,
+        _singular_kernel(sym),
+    )  # fmt: skip
 
 
 #: Largest number of unknowns whose SX follower kernels are written out (inlined); larger
