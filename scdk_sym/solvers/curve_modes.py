@@ -250,112 +250,148 @@ def explore(
     deadline = math.inf if time_budget is None else t_begin + float(time_budget)
     scale = _scale(model)
     arc_budget = 200.0 * scale if max_arc is None else float(max_arc)
-    tol_same = 1e-6 * scale
-    rng = np.random.default_rng(seed)
-    act = _actuator_scale(model)
-    sols: list[Configuration] = []
-    feats: list[np.ndarray] = []
-    met: list[int] = []
-    since: list[int] = []  # times met since the last new solution
-    used: list[int] = []  # times used as a start
-    out = ModeSearch(solutions=[])
-    bar = _progress_bar(progress)
-    sampler = RandomStarts(model, rng, theta0)
+    search = _Search(model, theta0, np.random.default_rng(seed), scale, arc_budget, deadline,
+                     backend, _progress_bar(progress))  # fmt: skip
+    try:
+        search.from_starts(starts)  # 1. from the start configurations, on the line to theta0
+        search.alternate(patience, cover, max_curves)  # 2. from solutions and random points
+    finally:
+        if search.bar is not None:
+            search.bar.close()
+    return search.result(t_begin)
 
-    def record(curve: Curve, origin: int) -> int:
+
+class _Search:
+    """The state of :func:`explore`: the solutions found, how often each was met, used as a
+    start and met since the last new one, and the search's statistics."""
+
+    def __init__(self, model, theta0, rng, scale, arc_budget, deadline, backend, bar) -> None:
+        self.model, self.theta0, self.rng, self.scale = model, theta0, rng, scale
+        self.arc_budget, self.deadline, self.backend, self.bar = arc_budget, deadline, backend, bar
+        self.tol_same = 1e-6 * scale
+        self.act = _actuator_scale(model)
+        self.sols: list[Configuration] = []
+        self.feats: list[np.ndarray] = []
+        self.met: list[int] = []
+        self.since: list[int] = []  # times met since the last new solution
+        self.used: list[int] = []  # times used as a start
+        self.out = ModeSearch(solutions=[])
+        self.sampler = RandomStarts(model, rng, theta0)
+
+    def _known(self, y: np.ndarray) -> tuple[np.ndarray, int | None]:
+        """(features of y, index of the known solution within tol_same of it or None)."""
+        f = features(self.model, y)
+        if self.feats:
+            dist = np.max(np.abs(np.vstack(self.feats) - f), axis=1)
+            i = int(np.argmin(dist))
+            if dist[i] <= self.tol_same:
+                return f, i
+        return f, None
+
+    def record(self, curve: Curve, origin: int) -> int:
+        """Keep the new solutions a curve met; returns their number."""
         new = 0
         seen: set[int] = set()
         for y in curve.hits:
-            f = features(model, y)
-            if feats:
-                dist = np.max(np.abs(np.vstack(feats) - f), axis=1)
-                i = int(np.argmin(dist))
-                if dist[i] <= tol_same:
-                    seen.add(i)
-                    continue
-            cfg = model.configuration(y, theta0)
-            if not cfg.residual <= model.tolerance:
+            f, i = self._known(y)
+            if i is not None:
+                seen.add(i)
                 continue
-            sols.append(cfg)
-            feats.append(f[0])
-            met.append(0)
-            since.append(0)
-            used.append(0)
-            seen.add(len(sols) - 1)
+            cfg = self.model.configuration(y, self.theta0)
+            if not cfg.residual <= self.model.tolerance:
+                continue
+            self.sols.append(cfg)
+            self.feats.append(f[0])
+            self.met.append(0)
+            self.since.append(0)
+            self.used.append(0)
+            seen.add(len(self.sols) - 1)
             new += 1
         for i in seen - {origin}:
-            met[i] += 1
-            since[i] += 1
-        out.curves += 1
+            self.met[i] += 1
+            self.since[i] += 1
+        self.out.curves += 1
         if new:
-            since[:] = [0] * len(since)
-        out.steps += curve.steps
-        out.arc += curve.arc
-        if bar is not None:
-            bar.update(1)
-            bar.set_postfix(solutions=len(sols), refresh=False)
+            self.since[:] = [0] * len(self.since)
+        self.out.steps += curve.steps
+        self.out.arc += curve.arc
+        if self.bar is not None:
+            self.bar.update(1)
+            self.bar.set_postfix(solutions=len(self.sols), refresh=False)
         return new
 
-    def both_ways(theta1, dtheta, y, s, origin, max_hits=math.inf) -> int:
+    def both_ways(self, theta1, dtheta, y, s, origin, max_hits=math.inf) -> int:
+        """The curve through ``(y, s)`` on the line ``theta1 + s dtheta``, followed each way
+        (the second way skipped where the first closed or ran out of time)."""
         new = 0
         for direction in (1.0, -1.0):
-            curve = follow_curve(model, theta1, dtheta, y, s, direction, max_arc=arc_budget,
-                                 deadline=deadline, backend=backend, max_hits=max_hits)  # fmt: skip
-            new += record(curve, origin)
+            curve = follow_curve(self.model, theta1, dtheta, y, s, direction,
+                                 max_arc=self.arc_budget, deadline=self.deadline,
+                                 backend=self.backend, max_hits=max_hits)  # fmt: skip
+            new += self.record(curve, origin)
             if (curve.closed and not curve.reversed) or curve.timed_out:
                 break
         return new
 
-    try:
-        # 1. from the start configurations, on the line to theta0
+    def from_starts(self, starts: Sequence[Configuration]) -> None:
+        """Each start's curve on its line to ``theta0`` (a start at ``theta0`` is a solution)."""
         for st in starts:
-            dtheta = theta0 - st.theta
-            if float(np.linalg.norm(dtheta)) <= 1e-12 * max(1.0, float(np.linalg.norm(theta0))):
-                record(Curve(hits=[np.array(st.y)]), -1)
+            dtheta = self.theta0 - st.theta
+            if float(np.linalg.norm(dtheta)) <= 1e-12 * max(
+                1.0, float(np.linalg.norm(self.theta0))
+            ):
+                self.record(Curve(hits=[np.array(st.y)]), -1)
                 continue
-            both_ways(st.theta, dtheta, st.y, 0.0, -1)
-        # 2. alternately from a known solution on a random line through theta0, and from a
-        #    random assembled configuration on the line to theta0, until neither kind has
-        #    found anything new for `patience` curves (and every solution was met again)
+            self.both_ways(st.theta, dtheta, st.y, 0.0, -1)
+
+    def from_solution(self) -> int:
+        """The curve of the least used solution on a random line through ``theta0``."""
+        i = int(np.argmin(self.used))
+        self.used[i] += 1
+        d = self.rng.normal(size=self.model.k) * self.act
+        d *= 0.5 * self.scale / float(np.linalg.norm(d))
+        self.out.lines += 1
+        return self.both_ways(self.theta0 - d, d, self.sols[i].y, 1.0, i)
+
+    def from_random(self) -> int:
+        """The paper's two answers (first crossing each way) from a random assembled point."""
+        known = np.vstack(self.feats) if self.feats else np.zeros((0, 0))
+        drawn = self.sampler.next(known, 0.25 * self.scale)
+        self.out.random_starts += 1
+        if drawn is None:
+            self.out.curves += 1  # counted, so that a failing sampler cannot loop forever
+            return 0
+        return self.both_ways(drawn.theta, self.theta0 - drawn.theta, drawn.y, 0.0, -1,
+                              max_hits=1)  # fmt: skip
+
+    def alternate(self, patience: int, cover: int, max_curves: int) -> None:
+        """Alternately from a known solution on a random line through theta0, and from a
+        random assembled configuration on the line to theta0, until neither kind has found
+        anything new for ``patience`` curves (and every solution was met ``cover`` times)."""
+        out = self.out
         idle = {"line": 0, "random": 0}
-        while out.curves < max_curves and time.perf_counter() < deadline:
-            if sols and min(idle.values()) >= patience and min(since) >= cover:
+        while out.curves < max_curves and time.perf_counter() < self.deadline:
+            if self.sols and min(idle.values()) >= patience and min(self.since) >= cover:
                 out.complete = True
                 break
-            if not sols and out.random_starts >= max(8, 4 * patience):
+            if not self.sols and out.random_starts >= max(8, 4 * patience):
                 out.complete = True  # nothing reaches theta0 from anywhere tried
                 break
-            kind = "line" if sols and idle["line"] <= idle["random"] else "random"
-            if kind == "line":
-                i = int(np.argmin(used))
-                used[i] += 1
-                d = rng.normal(size=model.k) * act
-                d *= 0.5 * scale / float(np.linalg.norm(d))
-                out.lines += 1
-                new = both_ways(theta0 - d, d, sols[i].y, 1.0, i)
-            else:
-                known = np.vstack(feats) if feats else np.zeros((0, 0))
-                drawn = sampler.next(known, 0.25 * scale)
-                out.random_starts += 1
-                if drawn is None:
-                    out.curves += 1  # counted, so that a failing sampler cannot loop forever
-                    new = 0
-                else:
-                    # the paper's two answers from this start (first crossing each way)
-                    new = both_ways(drawn.theta, theta0 - drawn.theta, drawn.y, 0.0, -1, max_hits=1)
+            kind = "line" if self.sols and idle["line"] <= idle["random"] else "random"
+            new = self.from_solution() if kind == "line" else self.from_random()
             if new:
                 idle = dict.fromkeys(idle, 0)
                 out.last_new = (out.lines, out.random_starts)
             else:
                 idle[kind] += 1
-    finally:
-        if bar is not None:
-            bar.close()
-    order = sorted(range(len(sols)), key=lambda i: _sort_key(sols[i]))
-    out.solutions = [sols[i] for i in order]
-    out.met = [met[i] for i in order]
-    out.elapsed = time.perf_counter() - t_begin
-    return out
+
+    def result(self, t_begin: float) -> ModeSearch:
+        """The search's record, the solutions in their canonical order."""
+        order = sorted(range(len(self.sols)), key=lambda i: _sort_key(self.sols[i]))
+        self.out.solutions = [self.sols[i] for i in order]
+        self.out.met = [self.met[i] for i in order]
+        self.out.elapsed = time.perf_counter() - t_begin
+        return self.out
 
 
 class RandomStarts:
