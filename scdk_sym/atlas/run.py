@@ -166,9 +166,35 @@ def atlas(
     A store has one writer at a time (:mod:`scdk_sym.atlas.lock`). Worker processes do not
     re-import the calling script, so a script needs no ``if __name__ == "__main__":`` guard.
     """
+    t0 = time.perf_counter()
+    start = _check_call(model, start, chunk, workers, scheduler)
+    grid, thetas, what = _points(model, grid_or_thetas, start)
+    assert grid is not None or thetas is not None  # _points gives one of them
+    points = grid.size if grid is not None else len(thetas)  # type: ignore[arg-type]
+    layout = Layout(points, model.k, len(model.workspace), int(min(chunk, max(points, 1))), modes)
+    meta = _metadata(model, what, points, layout, start, modes)
+    out = Path(out)
+    with stop_on_signals(), store_lock(out, wait=wait):
+        try:
+            plan = _Plan(model, out, layout, grid, thetas, start, modes, progress, on_chunk)
+            return _run(plan, meta, workers, scheduler, t0)
+        except (Interrupted, Exception) as exc:  # a stop, or the error a library made of one
+            stop = stop_for(exc)
+            if stop is None:
+                raise
+            chunks = _chunks_done(out)
+            raise Interrupted(
+                f"atlas stopped by {stop.signal}: {chunks} of {layout.chunks} chunks are written "
+                f"to {str(out)!r}; run the same command again to resume",
+                stop.signal,
+                resume=f"the same call with out={str(out)!r}",
+            ) from None
+
+
+def _check_call(model, start, chunk, workers, scheduler) -> Any:
+    """The start of an :func:`atlas` call, validated with its other options (see there)."""
     from ..solvers.sc import singular_start, validate_start
 
-    t0 = time.perf_counter()
     start = validate_start(model, start)
     if singular_start(model, start):
         raise InputError("atlas: the start configuration is singular; start from a regular one")
@@ -183,11 +209,12 @@ def atlas(
         )
     if workers and scheduler is not None:
         raise InputError("atlas: give workers (a local cluster) or scheduler, not both")
-    grid, thetas, what = _points(model, grid_or_thetas, start)
-    assert grid is not None or thetas is not None  # _points gives one of them
-    points = grid.size if grid is not None else len(thetas)  # type: ignore[arg-type]
-    layout = Layout(points, model.k, len(model.workspace), int(min(chunk, max(points, 1))), modes)
-    meta = {
+    return start
+
+
+def _metadata(model, what: dict, points: int, layout: Layout, start, modes: bool) -> dict:
+    """The store's metadata of a run: what a resumed run must match (see :mod:`.store`)."""
+    return {
         "format": FORMAT,
         "package": _pkg,
         "version": _version(),
@@ -207,22 +234,6 @@ def atlas(
         "modes": modes,
         **({"n_modes_method": MODES_METHOD} if modes else {}),
     }
-    out = Path(out)
-    with stop_on_signals(), store_lock(out, wait=wait):
-        try:
-            plan = _Plan(model, out, layout, grid, thetas, start, modes, progress, on_chunk)
-            return _run(plan, meta, workers, scheduler, t0)
-        except (Interrupted, Exception) as exc:  # a stop, or the error a library made of one
-            stop = stop_for(exc)
-            if stop is None:
-                raise
-            chunks = _chunks_done(out)
-            raise Interrupted(
-                f"atlas stopped by {stop.signal}: {chunks} of {layout.chunks} chunks are written "
-                f"to {str(out)!r}; run the same command again to resume",
-                stop.signal,
-                resume=f"the same call with out={str(out)!r}",
-            ) from None
 
 
 @dataclass(frozen=True)
