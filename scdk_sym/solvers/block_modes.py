@@ -172,6 +172,75 @@ def _group_parts(
     return partial
 
 
+def _verified(
+    model: Model, theta0: np.ndarray, parts: list[list[np.ndarray]]
+) -> tuple[list[list[Configuration]], int]:
+    """Each group's parts verified on the whole model, sorted: (kept, number that failed).
+
+    Each part is verified with every other group at its first part (rows of different groups
+    share no unknown, so any combination of verified parts closes); a group without a
+    solution means no assembly, and nothing to verify."""
+    from .homotopy_modes import sort_key
+
+    base = np.full(model.m, np.nan)
+    for p in parts:
+        if p:
+            base[np.isfinite(p[0])] = p[0][np.isfinite(p[0])]
+    if not all(parts):
+        return [[] for _ in parts], 0
+    kept: list[list[Configuration]] = []
+    failed = 0
+    for p in parts:
+        cfgs = []
+        for y in p:
+            z = np.where(np.isfinite(y), y, base)
+            cfg = model.configuration(z, theta0) if np.all(np.isfinite(z)) else None
+            if cfg is not None and model.residual(cfg.y, cfg.theta) <= model.tolerance:
+                cfgs.append(cfg)
+            else:
+                failed += 1
+        cfgs.sort(key=sort_key)
+        kept.append(cfgs)
+    return kept, failed
+
+
+def _assemblies(model, theta0, blocks, grouped, kept) -> Sequence[Configuration]:
+    """One group's sorted set as a tuple, several groups' as a :class:`ModeProduct`."""
+    if len(kept) == 1:
+        return tuple(kept[0])
+    unknowns = tuple(tuple(u for bi in g for u in blocks[bi].unknowns) for g in grouped)
+    return ModeProduct(
+        model,
+        theta0,
+        unknowns,
+        tuple(np.array([c.y[list(u)] for c in cs]).reshape(len(cs), len(u))
+              for cs, u in zip(kept, unknowns, strict=True)),
+    )  # fmt: skip
+
+
+def _report(blocks, found, kept, total: int, certified: bool, failed: int) -> str:
+    """What :func:`block_modes` says about its set."""
+    sizes = [len(b.unknowns) for b in blocks]
+    counts = ", ".join(
+        f"block {blocks.index(b.block)}: {len(b.modes)} real of {b.modes.root_count}" for b in found
+    )
+    product = (
+        f" ({' x '.join(str(len(k)) for k in kept)} from {len(kept)} independent groups)"
+        if len(kept) > 1
+        else ""
+    )
+    if certified:
+        return (
+            f"certified complete per block ({len(blocks)} blocks of {sizes} unknowns, "
+            f"{len(found)} block solves: {counts}); {total} assemblies{product}, each verified"
+        )
+    why = [f"block {blocks.index(b.block)}: {b.modes.report}" for b in found
+           if not b.modes.certified]  # fmt: skip
+    if failed:
+        why.append(f"{failed} assembled configuration(s) fail the model's residual")
+    return "not certified: " + "; ".join(why)
+
+
 def block_modes(
     model: Model,
     theta0: np.ndarray,
@@ -197,69 +266,14 @@ def block_modes(
         with several (a biped's legs) they are a :class:`ModeProduct` of the groups' sorted
         sets, ``groups`` their sizes, built when read.
     """
-    from .homotopy_modes import sort_key
-
     theta0 = np.asarray(theta0, dtype=float)
     found: list[BlockModes] = []
     grouped = groups(blocks)
     parts = [_group_parts(model, theta0, blocks, subs, g, found, dict(options)) for g in grouped]
-    # each part verified on the whole model with every other group at its first part (rows
-    # of different groups share no unknown, so any combination of verified parts closes)
-    base = np.full(model.m, np.nan)
-    for p in parts:
-        if p:
-            base[np.isfinite(p[0])] = p[0][np.isfinite(p[0])]
-    kept: list[list[Configuration]] = []
-    failed = 0
-    empty = not all(parts)  # a group without a solution: no assembly, nothing to verify
-    for p in [] if empty else parts:
-        cfgs = []
-        for y in p:
-            z = np.where(np.isfinite(y), y, base)
-            cfg = model.configuration(z, theta0) if np.all(np.isfinite(z)) else None
-            if cfg is not None and model.residual(cfg.y, cfg.theta) <= model.tolerance:
-                cfgs.append(cfg)
-            else:
-                failed += 1
-        cfgs.sort(key=sort_key)
-        kept.append(cfgs)
-    if empty:
-        kept = [[] for _ in parts]
-    solutions: Sequence[Configuration]
-    if len(kept) == 1:
-        solutions = tuple(kept[0])
-        total = len(solutions)
-    else:
-        unknowns = tuple(tuple(u for bi in g for u in blocks[bi].unknowns) for g in grouped)
-        solutions = ModeProduct(
-            model,
-            theta0,
-            unknowns,
-            tuple(np.array([c.y[list(u)] for c in cs]).reshape(len(cs), len(u))
-                  for cs, u in zip(kept, unknowns, strict=True)),
-        )  # fmt: skip
-        total = len(solutions)
+    kept, failed = _verified(model, theta0, parts)
+    solutions = _assemblies(model, theta0, blocks, grouped, kept)
     certified = all(b.modes.certified for b in found) and failed == 0
-    sizes = [len(b.unknowns) for b in blocks]
-    counts = ", ".join(
-        f"block {blocks.index(b.block)}: {len(b.modes)} real of {b.modes.root_count}" for b in found
-    )
-    product = (
-        f" ({' x '.join(str(len(k)) for k in kept)} from {len(kept)} independent groups)"
-        if len(kept) > 1
-        else ""
-    )
-    if certified:
-        report = (
-            f"certified complete per block ({len(blocks)} blocks of {sizes} unknowns, "
-            f"{len(found)} block solves: {counts}); {total} assemblies{product}, each verified"
-        )
-    else:
-        why = [f"block {blocks.index(b.block)}: {b.modes.report}" for b in found
-               if not b.modes.certified]  # fmt: skip
-        if failed:
-            why.append(f"{failed} assembled configuration(s) fail the model's residual")
-        report = "not certified: " + "; ".join(why)
+    report = _report(blocks, found, kept, len(solutions), certified, failed)
     return AssemblyModes(
         solutions=solutions,
         certified=certified,
