@@ -116,3 +116,38 @@ def test_a_turn_of_s_inside_one_step_is_refined_not_stepped_over():
     assert abs(a.x[2] - fold.x[2]) < 0.1 and abs(b.x[2] - fold.x[2]) < 0.1
     assert abs(a.x[2] - b.x[2]) > 1e-3
     assert (a.x[2] - fold.x[2]) * (b.x[2] - fold.x[2]) < 0
+
+
+def test_a_divergent_solve_crosses_the_fold_met_along_an_actuator_s_axis():
+    """Gepetto's cassie_like from a start next to the alignment of a ball's first and last
+    axes: ``sigma_min`` has a non-singular valley there, where the descent and the aims stop;
+    the ankle motor's own axis meets the rocker's dead point. The divergent answer closes on
+    Pinocchio's closures (tests/references.py, independent of the package), lies on the
+    other side (det J_p of the other sign there, by finite differences: one fold crossed) and
+    is not the convergent answer."""
+    from references import load, wrap
+
+    from scdk_sym.follower.singular import across_axes
+
+    ref, m = reference("cassie_like"), load("cassie_like")
+    theta0 = np.array([-0.085697592194608, -0.1335822651020772, 0.08124339127909272,
+                       -0.056610751424316805, -0.04642655816072152])  # fmt: skip
+    start = m.configuration(
+        [1.3801807275554443, 1.8426838244563737, -1.0642846620682762, 0.027231400294665694,
+         -1.7095726078029219, -1.9960635668159585, 1.5128990050165185, -2.106476136323052,
+         -0.8440374038954175, 2.362614753269431, 1.490033607370333, -2.716542432487526],
+        [-0.08166822694954012, -0.1319852562364129, 0.07850248557564471,
+         -0.05545356185931574, -0.046183629015455925],
+    )  # fmt: skip
+    assert nearest_singular(m, start) is None  # the valley: no singular point descended to
+    other = across_axes(m, start)
+    assert other is not None and other.crossing.kind == "fold"
+    moved = np.flatnonzero(np.abs(other.crossing.theta - start.theta) > 1e-9)
+    assert [m.actuated[i] for i in moved] == ["motor_ankle"]
+    res = sc.solve(m, theta0, start=start, branch="divergent")
+    conv = sc.solve(m, theta0, start=start, branch="convergent")
+    u = ref.coords(res)
+    assert float(np.abs(ref.closure(u, theta0)).max()) <= 1e-9
+    s0 = ref.det_sign(ref.coords(start), start.theta)
+    assert s0 * ref.det_sign(u, theta0) == -1 and len(res.crossings) == 1
+    assert float(np.abs(wrap(res.y - conv.y)).max()) > 0.1

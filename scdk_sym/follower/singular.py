@@ -181,6 +181,45 @@ def across(
     return None
 
 
+#: Length of the lines of :func:`across_axes`: one turn on a revolute actuator, this many
+#: model sizes on a prismatic one.
+AXIS_REACH = 2.0
+
+
+def across_axes(model, start: Configuration, backend: str = "cvodes") -> Across | None:
+    """Cross the singular surface met nearest to ``start`` on lines along each actuator's
+    own axis: for each actuator, both ways, ``start.theta + s d`` with ``d`` one turn (a
+    revolute actuator, [rad]) or :data:`AXIS_REACH` model sizes (a prismatic one) along
+    it, taken where the curve turns on the line and comes back to ``start.theta`` on the
+    other sheet (as the ``first`` line of :func:`across`); of those, the one whose singular
+    point is the fewest actuator units away.
+
+    Where ``sigma_min`` has a non-singular valley around the start (a ball joint written as
+    three revolutes next to the alignment of its first and last axes: the valley of
+    Gepetto's cassie_like), the descent of :func:`nearest_singular` and the aims of
+    :func:`across` stay in that valley, while a mechanism's own limits (a rocker at a dead
+    point) lie along single actuators.
+
+    Returns:
+        The configuration across it (``aims`` 0), or None when no line folds back.
+    """
+    units = model.units
+    scale = max(1.0, float(model.length_scale))
+    best: tuple[float, Across] | None = None
+    for i, name in enumerate(model.actuated):
+        span = 2.0 * math.pi if units[name] == "rad" else AXIS_REACH * scale
+        for sign in (1.0, -1.0):
+            d = np.zeros(model.k)
+            d[i] = sign * span
+            other = across(model, start, first=d, backend=backend, paper_only=True)
+            if other is None:
+                continue
+            reach = abs(float(other.crossing.theta[i] - start.theta[i])) / span
+            if best is None or reach < best[0]:
+                best = (reach, other)
+    return None if best is None else best[1]
+
+
 def det_sign(model, cfg: Configuration | SolveResult) -> float:
     """Sign of det J_p at a configuration (or a solve result)."""
     y, c = model.chart.to_local(cfg.y)

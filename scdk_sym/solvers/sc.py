@@ -400,7 +400,12 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
        singular configuration, far from it, does not lead to);
     7. across the nearest singular configuration as in way 2, the path then going to
        ``theta0`` the other way round on revolute actuators (:func:`other_way_round`): the
-       end of that curve only, reached continuously with no other guess.
+       end of that curve only, reached continuously with no other guess;
+    8. across the singular surface met nearest on lines along each actuator's own axis
+       (:func:`~scdk_sym.follower.singular.across_axes`), back on the other sheet, then
+       convergent: where ``sigma_min`` has a non-singular valley around the start that ways
+       2 and 3 stay in (Gepetto's cassie_like: a ball written as three revolutes next to the
+       alignment of its first and last axes, while the ankle rocker has its dead points).
     """
     from ..follower.singular import across, across_fold, nearest_singular
 
@@ -536,6 +541,16 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
                 return res
         if ends:
             tried.append(f"{how} on revolute actuators ({len(ends)} lines): no solution")
+    # 8. across the singular surface met nearest along an actuator's own axis
+    from ..follower.singular import across_axes
+
+    other = across_axes(model, start, backend=backend)
+    if other is None:
+        tried.append("no singular surface met along any actuator's axis")
+    else:
+        res = from_mirror(other, "from across the surface met along an actuator's axis")
+        if res is not None:
+            return res
     raise PathError(
         f"divergent branch at theta0={theta0.tolist()}: no solution across a singular surface "
         f"was reached ({'; '.join(tried)}); every real solution: sc.assembly_modes(model, theta0)"
