@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, OutputError
-from ..kernels.compile import OPT, compile_parallel, compiler_tag, write_c, write_c_parts
+from ..kernels.compile import LOOP_OPT, OPT, compile_parallel, compiler_tag, write_c, write_c_parts
 from . import templates
 from .kernels import UNOPTIMISED, build_tracker_kernels
 
@@ -117,6 +117,7 @@ def source_key(sources: GeneratedSources) -> str:
     h.update(" ".join(SHARED_FLAGS).encode())
     for path in sources.unoptimised:
         h.update(f"\0{path.name} -O0".encode())
+    h.update(f"\0{sources.tracker_c.name} {LOOP_OPT}".encode())
     h.update(compiler_tag().encode())
     return h.hexdigest()[:24]
 
@@ -306,7 +307,8 @@ def _rule_constants() -> dict[str, str]:
 
 def compile_library(sources: GeneratedSources, target: str | Path) -> Path:
     """Compile generated sources into a shared library (gcc, flags :data:`SHARED_FLAGS`), the
-    sources in parallel.
+    sources in parallel, the tracker's own loops at
+    :data:`~scdk_sym.kernels.compile.LOOP_OPT`.
 
     Raises:
         BuildError: no compiler, or the compilation failed (first error line quoted).
@@ -319,4 +321,5 @@ def compile_library(sources: GeneratedSources, target: str | Path) -> Path:
         LINK_FLAGS,
         cwd=sources.directory,
         unoptimised=sources.unoptimised,
+        optimised=(sources.tracker_c,),
     )

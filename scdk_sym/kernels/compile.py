@@ -34,6 +34,10 @@ from .functions import Kernels, build_kernels
 #: straight-line code that ``-O2``/``-O3`` do not make measurably faster, at several times the
 #: compile time; ``benchmarks/track_hexapod.py --opt`` measures both).
 OPT = "-O1"
+#: Optimisation level of hand-written numeric loops compiled beside the kernels (the C
+#: tracker's fixed-size LU factorisations and solves): they vectorise at ``-O3``, where the
+#: straight-line kernels gain nothing (``benchmarks/gepetto_legs.py``).
+LOOP_OPT = "-O3"
 #: Flags compiling one source into an object of a shared library.
 COMPILE_FLAGS = (OPT, "-fPIC")
 #: Flags linking the objects into a shared library.
@@ -172,6 +176,7 @@ def compile_parallel(
     link_flags: Sequence[str] = LINK_FLAGS,
     cwd: Path | None = None,
     unoptimised: Sequence[Path] = (),
+    optimised: Sequence[Path] = (),
 ) -> Path:
     """Compile C sources into objects in parallel (:func:`jobs` at once, largest first) and
     link them into the shared library ``target``.
@@ -184,11 +189,14 @@ def compile_parallel(
         cwd: working directory of the compiler.
         unoptimised: those of ``sources`` compiled with ``-O0`` appended to ``compile_flags``
             (rarely called code whose optimisation costs more than it saves).
+        optimised: those of ``sources`` compiled with :data:`LOOP_OPT` appended (small
+            hand-written loops, which vectorise there, among straight-line kernels).
 
     Raises:
         BuildError: see :func:`run_compiler`.
     """
     cold = {Path(s).resolve() for s in unoptimised}
+    hot = {Path(s).resolve() for s in optimised}
     # longest first: unoptimised sources compile about 2.5 times faster per byte
     sources = sorted(
         (Path(s).resolve() for s in sources),
@@ -198,7 +206,8 @@ def compile_parallel(
         objects = [Path(tmp) / f"{i:03d}_{src.stem}.o" for i, src in enumerate(sources)]
 
         def one(pair: tuple[Path, Path]) -> None:
-            flags = [*compile_flags, *(["-O0"] if pair[0] in cold else [])]
+            extra = ["-O0"] if pair[0] in cold else [LOOP_OPT] if pair[0] in hot else []
+            flags = [*compile_flags, *extra]
             run_compiler([*flags, "-c", str(pair[0]), "-o", str(pair[1])], cwd=cwd)
 
         with ThreadPoolExecutor(max_workers=jobs()) as pool:
