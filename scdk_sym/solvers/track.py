@@ -114,7 +114,7 @@ count.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -772,6 +772,7 @@ def locate(model: Model, ya, yb, tha, thb, da: float, index: int) -> Crossing:
     """
     m = model.m
     kern = model.kernels
+    calls = model_calls(model)  # the same values as kern's plain calls, without conversions
     ya_loc, c = model.chart.to_local(ya)
     yb_loc = np.array(yb, dtype=float)
     for i, rot in enumerate(model.chart.rotations):
@@ -783,23 +784,23 @@ def locate(model: Model, ya, yb, tha, thb, da: float, index: int) -> Crossing:
     tol = 1e-3 * model.tolerance
 
     def det_at(z) -> float:
-        return float(np.linalg.det(np.array(kern.jac(z[:m], z[m:], c)[0])))
+        return float(np.linalg.det(calls.jac(z[:m], z[m:], c)[0]))
 
     def chord(alpha):
         z = za + alpha * (zb - za)
         for _ in range(30):
-            g = np.array(kern.g(z[:m], z[m:], c)).ravel()
+            g = calls.g(z[:m], z[m:], c).ravel()
             if np.max(np.abs(g)) <= tol:
                 return z
-            Jp, Js = (np.array(a) for a in kern.jac(z[:m], z[m:], c))
+            Jp, Js = calls.jac(z[:m], z[m:], c)
             G = np.hstack([Jp, -Js])
             z = z - G.T @ np.linalg.solve(G @ G.T, g)
         return z
 
     path = chord
     if len(model.workspace) == model.k:
-        xa = np.array(kern.pose(ya_loc, tha, c)[1]).ravel()
-        dx = np.array(kern.pose(yb_loc, thb, c)[1]).ravel() - xa
+        xa = calls.pose(ya_loc, tha, c)[1].ravel()
+        dx = calls.pose(yb_loc, thb, c)[1].ravel() - xa
         for i, name in enumerate(model.workspace):
             if name in ANGLES:
                 dx[i] = (dx[i] + math.pi) % TWO_PI - math.pi
@@ -817,21 +818,12 @@ def locate(model: Model, ya, yb, tha, thb, da: float, index: int) -> Crossing:
             raise np.linalg.LinAlgError("inverse kinematics did not converge")
 
         path = motion
-    sign_lo = np.sign(da)
+    sign_lo = float(np.sign(da))
+    ends = (sign_lo * det_at(za), sign_lo * det_at(zb))
     for attempt in (path, chord):
-        lo, hi = 0.0, 1.0
-        z = za
         try:
             with np.errstate(all="ignore"):
-                for _ in range(60):
-                    mid = 0.5 * (lo + hi)
-                    z = attempt(mid)
-                    if np.sign(det_at(z)) == sign_lo:
-                        lo = mid
-                    else:
-                        hi = mid
-                    if hi - lo < 1e-13:
-                        break
+                lo, hi, z = _sign_change(attempt, lambda z: sign_lo * det_at(z), za, *ends)
         except np.linalg.LinAlgError:
             continue
         if np.all(np.isfinite(z)):
@@ -841,6 +833,53 @@ def locate(model: Model, ya, yb, tha, thb, da: float, index: int) -> Crossing:
         z = za + 0.5 * (zb - za)
     cfg = model.configuration(z[:m], z[m:], c)
     return Crossing(0.5 * (lo + hi), cfg.x, cfg.y, cfg.theta, index, "fold")
+
+
+def _sign_change(
+    point: Callable[[float], np.ndarray],
+    value: Callable[[np.ndarray], float],
+    z0: np.ndarray,
+    f_lo: float,
+    f_hi: float,
+    xtol: float = 1e-13,
+    iterations: int = 60,
+) -> tuple[float, float, np.ndarray]:
+    """Where ``value(point(a))`` turns from positive to not positive for ``a`` in [0, 1]:
+    false position with the Illinois rule (the bracket kept, superlinear), bisection where a
+    value is not usable.
+
+    Args:
+        point: the path's point at the fraction ``a`` of the way.
+        value: the function of a point (positive at ``point(0)``).
+        z0: ``point(0)``.
+        f_lo: its value at ``a = 0``.
+        f_hi: its value at ``a = 1``.
+        xtol: bracket width to reach.
+        iterations: at most that many evaluations.
+
+    Returns:
+        ``(lo, hi, z)``: the final bracket and the point of the last evaluation.
+    """
+    lo, hi, side, z = 0.0, 1.0, 0, z0
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        if f_lo > 0.0 and f_hi <= 0.0 and math.isfinite(f_lo) and math.isfinite(f_hi):
+            cut = lo + (hi - lo) * f_lo / (f_lo - f_hi)
+            if lo < cut < hi:
+                mid = cut
+        z = point(mid)
+        f = value(z)
+        if f > 0.0:
+            lo, f_lo = mid, f
+            f_hi = 0.5 * f_hi if side == 1 else f_hi
+            side = 1
+        else:
+            hi, f_hi = mid, f
+            f_lo = 0.5 * f_lo if side == -1 else f_lo
+            side = -1
+        if hi - lo < xtol:
+            break
+    return lo, hi, z
 
 
 def verify_samples(model: Model, residual: np.ndarray, thetas: np.ndarray) -> None:
