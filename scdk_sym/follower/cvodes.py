@@ -8,6 +8,7 @@ time with ``GRID`` output samples; :mod:`scdk_sym.follower.curve` judges each ch
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import casadi as ca
@@ -36,16 +37,34 @@ class Engine:
     """Per-model numeric machinery of the SC solver (kernels, integrator, mapped probe).
 
     ``integrator``, ``probe`` and ``warm`` are called through zero-copy buffers (see
-    :mod:`scdk_sym.kernels.fastcall`): use :meth:`integrate` and :meth:`probe_samples`.
+    :mod:`scdk_sym.kernels.fastcall`): use :meth:`integrate` and :meth:`probe_samples`. The
+    integrator and the probe are built on first use (CasADi builds the field's Jacobian for
+    CVODES, about 0.4 s for an 18-unknown leg, though functional iteration never calls it):
+    a solve the warm kernel answers builds neither.
     """
 
     model: object
     kernels: object
-    integrator: Buffered
-    probe: Buffered
     m: int
     k: int
     warm: Buffered
+
+    @cached_property
+    def integrator(self) -> Buffered:
+        """CVODES over one chunk of the field, ``GRID`` output samples."""
+        kern: Any = self.kernels
+        q = ca.MX.sym("q", self.m + 1)
+        p = ca.MX.sym("p", 2 * self.k + self.m + 3)
+        c = ca.MX.sym("c", self.model.chart.size)  # type: ignore[attr-defined]
+        dae = {"x": q, "p": ca.vertcat(p, c), "ode": without_jacobian(kern.field)(q, p, c)}
+        grid = np.linspace(0.0, 1.0, GRID + 1)[1:]
+        return Buffered(ca.integrator("sc_chunk", "cvodes", dae, 0.0, grid, CVODES_OPTIONS))
+
+    @cached_property
+    def probe(self) -> Buffered:
+        """The probe kernel mapped over the ``GRID + 1`` points of a chunk."""
+        kern: Any = self.kernels
+        return Buffered(kern.probe.map(GRID + 1))
 
     def integrate(self, q: np.ndarray, p: np.ndarray) -> np.ndarray:
         """(m+1, GRID) samples of one chunk of the SC field from ``q``; p = (params, chart)."""
@@ -71,6 +90,28 @@ class Engine:
         )
 
 
+def without_jacobian(f: ca.Function) -> ca.Function:
+    """``f`` with a Jacobian that is not built: every entry NaN (a wrapper Function).
+
+    CasADi builds the Jacobian of an integrator's right-hand side when it creates the
+    integrator (about 0.4 s for the field of an 18-unknown leg, symbolically), though CVODES's
+    functional iteration (:data:`CVODES_OPTIONS`) never evaluates it; a NaN Jacobian costs
+    nothing to build, and an iteration that did use it would fail loudly, never silently.
+    ``jac_penalty`` 0 makes CasADi derive the directional derivatives it prepares from that
+    Jacobian too (NaN as well) instead of building them by AD.
+    """
+    ins = [ca.MX.sym(f.name_in(i), f.sparsity_in(i)) for i in range(f.n_in())]
+    outs = [ca.MX.sym(f"out_{f.name_out(i)}", f.sparsity_out(i)) for i in range(f.n_out())]
+    jac = [
+        ca.MX(ca.DM.nan(f.nnz_out(j), f.nnz_in(i)))
+        for j in range(f.n_out())
+        for i in range(f.n_in())
+    ]
+    name = f"{f.name()}_no_jacobian"
+    nan = ca.Function(f"jac_{name}", ins + outs, jac)
+    return ca.Function(name, ins, f.call(ins), {"custom_jacobian": nan, "jac_penalty": 0})
+
+
 def engine(model, backend: str = "cvodes") -> Engine:
     """The (cached) SC engine of a model.
 
@@ -94,13 +135,4 @@ def _build_engine(model, backend: str) -> Engine:
         from ..kernels.compile import compiled_kernels
 
         kern = compiled_kernels(model)
-    m, k = model.m, model.k
-    q = ca.MX.sym("q", m + 1)
-    p = ca.MX.sym("p", 2 * k + m + 3)
-    c = ca.MX.sym("c", model.chart.size)
-    dae = {"x": q, "p": ca.vertcat(p, c), "ode": kern.field(q, p, c)}
-    grid = np.linspace(0.0, 1.0, GRID + 1)[1:]
-    integ = ca.integrator("sc_chunk", "cvodes", dae, 0.0, grid, CVODES_OPTIONS)
-    return Engine(
-        model, kern, Buffered(integ), Buffered(kern.probe.map(GRID + 1)), m, k, Buffered(kern.warm)
-    )
+    return Engine(model, kern, model.m, model.k, Buffered(kern.warm))
