@@ -13,7 +13,9 @@ from pathlib import Path
 
 import gepetto_loader as gl
 import numpy as np
+import pinocchio as pin
 import pytest
+import yaml
 
 import scdk_sym as sc
 from scdk_sym.cli.assemble import write_home
@@ -126,6 +128,27 @@ def test_unclosable_files_are_refused_and_the_reference_agrees(name: str) -> Non
     with pytest.raises(NotAssembledError) as info:
         sc.load_model(FIXTURES / name)
     assert "add 'home'" in str(info.value)
+    # the actuators named: on Pinocchio's model of the URDF, the prismatic motors whose axis is
+    # collinear with that of the lone revolute carrying them (not the last of a ball)
+    pm = pin.buildModelFromUrdf(str(FIXTURES / name / "robot.urdf"))
+    data = pm.createData()
+    pin.forwardKinematics(pm, data, pin.neutral(pm))
+    motors = yaml.safe_load((FIXTURES / name / "robot.yaml").read_text())["name_mot"]
+    expected = []
+    for j in range(1, pm.njoints):
+        parent = pm.parents[j]
+        if pm.names[j] not in motors or "P" not in pm.joints[j].shortname() or parent == 0:
+            continue
+        ball = np.linalg.norm(pm.jointPlacements[parent].translation) < 1e-9
+        axes = [
+            data.oMi[i].rotation[:, "XYZ".index(pm.joints[i].shortname()[-1])] for i in (j, parent)
+        ]  # the joints of these files are aligned with an axis of their frame (PZ, RZ, ...)
+        along = abs(axes[0] @ axes[1]) > 1 - 1e-9
+        if along and not ball:
+            expected.append(f"{pm.names[j]} along the axis of revolute {pm.names[parent]}")
+    assert len(expected) >= 3
+    for text in expected:
+        assert text in str(info.value)
     with pytest.raises(gl.ProjectionError) as ref:
         gl.assemble_from_neutral(gepetto(name))
     assert ref.value.residual > 1e-3

@@ -18,7 +18,8 @@ def read_description(path: str | PathLike[str]) -> tuple[Tree, Spec, str, str]:
 
     Args:
         path: model directory, or the path of its YAML file (the URDF is the YAML's name with
-            ``.urdf`` beside it, else ``robot.urdf`` in the same folder).
+            ``.urdf`` beside it, else ``robot.urdf`` in the same folder, else the folder's one
+            ``.urdf`` file if it holds only one, as some of Gepetto's robots do).
 
     Returns:
         The spanning tree, the closure spec, the YAML path and the URDF text.
@@ -44,6 +45,8 @@ def read_description(path: str | PathLike[str]) -> tuple[Tree, Spec, str, str]:
         raise ModelError("not found: expected a model directory or a .yaml file", str(p))
     else:
         raise ModelError("expected a model directory or a .yaml file", str(p))
+    if not urdf_path.exists():
+        urdf_path = _only_urdf(urdf_path)
     for f in (yaml_path, urdf_path):
         if not f.exists():
             raise ModelError("file not found", str(f))
@@ -51,6 +54,13 @@ def read_description(path: str | PathLike[str]) -> tuple[Tree, Spec, str, str]:
     tree = parse_urdf(urdf_text, str(urdf_path))
     spec = parse_spec(_read(yaml_path), str(yaml_path))
     return tree, spec, str(yaml_path), urdf_text
+
+
+def _only_urdf(expected: Path) -> Path:
+    """The one ``.urdf`` file of ``expected``'s folder, or ``expected`` if there is not
+    exactly one."""
+    found = sorted(expected.parent.glob("*.urdf"))
+    return found[0] if len(found) == 1 else expected
 
 
 def _read(path: Path) -> str:

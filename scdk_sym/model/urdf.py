@@ -295,6 +295,33 @@ def tree_to_urdf(tree: Tree) -> str:
     return "\n".join(out) + "\n"
 
 
+def slides_along_carrier(tree: Tree, names: Sequence[str]) -> tuple[tuple[str, str], ...]:
+    """The prismatic joints among ``names`` that slide along the axis of a lone revolute
+    joint carrying them (the one whose child link is their parent link, not the last of
+    revolutes about one point, as a ball written as three): ``(prismatic, revolute)`` pairs.
+
+    Such a slide only moves the actuator's rod along its hinge axis, whatever the actuator's
+    length; in a loop meant to be driven by a linear actuator it is an export defect (the
+    slide axis written in the wrong frame). Named in the error of a failed assembly.
+    """
+    carrier = {j.child: j for j in tree.joints}
+    pairs = []
+    for j in tree.joints:
+        if j.name not in names or j.type != "prismatic":
+            continue
+        r = carrier.get(j.parent)
+        if r is None or r.type not in ("revolute", "continuous"):
+            continue
+        before = carrier.get(r.parent)
+        at_before = float(np.linalg.norm(np.asarray(r.origin, dtype=float)[:3, 3])) < 1e-9
+        if at_before and before is not None and before.type in ("revolute", "continuous"):
+            continue  # the last revolute of a ball or universal joint: its axis turns
+        slide = np.asarray(j.origin, dtype=float)[:3, :3] @ j.axis  # in r's child frame
+        if float(np.linalg.norm(np.cross(slide, r.axis))) < 1e-6:
+            pairs.append((j.name, r.name))
+    return tuple(pairs)
+
+
 class TreeBuilder:
     """Small helper to assemble a :class:`Tree` programmatically (used by the builders)."""
 

@@ -93,7 +93,7 @@ def closure_rows(
         r, Jr, R, JR = (np.array(v) for v in f(zv[:m], zv[m:]))
         n = R.size // 9
         Rs = R.reshape(n, 3, 3).transpose(0, 2, 1)  # column-major blocks
-        dR = JR.reshape(n, 3, 3, -1).transpose(0, 2, 1, 3)
+        dR = JR.reshape(n, 3, 3, zv.size).transpose(0, 2, 1, 3)
         return r.ravel(), Jr, Rs, dR
 
     r0, _, R0, _ = parts(start)

@@ -9,6 +9,7 @@ closure system is built by :mod:`scdk_sym.symbolic` and evaluated by :mod:`scdk_
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Sequence
 from dataclasses import replace
 from functools import cached_property
 from pathlib import Path
@@ -34,7 +35,7 @@ from ..model.edits import apply_joint_edits, ball_to_universal
 from ..model.files import read_description
 from ..model.rotations import rot_exp, rot_log, rpy_matrix
 from ..model.spec import Spec
-from ..model.urdf import Tree, tree_to_urdf
+from ..model.urdf import Tree, slides_along_carrier, tree_to_urdf
 from ..products import Products
 from ..results import Configuration
 from ..symbolic.kinematics import link_placements
@@ -67,23 +68,27 @@ def as_vector(value, size: int, what: str) -> np.ndarray:
     return arr
 
 
-def distal_link(tree: Tree, closures) -> str:
+def distal_link(tree: Tree, closures, actuated: Sequence[str] = ()) -> str:
     """The default reported link of a model without ``platform``: the leaf link with the most
-    movable joints between it and the root (a leg's foot), closure frames excluded; the
-    first in URDF order among equals (the first leg's foot on a biped)."""
+    movable joints between it and the root (a leg's foot), closure frames excluded, among the
+    leaves that a joint the closures determine moves (not an arm or a gripper whose joints
+    are all actuated, on a whole humanoid) when there are such; the first in URDF order among
+    equals (the first leg's foot on a biped)."""
     parents = {j.child: j for j in tree.joints}
     ends = {f for c in closures for f in (c.frame_a, c.frame_b)}
     inner = {j.parent for j in tree.joints}
-    best, depth = tree.links[-1], -1
+    best, rank = tree.links[-1], (False, -1)
     for link in tree.links:
         if link in inner or link in ends:
             continue
-        n, at = 0, link
+        n, passive, at = 0, False, link
         while at in parents:
-            n += parents[at].movable
-            at = parents[at].parent
-        if n > depth:
-            best, depth = link, n
+            joint = parents[at]
+            n += joint.movable
+            passive = passive or (joint.movable and joint.name not in actuated)
+            at = joint.parent
+        if (passive, n) > rank:
+            best, rank = link, (passive, n)
     return best
 
 
@@ -157,7 +162,11 @@ def _reported_frame(
     named ``effector``, else the distal link of the closures (a joint stands for its child)."""
     chosen = frame or spec.platform
     if chosen is None:
-        chosen = "effector" if "effector" in tree.links else distal_link(tree, spec.closures)
+        chosen = (
+            "effector"
+            if "effector" in tree.links
+            else distal_link(tree, spec.closures, spec.actuated)
+        )
     if chosen not in tree.links and chosen not in joint_frames:
         raise UnknownNameError("frame", chosen, (*tree.links, *joint_frames), path)
     return joint_frames.get(chosen, chosen)
@@ -503,14 +512,23 @@ class Model:
         if found is not None:
             worst = float(np.abs(np.array(f_all(found.z[:m], found.z[m:])[2])).max())
         if found is None or worst > self.tolerance:
+            suspects = slides_along_carrier(self.tree, self.actuated)
+            hint = "add 'home' to the YAML"
+            if suspects:
+                listed = ", ".join(f"{p} along the axis of revolute {r}" for p, r in suspects)
+                hint = (
+                    f"linear actuators that slide only along their own hinge axis ({listed}) "
+                    "cannot drive a loop: check those joint axes in the URDF, or add 'home'"
+                )
             raise NotAssembledError(
                 "no 'home' given, and the neutral configuration does not assemble (least "
                 f"squares: {self._worst(check)}; continuation from a relaxed closure over "
-                f"every joint failed from {assembly.SEEDS + 1} starts); add 'home' to the YAML",
+                f"every joint failed from {assembly.SEEDS + 1} starts); {hint}",
                 float(check.max()),
                 self.path,
             )
         names = (*self._candidates, *self.actuated)
+        found = self._nearest_turns(found, names)
         far = int(np.argmax(np.abs(found.z)))
         start = "the neutral configuration" if found.seed == 0 else f"perturbed seed {found.seed}"
         self.assembly = (
@@ -519,6 +537,23 @@ class Model:
             f"{found.change:.3g} ({names[far]}); write it as 'home' with `scdk assemble --write`"
         )
         return found.z[:m], found.z[m:]
+
+    def _nearest_turns(self, found: assembly.Assembly, names: Sequence[str]) -> assembly.Assembly:
+        """``found`` with each revolute angle replaced by the equivalent one (a whole number
+        of turns away) nearest to neutral within the joint's limits (a continuation may wind a
+        joint past a turn: -6.08 rad where 0.20 rad is the same configuration and the only one
+        within the URDF's limits)."""
+        z = found.z.copy()
+        joints = {j.name: j for j in self.tree.joints}
+        for i, name in enumerate(names):
+            joint = joints.get(name)
+            if joint is None or joint.type not in ("revolute", "continuous"):
+                continue
+            turns = z[i] + 2.0 * np.pi * np.arange(-3, 4)
+            inside = turns[(turns >= joint.lower) & (turns <= joint.upper)]
+            if inside.size:
+                z[i] = inside[np.argmin(np.abs(inside))]
+        return replace(found, z=z, change=float(np.abs(z).max()))
 
     def _check_actuation(self, G: np.ndarray, G_theta: np.ndarray, rank: int, labels) -> None:
         """Refuse more actuators than the mechanism has freedoms (rows that bind theta alone).
