@@ -301,6 +301,26 @@ def test_track_follows_a_motion_through_a_fold(name: str) -> None:
         assert abs(r.crossings[0].index - fold) <= 1
 
 
+@pytest.mark.parametrize("backend", ("cvodes", "c"))
+def test_a_leg_is_tracked_knee_then_ankle_as_the_whole_system(backend: str) -> None:
+    """digit_like tracked one block of its block-triangular decomposition after the other
+    (the knee four-bar, then the ankle mechanism reading the knee's samples) through its ankle
+    fold: every sample and the crossing those of the whole 18 x 18 system tracked at once."""
+    m = model("digit_like")
+    assert [(s.m, s.k) for s in m.stages] == [(6, 4), (12, 7)]  # the ankle reads 1 knee angle
+    _, thetas, _ = _motion_through_a_fold(m)
+    staged = sc.track(m, thetas, backend=backend)
+    whole = sc.load_model(FIXTURES / "digit_like")
+    whole.stages = (whole,)
+    ref = sc.track(whole, thetas, backend=backend)
+    np.testing.assert_allclose(staged.y, ref.y, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(staged.x, ref.x, rtol=0, atol=1e-9)
+    assert [(c.index, c.kind) for c in staged.crossings] == [
+        (c.index, c.kind) for c in ref.crossings
+    ]
+    assert abs(staged.crossings[0].s - ref.crossings[0].s) <= 1e-6
+
+
 def random_start_assemblies(gm: gl.GepettoModel, theta: np.ndarray, links: list[str],
                             starts: int, seed: int) -> list[np.ndarray]:  # fmt: skip
     """Distinct real assemblies at ``theta`` by Pinocchio projections from random ``q``: the

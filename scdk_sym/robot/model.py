@@ -680,6 +680,23 @@ class Model:
         return block_models(self)
 
     @cached_property
+    def stages(self) -> tuple[Model, ...]:
+        """One model per block of the block-triangular decomposition of the closure system,
+        dependencies first (a leg's knee four-bar, then its ankle mechanism, whose model takes
+        the knee's unknowns as extra actuators; see
+        :func:`~scdk_sym.robot.blocks.triangular_models`): what ``track`` runs, one block
+        after the other, each sample of a block read from the samples of the blocks before it.
+        :attr:`blocks` below :data:`~scdk_sym.robot.blocks.BLOCK_MIN_UNKNOWNS` unknowns, or
+        when the decomposition refines nothing (or an input is not a one-coordinate joint).
+        Assign ``(model,)`` to track the whole system at once."""
+        from .blocks import BLOCK_MIN_UNKNOWNS, triangular_models
+
+        if self.block is not None or self.m < BLOCK_MIN_UNKNOWNS:
+            return self.blocks
+        stages = triangular_models(self)
+        return stages if len(stages) > 1 else self.blocks
+
+    @cached_property
     def kernels(self):
         """CasADi Functions of this model (:class:`~scdk_sym.kernels.functions.Kernels`)."""
         return build_kernels(self.symbolic)

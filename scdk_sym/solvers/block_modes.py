@@ -24,12 +24,7 @@ import numpy as np
 from ..errors import VerificationError
 from ..results import AssemblyModes, Configuration
 from ..robot import Model
-from ..robot.blocks import Block, triangular_blocks, triangular_models
-
-#: Smallest number of unknowns at which ``assembly_modes`` solves a block-triangular system
-#: one block at a time (below it the whole system is one homotopy: Gepetto's robot_delta,
-#: 9 unknowns in five blocks, is certified whole by its root bound).
-BLOCK_MIN_UNKNOWNS = 10
+from ..robot.blocks import BLOCK_MIN_UNKNOWNS, Block, triangular_blocks, triangular_models
 
 
 @dataclass(frozen=True)

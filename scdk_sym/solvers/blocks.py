@@ -28,19 +28,23 @@ def _block(sub: Model) -> Block:
 
 
 def _expand(model: Model, sub: Model, c: Crossing, y: np.ndarray, theta: np.ndarray) -> Crossing:
-    """A block's crossing in the model's terms (other blocks at ``y``, ``theta``)."""
+    """A block's crossing in the model's terms (other blocks at ``y``, ``theta``; the inputs
+    of a triangular block, the last of its actuated values, at the crossing's)."""
     block = _block(sub)
     full_y, full_theta = np.array(y, dtype=float), np.array(theta, dtype=float)
     full_y[list(block.unknowns)] = c.y
-    full_theta[list(block.actuated)] = c.theta
+    k = len(block.actuated)
+    full_theta[list(block.actuated)] = c.theta[:k]
+    full_y[list(block.inputs)] = c.theta[k:]
     x = model.configuration(full_y, full_theta).x
     return Crossing(c.s, x, full_y, full_theta, c.index, c.kind)
 
 
 def _placing_block(model: Model, subs: tuple[Model, ...]) -> int | None:
     """The index of the block whose unknowns and actuators alone place the reported frame
-    (every other joint fixed), or ``None`` (computed once per model)."""
-    return model.products.get(PLACING_BLOCK, lambda: _find_placing_block(model, subs))
+    (every other joint fixed), or ``None`` (computed once per model and set of blocks)."""
+    variant = tuple(_block(sub).unknowns for sub in subs)  # blocks or stages
+    return model.products.get(PLACING_BLOCK, lambda: _find_placing_block(model, subs), variant)
 
 
 def _find_placing_block(model: Model, subs: tuple[Model, ...]) -> int | None:
@@ -51,19 +55,24 @@ def _find_placing_block(model: Model, subs: tuple[Model, ...]) -> int | None:
     cols = set(np.flatnonzero(used.any(axis=0)).tolist())
     for i, sub in enumerate(subs):
         block = _block(sub)
-        own = {*block.unknowns, *(model.m + a for a in block.actuated)}
+        own = {*block.unknowns, *block.inputs, *(model.m + a for a in block.actuated)}
         if cols <= own:
             return i
     return None
+
+
+def _actuated(block: Block, theta: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """A block model's actuated values: the model's actuators of the block, then its inputs
+    (unknowns of earlier blocks); rows of samples when ``theta`` and ``y`` are 2-D."""
+    return np.concatenate([theta[..., list(block.actuated)], y[..., list(block.inputs)]], axis=-1)
 
 
 def _starts(model: Model, subs, start: Configuration) -> list[Configuration]:
     out = []
     for sub in subs:
         block = _block(sub)
-        out.append(
-            sub.configuration(start.y[list(block.unknowns)], start.theta[list(block.actuated)])
-        )
+        theta = _actuated(block, start.theta, start.y)
+        out.append(sub.configuration(start.y[list(block.unknowns)], theta))
     return out
 
 
@@ -107,13 +116,18 @@ def track_blocks(
     track: Callable[..., TrackResult],
     **options,
 ) -> TrackResult:
-    """``track`` on each block, the samples assembled and verified on the model."""
+    """``track`` on each block, the samples assembled and verified on the model.
+
+    ``subs``: independent blocks (:attr:`Model.blocks`) or the blocks of the block-triangular
+    decomposition in dependency order (:attr:`Model.stages`): a block's readings are the
+    model's readings of its actuators and the samples of its inputs, tracked before it.
+    """
     N = len(thetas)
     ys = np.tile(np.asarray(start.y, dtype=float), (N, 1))
     results = []
     for sub, s0 in zip(subs, _starts(model, subs, start), strict=True):
         block = _block(sub)
-        r = track(sub, thetas[:, list(block.actuated)], start=s0, **options)
+        r = track(sub, _actuated(block, thetas, ys), start=s0, **options)
         ys[:, list(block.unknowns)] = r.y
         results.append((sub, r))
     # every closure belongs to one block: the model's residual is the worst block's; the

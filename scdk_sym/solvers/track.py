@@ -198,12 +198,12 @@ def track(
             solution was met (``ERR_NO_SOLUTION``: the readings leave the reachable set or
             jump too far), or a sample failed its verification.
     """
-    if len(model.blocks) > 1:  # independent blocks (the legs of a biped): one track each
+    if len(model.stages) > 1:  # a leg's knee, then its ankle (each leg in turn): one each
         from .blocks import track_blocks
 
         readings = _thetas(model, thetas)
         return track_blocks(
-            model, model.blocks, readings, validate_start(model, start), track, backend=backend
+            model, model.stages, readings, validate_start(model, start), track, backend=backend
         )
     if resolve(backend, "track") == "c":
         from .track_c import track_c
