@@ -110,7 +110,7 @@ def test_both_branches_at_home_plus_five_hundredths(name: str) -> None:
     assert max(np.abs(answers[0][k] - answers[1][k]).max() for k in answers[0]) > 1e-3
 
 
-@pytest.mark.parametrize("name", ("talos_like", "cassie_like"))
+@pytest.mark.parametrize("name", LEGGED)
 def test_convergent_answer_matches_an_independent_pinocchio_continuation(name: str) -> None:
     m, gm = model(name), gepetto(name)
     theta = m.home.theta + 0.02
