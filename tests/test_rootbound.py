@@ -109,3 +109,20 @@ def test_robot_delta_bound_is_64():
     _, p = form.random_point(np.random.default_rng(0))
     rb = root_bound(form, p)
     assert rb.bound == 64 and math.prod(rb.block_volumes) == 64
+
+
+def test_a_support_whose_hull_is_out_of_reach_is_refused_at_once():
+    """A dense support of 792 points in 7 dimensions (a degree-5 polynomial in 7 variables:
+    its lower hull has too many facets for qhull, which the budget cannot interrupt) is refused
+    with a HomotopyError in well under a second (the bounds of the shipped models, with
+    supports of up to 16 points in 7 dimensions, are computed: see the tests above)."""
+    import time
+
+    from scdk_sym.errors import HomotopyError
+
+    big = dense(7, 5)
+    assert len(big) == math.comb(12, 7)
+    t = time.process_time()
+    with pytest.raises(HomotopyError, match="792 points in 7 dimensions"):
+        mixed_volume([big] + [dense(7, 1)] * 6, seed=0)
+    assert time.process_time() - t < 1.0

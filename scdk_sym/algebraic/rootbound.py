@@ -54,6 +54,11 @@ SPARSIFY_SUBSETS = 4000
 #: Largest product of term counts in one multiplication of the expansion (a larger model's
 #: rows are not expanded: no bound).
 MAX_TERMS = 200_000
+#: Largest lower hull computed for the bound, as ``points ** ceil(d / 2)`` (the order of the
+#: number of facets of a hull in ``d`` dimensions): qhull cannot be interrupted by the budget,
+#: and one support of a 12-unknown Gepetto ankle block, 821 points in 7 dimensions, held it 78 s
+#: a hull (over 15 minutes in all); larger supports leave the bound to the trace tests.
+HULL_MAX_SIZE = 1e9
 #: Default budget of :func:`root_bound` [s of this process's CPU time, so that a loaded machine
 #: does not change the outcome].
 BUDGET = 20.0
@@ -376,6 +381,11 @@ def _lower_edges(P: np.ndarray, w: np.ndarray) -> list[tuple[int, int]]:
         return []
     if m == d + 1:
         return list(itertools.combinations(range(m), 2))
+    if float(m) ** ((d + 1) // 2) > HULL_MAX_SIZE:
+        raise HomotopyError(
+            f"a support of {m} points in {d} dimensions: its lower hull is out of reach; the "
+            "root bound is not computed"
+        )
     lifted = np.hstack([X @ vt[:d].T, w[:, None]])
     try:
         hull = ConvexHull(lifted)
