@@ -152,6 +152,17 @@ def test_monodromy_stops_when_its_test_passes_and_says_why_it_failed():
     assert failed.reason.startswith("trace test failed") and "12 monodromy loops" in failed.reason
 
 
+def test_monodromy_out_of_its_budget_returns_what_it_found_and_says_so():
+    """No loop starts once the CPU budget is spent: with none, the start point alone, not
+    certified, the reason naming the budget; with ample time the same seed finds all 8."""
+    system = Quadrics(3, seed=3)
+    spent = monodromy_solve(system, seed=0, progress=False, budget=0.0)
+    assert spent.loops == 0 and spent.root_count == 1 and not spent.trace_passed
+    assert spent.reason.startswith("out of time (0 s of CPU) after 0 monodromy loops")
+    ample = monodromy_solve(system, seed=0, progress=False, budget=600.0)
+    assert ample.trace_passed and ample.root_count == 2**3
+
+
 def test_quadrics_real_solutions_match_random_start_newton(quadrics):
     system, start = quadrics
     p0 = np.random.default_rng(5).normal(size=3)

@@ -25,6 +25,8 @@ chosen ``f`` only makes a complete set fail the test (a false negative), never t
 
 from __future__ import annotations
 
+import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -174,6 +176,7 @@ def monodromy_solve(
     test: Callable[[np.ndarray, np.ndarray, np.ndarray], float] | None = None,
     target: int | None = None,
     start: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    budget: float | None = None,
 ) -> StartSystem:
     """A complete start system by monodromy loops and a trace test.
 
@@ -198,6 +201,8 @@ def monodromy_solve(
             the isolated solutions: no loop can add one beyond it); ``None``: no target.
         start: ``(z0 (n,), p (n_params,), b (n,))``, a known solution ``G(z0, p) + b = 0``
             to start the loops from (default: ``system.random_point`` with ``b = -G``).
+        budget: CPU time [s] after which no new loop starts (``None``: no limit); the set
+            found so far is returned, its test not passed.
 
     Returns:
         A :class:`StartSystem` (``trace_passed`` False if the budget ran out, ``reason``
@@ -242,8 +247,13 @@ def monodromy_solve(
     bar = tqdm(
         total=max_loops, desc="monodromy", unit="loop", disable=not progress, leave=False, delay=2
     )
+    deadline = math.inf if budget is None else time.process_time() + budget
+    out_of_time = False
     try:
         while loops < max_loops:
+            if time.process_time() > deadline:
+                out_of_time = True
+                break
             nodes = [(p, b)]
             for _ in range(2):
                 nodes.append(
@@ -282,6 +292,11 @@ def monodromy_solve(
         bar.close()
     if passed:
         reason = ""
+    elif out_of_time:
+        reason = (
+            f"out of time ({budget:g} s of CPU) after {loops} monodromy loops, {len(sols)} "
+            "solutions"
+        )
     elif np.isfinite(residual):
         reason = (
             f"trace test failed (residual {residual:.1e} > {trace_tol:.0e}) after {loops} "

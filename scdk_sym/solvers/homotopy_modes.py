@@ -73,6 +73,11 @@ MODES_CACHE_VERSION = "6"
 #: Budget of the BKK root bound of a form [s of CPU time]; beyond it only the trace tests
 #: remain.
 ROOT_BOUND_BUDGET = 2.0
+#: Budget of the monodromy loops of a start system [s of CPU time] (the largest one certified
+#: here, the shipped stewart_gough's 28 roots, takes about 7 s; a 12-unknown Gepetto ankle
+#: block, whose joint-angle representations multiply its roots, ran on for many minutes);
+#: beyond it the start system is not certified, and says so.
+MONODROMY_BUDGET = 120.0
 #: Largest condition number (rows and columns scaled) of ``dG/dz`` at a root counted
 #: against the root bound: a regular, hence isolated, root.
 REGULAR_COND = 1e10
@@ -309,7 +314,7 @@ def model_start_system(
         start = monodromy_solve(
             form, seed, stable_loops=5, max_loops=max_loops, trace_tol=TRACE_TOL,
             trace_map=trace_map, progress=progress, test=test,
-            target=None if bound is None else bound.bound,
+            target=None if bound is None else bound.bound, budget=MONODROMY_BUDGET,
         )  # fmt: skip
         reason = start.reason
         if not start.trace_passed:
