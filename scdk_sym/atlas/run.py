@@ -397,6 +397,7 @@ def _distributed(todo, args, finished, workers, scheduler) -> None:
                 )
     except BaseException:
         if cluster is not None:  # an interrupt or a failure: end the chunks in flight now
+            hidden.enter_context(_quiet_distributed())
             _kill_workers(cluster)
         raise
     finally:
@@ -406,6 +407,24 @@ def _distributed(todo, args, finished, workers, scheduler) -> None:
             if cluster is not None:
                 cluster.close(timeout=CLOSE_TIMEOUT)
         hidden.close()
+
+
+@contextlib.contextmanager
+def _quiet_distributed():
+    """While a killed cluster closes, Dask's loggers say nothing below CRITICAL.
+
+    Closing the connections of killed workers makes ``distributed`` log the closed comms
+    with their tracebacks (at INFO); the interrupt is already reported in one line.
+    """
+    import logging
+
+    logger = logging.getLogger("distributed")
+    level = logger.level
+    logger.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
 
 
 def _kill_workers(cluster) -> None:
