@@ -243,6 +243,34 @@ def test_start_systems_are_stored_on_disk_proven_or_failed(monkeypatch):
     assert calls == [1, 1] and after.certified
 
 
+def test_certified_only_tracks_no_path_of_an_unproven_start_system(monkeypatch):
+    """``certified_only``: a start system that is not proven complete (no monodromy loop)
+    returns at once, with no solution and the reason; without it the paths are tracked and
+    the delta's one start root reaches one of its two real assemblies (a closed form)."""
+    import scdk_sym.algebraic as algebraic
+
+    R, r, arm, rod = 0.2, 0.05, 0.25, 0.5
+    theta = sc.builders.delta(R, r, arm, rod).home.theta + np.array([0.1, -0.2, 0.05])
+    ref = delta_reference(R, r, arm, rod, theta)
+    tracked = sc.assembly_modes(
+        sc.builders.delta(R, r, arm, rod), theta, seed=7, max_loops=0, cache=False
+    )
+    assert not tracked.certified and len(tracked) == 1
+    assert min(np.abs(tracked[0].x - p).max() for p in ref) < 1e-9
+
+    def no_tracking(*args, **kwargs):
+        raise AssertionError("a path of an unproven start system was tracked")
+
+    monkeypatch.setattr(algebraic, "solve_homotopy", no_tracking)
+    skipped = sc.assembly_modes(
+        sc.builders.delta(R, r, arm, rod), theta, seed=7, max_loops=0, cache=False,
+        certified_only=True,
+    )  # fmt: skip
+    assert not skipped.certified and len(skipped) == 0 and skipped.root_count == 1
+    assert skipped.report.startswith("not certified: start system not proven complete")
+    assert skipped.report.endswith("its paths not tracked (certified_only)")
+
+
 # ---------------------------------------------------------------------------- 6-6 (slow)
 
 

@@ -159,6 +159,8 @@ def _group_parts(
                 params = np.concatenate([theta0[list(block.actuated)], inputs])
                 memo[key] = homotopy_modes(sub, params, **options)
                 found.append(BlockModes(block, inputs, memo[key]))
+                if options.get("certified_only") and not memo[key].certified:
+                    return []  # the caller uses only a certified set: no further block
             for cfg in memo[key]:
                 z = y.copy()
                 z[list(block.unknowns)] = cfg.y

@@ -441,6 +441,7 @@ def homotopy_modes(
     max_loops: int = MAX_LOOPS,
     cache: bool = True,
     rebuild: bool = False,
+    certified_only: bool = False,
 ) -> AssemblyModes:
     """Every real assembly mode at ``theta0``, with a certificate of completeness.
 
@@ -454,6 +455,9 @@ def homotopy_modes(
         max_loops: bound on the monodromy loops of the start system.
         cache: read and write the start system's disk cache.
         rebuild: compute the start system again even if one (proven or failed) is cached.
+        certified_only: for callers that use only a certified set: when the start system is
+            not proven complete, return at once (no solutions, not certified, the report
+            saying why) instead of tracking its paths.
 
     Returns:
         :class:`~scdk_sym.results.AssemblyModes` (see the module documentation).
@@ -470,13 +474,22 @@ def homotopy_modes(
     start = model_start_system(
         form, seed, progress=progress, max_loops=max_loops, cache=cache, rebuild=rebuild
     )
-    res = solve_homotopy(form, start, form.params(theta0), seed=seed, real_tol=REAL_TOL)
     reasons: list[str] = []
     if not start.trace_passed:
         why = start.reason or (
             f"trace residual {start.trace_residual:.1e} after {start.loops} monodromy loops"
         )
         reasons.append(f"start system not proven complete: {why} (rebuild=True recomputes it)")
+        if certified_only:
+            return AssemblyModes(
+                solutions=(),
+                certified=False,
+                root_count=int(start.root_count),
+                report=f"not certified: {reasons[0]}; its paths not tracked (certified_only)",
+                certificates=(),
+                method="homotopy",
+            )
+    res = solve_homotopy(form, start, form.params(theta0), seed=seed, real_tol=REAL_TOL)
     n_failed = int((res.status == "failed").sum())
     if n_failed:
         reasons.append(f"{n_failed} of {len(res.status)} paths failed before t = 1")

@@ -70,7 +70,8 @@ def assembly_modes(
             solution must be met again, 2), ``max_curves`` (400). Homotopy only:
             ``max_loops`` (bound on the monodromy loops), ``cache`` (disk cache of the start
             system, True), ``rebuild`` (compute the start system again even if a proven or a
-            failed one is cached, False).
+            failed one is cached, False), ``certified_only`` (return at once, with no
+            solutions, when a start system is not proven complete, False).
 
     Returns:
         :class:`~scdk_sym.results.AssemblyModes`: a sequence of
@@ -88,11 +89,11 @@ def assembly_modes(
     if method == "homotopy":
         from .homotopy_modes import homotopy_modes
 
-        extra = set(options) - {"max_loops", "cache", "rebuild"}
+        extra = set(options) - {"max_loops", "cache", "rebuild", "certified_only"}
         if extra:
             raise InputError(
-                f"option(s) {', '.join(sorted(extra))} belong to method='curves'; "
-                "the homotopy takes seed, progress, backend, max_loops, cache, rebuild"
+                f"option(s) {', '.join(sorted(extra))} belong to method='curves'; the homotopy "
+                "takes seed, progress, backend, max_loops, cache, rebuild, certified_only"
             )
         from .block_modes import block_modes, split
 

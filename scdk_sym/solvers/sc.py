@@ -626,7 +626,7 @@ def _across_by_modes(
         # the default (generated C where a compiler is found) whatever the solve's kernels:
         # the first call per model computes its start system (seconds: about 9 s for
         # Gepetto's robot_delta), cached on disk, proven or not
-        sols = assembly_modes(model, theta0)
+        sols = assembly_modes(model, theta0, certified_only=True)
     except ScdkError as exc:
         tried.append(f"every real solution at theta0: {exc}")
         return None
