@@ -1,7 +1,7 @@
 """One backend vocabulary for every function and command with a ``backend`` argument.
 
-Each name is defined once here, with one meaning and a one-line help (the README's backend
-table is the same list):
+Each name is defined once here, with one meaning and a one-line help (the backend
+table of the user guide, docs/guide/c.md, is the same list):
 
 - ``auto``: the fastest backend the function offers on this machine (the first of its
   :data:`OFFERS` whose requirements are met: a C compiler for ``compiled`` and ``c``);
@@ -130,7 +130,7 @@ def canonical(backend: str, function: str) -> str:
     if name not in names:
         raise InputError(
             f"backend {backend!r} is not offered by {function}; backends: {', '.join(names)} "
-            "(README: Backends)"
+            "(docs/guide/c.md: Backends)"
         )
     return name
 
@@ -186,4 +186,6 @@ def help_text(function: str, default: str | None = None) -> str:
     """
     lines = [f"{n}: {BACKENDS[n].help}" for n in offered(function)]
     lines += [f"{a}: deprecated name of {t}" for a, t in ALIASES.items() if t in OFFERS[function]]
-    return "; ".join(lines) + f" (default: {default or DEFAULTS[function]}; README: Backends)"
+    return (
+        "; ".join(lines) + f" (default: {default or DEFAULTS[function]}; docs/guide/c.md: Backends)"
+    )

@@ -200,7 +200,7 @@ def test_readme_quick_start_prints_what_the_readme_says(capsys):
 
     text = (ROOT / "README.md").read_text()
     command = text.split("pip install . && scdk ", 1)[1].split("\n", 1)[0]
-    shown = text.split("on both branches and prints:\n\n```\n", 1)[1].split("```", 1)[0]
+    shown = text.split("on both branches and prints:\n\n```text\n", 1)[1].split("```", 1)[0]
     argv = command.split()
     argv[1] = str(ROOT / argv[1])
     assert main(argv) == 0

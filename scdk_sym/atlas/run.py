@@ -22,9 +22,10 @@ import uuid
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import AtlasError, InputError, Interrupted
 from ..interrupts import check, stop_for, stop_on_signals
@@ -33,6 +34,10 @@ from .chunk import STATUS, ModelSource, keep_model, model_source, solve_chunk, w
 from .grid import Grid, make_grid
 from .lock import store_lock
 from .store import FORMAT, Layout, create_or_check, write_chunk
+
+if TYPE_CHECKING:
+    from ..results import Configuration
+    from ..robot import Model
 
 _pkg = "scdk_sym"
 #: Points per chunk (one task; also the Zarr chunk length) unless told.
@@ -111,14 +116,14 @@ def _task(
 
 
 def atlas(
-    model,
-    grid_or_thetas,
+    model: Model,
+    grid_or_thetas: str | Mapping[str, tuple[float, float, int]] | Grid | ArrayLike,
     out: str | Path,
     *,
     workers: int | None = None,
-    scheduler=None,
+    scheduler: Any = None,
     modes: bool = False,
-    start=None,
+    start: Configuration | None = None,
     chunk: int = DEFAULT_CHUNK,
     progress: bool = True,
     on_chunk: Callable[[int, int], None] | None = None,
@@ -141,8 +146,7 @@ def atlas(
             ``distributed.Client``; its workers must see ``out`` and share the kernel cache
             directory or be able to compile (``$SCDK_CACHE_DIR``).
         modes: also store ``n_modes``, the number of real assembly modes at each point
-            (:func:`scdk_sym.assembly_modes`; slow: about a second per point of the seed
-            robot on this machine's shared cores).
+            (:func:`scdk_sym.assembly_modes`; slow: a certified homotopy at every point).
         start: the assembled start Configuration (default: ``model.home``).
         chunk: points per chunk (task and Zarr chunk); memory per task is O(chunk).
         progress: a tqdm progress bar on stderr.

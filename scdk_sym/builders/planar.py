@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from ..model.spec import Closure, Spec
@@ -62,12 +64,12 @@ def _home_pose(home_x, name: str) -> np.ndarray:
 
 
 def planar_3rrr(
-    base_points,
-    platform_points,
+    base_points: ArrayLike,
+    platform_points: ArrayLike,
     arm: float,
     rod: float,
-    home_x=None,
-    working_modes=(-1, -1, -1),
+    home_x: ArrayLike | None = None,
+    working_modes: Sequence[int] = (-1, -1, -1),
     name: str = "planar_3rrr",
     length_unit: str = "m",
 ) -> Model:
@@ -131,12 +133,12 @@ def planar_3rrr(
 
 
 def planar_3rrr_reduced(
-    base_points,
-    platform_points,
+    base_points: ArrayLike,
+    platform_points: ArrayLike,
     arm: float,
     rod: float,
-    home_x=None,
-    working_modes=(-1, -1, -1),
+    home_x: ArrayLike | None = None,
+    working_modes: Sequence[int] = (-1, -1, -1),
     name: str = "planar_3rrr_reduced",
     length_unit: str = "m",
 ) -> Model:
@@ -211,9 +213,9 @@ def _rpr_conditioning(A: np.ndarray, C: np.ndarray, pose: np.ndarray) -> float:
 
 
 def planar_3rpr(
-    base_points,
-    platform_points,
-    home_x=None,
+    base_points: ArrayLike,
+    platform_points: ArrayLike,
+    home_x: ArrayLike | None = None,
     name: str = "planar_3rpr",
 ) -> Model:
     """Planar 3-RPR parallel robot: three extensible legs between base and platform pivots.
@@ -298,11 +300,11 @@ def planar_3rpr(
 
 
 def five_bar(
-    base_points,
-    arm,
-    rod,
-    home_x=None,
-    working_modes=(1, -1),
+    base_points: ArrayLike,
+    arm: float | ArrayLike,
+    rod: float | ArrayLike,
+    home_x: ArrayLike | None = None,
+    working_modes: Sequence[int] = (1, -1),
     name: str = "five_bar",
 ) -> Model:
     """Planar five-bar linkage (2 dof): two actuated arms, two rods meeting at the effector.

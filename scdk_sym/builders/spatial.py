@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from ..model.rotations import rot_log, rpy_matrix
@@ -48,9 +49,9 @@ def _leg_conditioning(A: np.ndarray, B: np.ndarray, xh: np.ndarray) -> float:
 
 
 def stewart_gough(
-    base_points,
-    platform_points,
-    home_x=None,
+    base_points: ArrayLike,
+    platform_points: ArrayLike,
+    home_x: ArrayLike | None = None,
     name: str = "stewart_gough",
 ) -> Model:
     """Stewart-Gough platform with six extensible legs (6-6; 3-3 and 6-3 via coincident points).
@@ -171,7 +172,7 @@ def delta(
     platform_radius: float,
     arm: float,
     rod: float,
-    home_x=None,
+    home_x: ArrayLike | None = None,
     name: str = "delta",
 ) -> Model:
     """Clavel's Delta robot: three rotary arms, parallelogram rods, a translating platform.
@@ -188,7 +189,7 @@ def delta(
         platform_radius: distance of the rod ends from the platform centre [m] (may be 0).
         arm: arm length (actuated link) [m].
         rod: parallelogram length [m].
-        home_x: (3,) home position [x, y, z] [m]; with the working mode (elbows out) and the
+        home_x: (3,) home position (x, y, z) [m]; with the working mode (elbows out) and the
             assembly mode (platform below the elbows). Default: centred, every arm at the first
             of 20, 10, 30, 0, 40 deg down whose rod Jacobian is at least half as well
             conditioned as the best of them.
@@ -285,7 +286,7 @@ def hexa(
     rod: float,
     base_spread: float = 0.4,
     platform_spread: float = 1.6,
-    home_x=None,
+    home_x: ArrayLike | None = None,
     name: str = "hexa",
 ) -> Model:
     """Uchiyama's HEXA: six R-U-S legs, rotary actuators on the base, a 6-dof platform.

@@ -48,8 +48,8 @@ def _atlas_args(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--modes",
         action="store_true",
-        help="also count the real assembly modes at each point (slow: about 1 s per point; "
-        "default: off)",
+        help="also count the real assembly modes at each point (slow: a certified homotopy "
+        "at every point; default: off)",
     )
     p.add_argument("--from-x", metavar=FROM_X_METAVAR, help=FROM_X_HELP)
     p.add_argument("--chunk", type=int, default=4096, metavar="N", help="points per chunk")

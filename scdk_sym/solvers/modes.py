@@ -7,6 +7,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from numpy.typing import ArrayLike
 
 from ..backends import DEFAULTS
@@ -36,7 +38,7 @@ def assembly_modes(
     seed: int = 0,
     progress: bool = False,
     backend: str | None = None,
-    **options,
+    **options: Any,
 ) -> AssemblyModes:
     """All real direct-kinematics solutions (assembly modes) at ``theta0``.
 
