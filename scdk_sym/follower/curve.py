@@ -38,6 +38,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -47,6 +48,9 @@ from ..kernels.fastcall import model_calls
 from ..results import Crossing, PathSamples
 from .geometry import features, in_chart, local_features, periodic
 from .kernels import follower_calls
+
+if TYPE_CHECKING:
+    from ..robot import Model
 
 #: A predictor-corrector step is accepted when its first correction is below this fraction of
 #: the step, its last below NEWTON_TOL model sizes, and the tangent turned by < acos(MIN_COS).
@@ -292,7 +296,7 @@ def _hidden_pair(sa: float, sb: float, ta: float, tb: float, h: float, level: fl
 
 
 def follow(
-    model,
+    model: Model,
     line: Line,
     y_start: np.ndarray,
     s_start: float,
@@ -315,6 +319,11 @@ def follow(
     min_cos: float = MIN_COS,
 ) -> Walk:
     """Follow the solution curve of ``g(y, line.at(s)) = 0`` from ``(y_start, s_start)``.
+
+    The walk is a loop of predictor calls: each call's accepted samples are judged segment
+    by segment (folds, bifurcations, level crossings), taken up to the first segment that
+    needs a smaller step, and the step adapted; where the step keeps shrinking the follower
+    steps over the point (see the module documentation).
 
     Args:
         model: the model.
@@ -355,380 +364,497 @@ def follow(
     """
     if predictor not in PREDICTORS:
         raise InputError(f"unknown predictor {predictor!r}; predictors: {', '.join(PREDICTORS)}")
-    kern = follower_calls(model, backend)
-    m = model.m
-    scale = max(1.0, float(model.length_scale))
-    tol = float(model.tolerance)
-    theta1 = np.asarray(line.theta1, float)
-    dtheta = np.asarray(line.dtheta, float)
-    p = np.concatenate([theta1, dtheta])
-    w2 = float(dtheta @ dtheta)
-    w = math.sqrt(w2)
-    weight = np.append(np.ones(m), w2)
-    if chart is None:
-        y_loc, c = model.chart.to_local(y_start)
-    else:
-        y_loc, c = np.array(y_start, dtype=float), np.array(chart, dtype=float)
-    q = np.append(y_loc, float(s_start))
-    if tangent is None:
-        Jp, Js = (np.array(a) for a in model_calls(model).jac(y_loc, line.at(s_start), c))
-        v0 = direction * null_direction(Jp, Js @ dtheta)
-    else:
-        v0 = np.asarray(tangent, float)
-    t_raw, J0 = kern.tangent(q, v0, p, c)
-    t = np.array(t_raw).ravel()
-    det = float(_dets(np.array(J0), m)[0])
-    out = Walk(det0=det)
-    ell0 = min(1.0 / max(abs(t[-1]) * w, 1e-6) * w, 1e3 * scale) if w > 0 else scale
-    ell0 = max(ell0, 1e-9 * scale)
-    budget = 60.0 * ell0 + 20.0 * scale if max_arc is None else float(max_arc)
-    pred: _RK4 | _Cvodes
-    if predictor == "rk4":
-        pred = _RK4(model, kern, p, weight, scale, min_cos)
-        backup = None
-        h = min(ell0 / 16, FIRST_STEP * scale) if step is None else float(step)
-        h_max = 0.5 * scale
-    else:
-        from .cvodes import GRID, engine
+    rules = _Rules(levels, max_hits, max_singular, max_steps, deadline, record,
+                   stop_when_closed, locate)  # fmt: skip
+    walker = _Walker(model, line, rules, follower_calls(model, backend))
+    walker.start(y_start, s_start, direction, tangent, chart)
+    walker.choose_steps(predictor, backend, max_arc, step, min_cos)
+    return walker.run(direction)
 
-        pred = _Cvodes(model, engine(model, backend), line, w)
-        backup = _RK4(model, kern, p, weight, scale, min_cos)
-        h = min(ell0 / 16, FIRST_STEP * scale) if step is None else float(step)
-        h_max = 2.0 * ell0 / GRID
-    h_min = 1e-12 * max(ell0, 1e-6 * scale)
-    h_first = h
-    reject_limit = MAX_REJECTED
-    rots = model.chart.rotations
-    rot_idx = [i for idx in rots for i in idx]
-    per = periodic(model)
-    q_first, c_first, t_first = q.copy(), c.copy(), t.copy()
-    left = False
-    halvings = 0
-    h_good = h
-    s_lo = s_hi = float(q[-1])
-    f_hits = np.zeros((0, 0))
-    f_folds: list[tuple[np.ndarray, float]] = []
-    rec: dict[str, list] = {"q": [], "c": [], "det": [], "arc": []}
-    if record:
-        rec["q"].append(q.copy())
-        rec["c"].append(c.copy())
-        rec["det"].append(det)
-        rec["arc"].append(0.0)
-    skip_level_at_start = True
-    backup_left = 0
-    hist = [q.copy()]  # the last accepted points (same chart), for extrapolation
 
-    def add_hit(y_hit, level, arc, before, s_a, s_b) -> None:
-        """Record the solution ``y_hit`` (chart ``c``) at ``s = level``, met at arc length
-        ``arc`` on a stretch from ``s_a`` to ``s_b`` whose singular points start at index
-        ``before`` (a solution met before marks the walk repeated instead)."""
-        nonlocal f_hits
-        f_hit = local_features(model, y_hit, c)[None]
-        if f_hits.size and np.min(np.max(np.abs(f_hits - f_hit), axis=1)) <= 1e-6 * scale:
-            out.repeated = True
-            return
-        f_hits = np.vstack([f_hits, f_hit]) if f_hits.size else f_hit
-        crossings = _met_before(out.singular, before, float(s_a), float(level))
-        arriving = 1.0 if s_b > s_a else -1.0
-        out.hits.append(
-            Hit(model.chart.to_canonical(y_hit, c), float(level), arc, crossings, arriving)
-        )
+@dataclass(frozen=True)
+class _Rules:
+    """What a walk reports and when it stops (the options of :func:`follow`)."""
 
-    turns = 0  # loop iterations: every one either advances, shrinks h or stops
-    while out.arc < budget and out.steps < max_steps:
-        turns += 1
-        if turns > LOOP_FACTOR * max_steps:
-            out.stalled = True
-            break
-        if backup is not None and (halvings >= STALL_HALVINGS or h < h_min):
-            # CVODES creeps (its error control, not the curve, may be at fault): explicit
-            # steps from here; only their stall is a point to step over
-            pred, backup = backup, None
-            h, halvings = max(h_good, h_first), 0
-            reject_limit = max(reject_limit, out.rejected + CVODES_REJECTIONS)
-            continue
-        if halvings >= STALL_HALVINGS or h < h_min:
-            # the step keeps shrinking (next to crossing branches no tangent field is smooth
-            # and the predictors creep towards the point): step over it
-            stepped = _step_over_in_s(model, kern, line, p, weight, hist, t, c, det, levels,
-                                      tol)  # fmt: skip
-            if stepped is not None:
-                cr = stepped[4]
-            else:
-                args = (model, kern, line, p, weight, q, t, c, det, h_good, tol)
-                stepped, cr = _step_over_located(*args, STEP_OVER_FACTORS)
-                if (
-                    stepped is not None
-                    and stepped[3] > SHORT_OVER * h_good
-                    and _levels_passed(levels, float(q[-1]), float(stepped[0][-1]), False)
-                ):
-                    # a long step-over past a level cannot be finished there reliably: only
-                    # short ones may pass it
-                    short = tuple(f for f in STEP_OVER_FACTORS if f <= SHORT_OVER)
-                    stepped, cr = _step_over_located(*args, short)
-            finished: list[tuple[float, np.ndarray | None]] = []
-            if stepped is not None:
-                q_new, t_new, det_new, length = stepped[:4]
-                # no step passes a level without finishing it there (a solution it skipped
-                # would be lost, or a later one taken for the first)
-                passed = _levels_passed(levels, float(q[-1]), float(q_new[-1]),
-                                        skip_level_at_start)  # fmt: skip
-                finished = [
-                    (L, _finish(model, kern, line, q, q_new, t, t_new, length, L, c, tol))
-                    for L in passed
-                ]
-            if stepped is None or any(y_hit is None for _L, y_hit in finished):
-                # nothing to step over (a tight turn of a smooth curve, e.g. next to a point
-                # where two branches nearly cross, or a tight fold), or a step-over passing a
-                # level with no solution on its chord (it jumped between such branches):
-                # smaller steps follow the curve; halve on, down to h_min, else stalled
-                if h / 2 >= h_min:
-                    halvings = 0
-                    h /= 2
-                    continue
+    levels: tuple[float, ...]
+    max_hits: int | float
+    max_singular: int | float
+    max_steps: int
+    deadline: float
+    record: bool
+    stop_when_closed: bool
+    locate: bool
+
+
+#: What a step of the walk tells its loop.
+_GO, _STOP = False, True
+
+
+class _Walker:
+    """The state of one walk of :func:`follow` and its steps (each a method of <= 60 lines).
+
+    State: the current point ``q = (y local, s)`` in chart ``c``, its unit tangent ``t`` and
+    ``det J_p``; the step ``h`` with its bounds and the count of halvings in a row; the last
+    accepted points ``hist`` (for extrapolation); what was met (``out``, a :class:`Walk`).
+    """
+
+    def __init__(self, model: Model, line: Line, rules: _Rules, kern) -> None:
+        self.model, self.line, self.o, self.kern = model, line, rules, kern
+        self.m = model.m
+        self.scale = max(1.0, float(model.length_scale))
+        self.tol = float(model.tolerance)
+        self.dtheta = np.asarray(line.dtheta, float)
+        self.p = np.concatenate([np.asarray(line.theta1, float), self.dtheta])
+        w2 = float(self.dtheta @ self.dtheta)
+        self.w = math.sqrt(w2)
+        self.weight = np.append(np.ones(self.m), w2)
+        self.rots = model.chart.rotations
+        self.rot_idx = [i for idx in self.rots for i in idx]
+        self.per = periodic(model)
+
+    # ------------------------------------------------------------------------------ set-up
+
+    def start(self, y_start, s_start: float, direction: float, tangent, chart) -> None:
+        """The start point in its chart, its oriented unit tangent and ``det J_p``."""
+        model, m = self.model, self.m
+        if chart is None:
+            y_loc, c = model.chart.to_local(y_start)
+        else:
+            y_loc, c = np.array(y_start, dtype=float), np.array(chart, dtype=float)
+        q = np.append(y_loc, float(s_start))
+        if tangent is None:
+            Jp, Js = (np.array(a) for a in model_calls(model).jac(y_loc, self.line.at(s_start), c))
+            v0 = direction * null_direction(Jp, Js @ self.dtheta)
+        else:
+            v0 = np.asarray(tangent, float)
+        t_raw, J0 = self.kern.tangent(q, v0, self.p, c)
+        self.q, self.c, self.t = q, c, np.array(t_raw).ravel()
+        self.det = float(_dets(np.array(J0), m)[0])
+        self.out = Walk(det0=self.det)
+        self.q_first, self.c_first, self.t_first = q.copy(), c.copy(), self.t.copy()
+        self.left = False  # the walk has left its start (for the closure test)
+        self.s_lo = self.s_hi = float(q[-1])
+        self.f_hits = np.zeros((0, 0))
+        self.f_folds: list[tuple[np.ndarray, float]] = []
+        self.rec: dict[str, list] = {"q": [], "c": [], "det": [], "arc": []}
+        if self.o.record:
+            _record(self.rec, q, c, self.det, 0.0)
+        self.skip_level_at_start = True
+        self.hist = [q.copy()]  # the last accepted points (same chart), for extrapolation
+
+    def choose_steps(self, predictor: str, backend: str, max_arc, step, min_cos: float) -> None:
+        """The predictors, the arc budget and the step bounds, from the start's arc per ``s``."""
+        scale, w = self.scale, self.w
+        ell0 = min(1.0 / max(abs(self.t[-1]) * w, 1e-6) * w, 1e3 * scale) if w > 0 else scale
+        ell0 = max(ell0, 1e-9 * scale)
+        self.budget = 60.0 * ell0 + 20.0 * scale if max_arc is None else float(max_arc)
+        rk4 = _RK4(self.model, self.kern, self.p, self.weight, scale, min_cos)
+        self.pred: _RK4 | _Cvodes
+        self.backup: _RK4 | None
+        if predictor == "rk4":
+            self.pred, self.backup = rk4, None
+            self.h_max = 0.5 * scale
+        else:
+            from .cvodes import GRID, engine
+
+            self.pred = _Cvodes(self.model, engine(self.model, backend), self.line, w)
+            self.backup = rk4
+            self.h_max = 2.0 * ell0 / GRID
+        self.h = min(ell0 / 16, FIRST_STEP * scale) if step is None else float(step)
+        self.h_min = 1e-12 * max(ell0, 1e-6 * scale)
+        self.h_first = self.h_good = self.h
+        self.halvings = 0
+        self.reject_limit = MAX_REJECTED
+        self.backup_left = 0
+
+    # ------------------------------------------------------------------------------ the loop
+
+    def run(self, direction: float) -> Walk:
+        """Predict, judge and take steps until a stop rule holds; the walk's report."""
+        out, o = self.out, self.o
+        turns = 0  # loop iterations: every one either advances, shrinks h or stops
+        while out.arc < self.budget and out.steps < o.max_steps:
+            turns += 1
+            if turns > LOOP_FACTOR * o.max_steps:
                 out.stalled = True
                 break
-            out.step_overs += 1
-            before = len(out.singular)
-            if cr is not None:
-                out.singular.append(cr)
-                out.singular_arcs.append(out.arc + 0.5 * length)
-            for L, y_hit in finished:
-                if len(out.hits) < max_hits:
-                    add_hit(y_hit, L, out.arc + 0.5 * length, before, q[-1], q_new[-1])
-            q, t, det = q_new, t_new, det_new
-            hist = [*hist[-2:], q.copy()]
-            out.arc += length
-            out.steps += 1
-            h, halvings = h_good, 0
-            reject_limit = max(reject_limit, out.rejected + CVODES_REJECTIONS)
-            skip_level_at_start = False
-            if record:
-                _record(rec, q, c, det, out.arc)
-            if out.repeated or len(out.hits) >= max_hits or len(out.singular) >= max_singular:
-                break
-            continue
-        if out.rejected > reject_limit:
-            out.stalled = True
-            break
-        if time.perf_counter() > deadline:
-            out.timed_out = True
-            break
-        if backup is not None and out.rejected >= CVODES_REJECTIONS:
-            pred, backup = backup, None  # CVODES keeps failing here: explicit steps from now on
-            h, halvings = max(h, h_first), 0
-            reject_limit = out.rejected + CVODES_REJECTIONS
-        if backup is not None and backup_left > 0:
-            backup_left -= 1
-            ch = backup.advance(q, t, h, c, det)
-        else:
-            ch = pred.advance(q, t, h, c, det)
-            if ch.ok == 0 and backup is not None:
-                # CVODES could not integrate this stretch (e.g. next to two crossing branches,
-                # where no smooth field exists): the explicit predictor-corrector takes over
-                # for the next few calls
-                ch = backup.advance(q, t, h, c, det)
-                backup_left = BACKUP_CALLS if ch.ok else 0
-        if ch.ok == 0:
-            out.rejected += 1
-            halvings += 1
-            h /= 2
-            continue
-        Q, T, D = ch.Q, ch.T, ch.D
-        n = ch.ok
-        # walk the accepted segments in order; stop at the first that needs a smaller step
-        # (only segments where s turns, det J_p changes sign or a level is crossed can act
-        # below: a rule acting on other segments must add its condition to _eventful)
-        refine_at = None
-        replaced = None
-        last = n
-        for j in _eventful(Q, T, D, n, levels, len(out.hits) >= max_hits):
-            seg = Q[:, j + 1] - Q[:, j]
-            before_segment = len(out.singular)
-            turn = T[-1, j] * T[-1, j + 1] < 0
-            flip = D[j] * D[j + 1] < 0
-            crossing_levels = _levels_passed(
-                levels, float(Q[-1, j]), float(Q[-1, j + 1]), skip_level_at_start and j == 0
-            )
-            hidden = any(
-                _hidden_pair(Q[-1, j], Q[-1, j + 1], T[-1, j], T[-1, j + 1], h, L) for L in levels
-            )
-            # leaving a level and turning back through it within one step
-            hidden |= bool(turn and skip_level_at_start and j == 0 and Q[-1, 0] in levels)
-            if turn and not flip and h / 4 >= h_min:
-                # s turned while det J_p kept its sign: not a fold (there both change sign
-                # together) but a step that jumped onto a nearby branch (e.g. across the gap
-                # where the line grazes the singular surface); smaller steps stay on the curve
-                refine_at = j
-                break
-            if (hidden or (crossing_levels and turn)) and h / 4 >= h_min:
-                refine_at = j
-                break
-            if flip and not turn:
-                # det J_p changed sign without a turn of s: two branches crossing (H' drops
-                # rank at the point) or a step that jumped across a fold (then H' keeps its
-                # rank, and smaller steps show the turn); first at fixed s on the incoming
-                # branch (which also locates the point on it), else straight
-                past = [*hist, *(Q[:, i] for i in range(1, j + 1))][-3:]
-                got = _step_over_in_s(model, kern, line, p, weight, past, T[:, j], c, D[j],
-                                      levels, tol)  # fmt: skip
-                if got is not None and _is_bifurcation(model, got[4], dtheta):
-                    replaced = (j, got[0], got[1], got[2])
-                    out.singular.append(got[4])
-                    out.singular_arcs.append(out.arc + h * (j + 0.5))
-                    break
-                length = float(math.sqrt(weight @ (seg * seg)))
-                q_str = _straight(kern, p, Q[:, j], T[:, j], length, c, tol)
-                if q_str is not None and _wdist(weight, q_str, Q[:, j + 1]) > 0.05 * length:
-                    t_str, det_str = _tangent(kern, q_str, T[:, j], p, c, m)
-                    replaced = (j, q_str, t_str, det_str)
-                q_b = replaced[1] if replaced is not None else Q[:, j + 1]
-                cr = _locate_bifurcation(model, kern, line, p, weight, Q[:, j], q_b, c, D[j])
-                if not _is_bifurcation(model, cr, dtheta) and h / 4 >= h_min:
-                    replaced = None
-                    refine_at = j
-                    break
-                out.singular.append(cr)
-                out.singular_arcs.append(out.arc + h * (j + 0.5))
-                if replaced is not None:
-                    break
-            if turn:
-                if locate:
-                    cr = _locate_fold(model, kern, line, p, Q[:, j], Q[:, j + 1], T[:, j],
-                                      T[:, j + 1], c)  # fmt: skip
-                else:
-                    cr = _interpolated_fold(model, line, Q[:, j], Q[:, j + 1], T[:, j],
-                                            T[:, j + 1], c)  # fmt: skip
-                if locate and _is_bifurcation(model, cr, dtheta):
-                    # not a fold: two branches cross there and the predictor swung onto the
-                    # other one; step straight over the point from the sample before it
-                    length = float(math.sqrt(weight @ (seg * seg)))
-                    stepped = _step_over(model, kern, p, weight, Q[:, j], T[:, j], c, D[j],
-                                         length, tol)  # fmt: skip
-                    if stepped is not None:
-                        q_new, t_new, det_new, _len = stepped
-                        replaced = (j, q_new, t_new, det_new)
-                        if det_new * D[j] < 0:
-                            cr = _locate_bifurcation(model, kern, line, p, weight, Q[:, j],
-                                                     q_new, c, D[j])  # fmt: skip
-                            out.singular.append(cr)
-                            out.singular_arcs.append(out.arc + h * (j + 0.5))
-                        break
-                    if h / 4 >= h_min:
-                        refine_at = j
-                        break
-                if (
-                    locate
-                    and h / 4 >= h_min
-                    and _turns_beyond(levels, Q[-1, j], Q[-1, j + 1], cr.s)
-                ):
-                    # the located fold lies past a level both samples are short of: the step
-                    # hid two crossings of it (too close to the fold for the interpolation
-                    # to show); smaller steps put a sample between them
-                    refine_at = j
-                    break
-                f = np.append(features(model, cr.y)[0], cr.s * w)
-                for f_old, a_old in f_folds:
-                    if np.max(np.abs(f_old - f)) < 2 * h + 1e-6 * scale and (
-                        out.arc + h * j - a_old > 4 * h
-                    ):
-                        out.repeated = True
-                f_folds.append((f, out.arc + h * j))
-                out.singular.append(cr)
-                out.singular_arcs.append(out.arc + h * (j + 0.5))
-            for L in crossing_levels:
-                y_hit = _finish(model, kern, line, Q[:, j], Q[:, j + 1], T[:, j], T[:, j + 1],
-                                h, L, c, tol)  # fmt: skip
-                if y_hit is None:
-                    if h / 4 >= h_min:
-                        refine_at = j
-                        break
+            if self.halvings >= STALL_HALVINGS or self.h < self.h_min:
+                if self.backup is not None:
+                    self._explicit_from_here()
                     continue
-                add_hit(y_hit, L, out.arc + h * (j + 0.5), before_segment, Q[-1, j], Q[-1, j + 1])
-                if len(out.hits) >= max_hits:
+                if self._step_over_stall() is _STOP:
                     break
-            if refine_at is not None:
+                continue
+            if out.rejected > self.reject_limit:
+                out.stalled = True
                 break
-            if len(out.hits) >= max_hits:
-                last = j + 1
+            if time.perf_counter() > o.deadline:
+                out.timed_out = True
                 break
-        else:
-            last = n
+            ch = self._advance()
+            if ch.ok == 0:
+                out.rejected += 1
+                self.halvings += 1
+                self.h /= 2
+                continue
+            if self._take(ch) is _STOP:
+                break
+        out.s_range = (self.s_lo, self.s_hi)
+        out.end = (self.q, self.t, self.c)
+        if o.record and self.rec["q"]:
+            out.path = _samples(self.model, self.line, self.rec, direction)
+        return out
+
+    def _explicit_from_here(self) -> None:
+        """CVODES creeps (its error control, not the curve, may be at fault): explicit steps
+        from here; only their stall is a point to step over."""
+        assert self.backup is not None
+        self.pred, self.backup = self.backup, None
+        self.h, self.halvings = max(self.h_good, self.h_first), 0
+        self.reject_limit = max(self.reject_limit, self.out.rejected + CVODES_REJECTIONS)
+
+    def _advance(self) -> _Chunk:
+        """One predictor call from the current point (the explicit one where CVODES fails)."""
+        q, t, h, c, det = self.q, self.t, self.h, self.c, self.det
+        if self.backup is not None and self.out.rejected >= CVODES_REJECTIONS:
+            self.pred, self.backup = self.backup, None  # CVODES keeps failing here: explicit
+            self.h, self.halvings = max(h, self.h_first), 0  # steps from now on
+            self.reject_limit = self.out.rejected + CVODES_REJECTIONS
+            h = self.h
+        if self.backup is not None and self.backup_left > 0:
+            self.backup_left -= 1
+            return self.backup.advance(q, t, h, c, det)
+        ch = self.pred.advance(q, t, h, c, det)
+        if ch.ok == 0 and self.backup is not None:
+            # CVODES could not integrate this stretch (e.g. next to two crossing branches,
+            # where no smooth field exists): the explicit predictor-corrector takes over for
+            # the next few calls
+            ch = self.backup.advance(q, t, h, c, det)
+            self.backup_left = BACKUP_CALLS if ch.ok else 0
+        return ch
+
+    def _take(self, ch: _Chunk) -> bool:
+        """Judge a chunk's samples, take them up to the first event that needs a smaller
+        step (or a step over a bifurcation), adapt the step; ``_STOP`` when a rule says so."""
+        refine_at, replaced, last = self._judge(ch)
         used = last if refine_at is None else refine_at
         if replaced is not None:
             used = replaced[0]
-        # closure: distance of the accepted path to the start point in the current chart
-        if stop_when_closed and used > 0:
-            q_ref = in_chart(q_first, c_first, c, rots)
-            if q_ref is not None:
-                Qu = Q[:, : used + 1]
-                Dq = Qu - q_ref[:, None]
-                if per.size:
-                    Dq[per] = (Dq[per] + math.pi) % (2 * math.pi) - math.pi
-                E = np.diff(Qu, axis=1)
-                tau = np.clip(
-                    -(weight @ (Dq[:, :-1] * E)) / np.maximum(weight @ (E * E), 1e-300), 0, 1
-                )
-                P = Dq[:, :-1] + tau * E
-                dist = np.sqrt(weight @ (P * P))
-                if not left:
-                    left = bool(np.any(dist > 3 * h))
-                elif np.any(dist < 0.1 * h):
-                    jj = int(np.argmin(dist))
-                    out.closed = True
-                    out.reversed = bool(weight @ (T[:, jj + 1] * t_first) < 0)
+        if self.o.stop_when_closed and used > 0:
+            self._check_closed(ch, used)
         if used > 0:
-            skip_level_at_start = False
-            s_lo = min(s_lo, float(Q[-1, : used + 1].min()))
-            s_hi = max(s_hi, float(Q[-1, : used + 1].max()))
-            if record:
-                for j in range(1, used + 1):
-                    _record(rec, Q[:, j], c, float(D[j]), out.arc + h * j)
-            out.steps += used
-            out.arc += h * used
-            hist = [*hist, *(Q[:, i].copy() for i in range(1, used + 1))][-3:]
-            q, t, det = Q[:, used].copy(), T[:, used].copy(), float(D[used])
+            self._accept(ch, used)
         if replaced is not None:
-            j, q_str, t_str, det_str = replaced
-            length = float(math.sqrt(weight @ ((q_str - q) ** 2)))
-            q, t, det = q_str, t_str, det_str
-            hist = [*hist[-2:], q.copy()]
-            out.arc += length
-            out.steps += 1
-            skip_level_at_start = False
-            if record:
-                _record(rec, q, c, det, out.arc)
-        t = t / math.sqrt(float(weight @ (t * t)))
-        if out.closed or out.repeated or len(out.hits) >= max_hits:
-            break
-        if len(out.singular) >= max_singular:
-            break
-        if rots and np.max(np.abs(q[rot_idx])) > RECENTRE:
-            y_new, c = model.chart.recentre(q[:-1], c)
-            q = np.append(y_new, q[-1])
-            hist = [q.copy()]
-            t = np.array(kern.tangent(q, t, p, c)[0]).ravel()
+            self._jump_to(replaced)
+        self.t = self.t / math.sqrt(float(self.weight @ (self.t * self.t)))
+        out = self.out
+        if out.closed or out.repeated or len(out.hits) >= self.o.max_hits:
+            return _STOP
+        if len(out.singular) >= self.o.max_singular:
+            return _STOP
+        self._recentre()
+        self._adapt_step(ch, refine_at, replaced, used, last)
+        return _GO
+
+    def _adapt_step(self, ch: _Chunk, refine_at, replaced, used: int, last: int) -> None:
+        """A quarter step to resolve an event, half after a partial call, else grow."""
         if refine_at is not None:
-            h /= 4
-            out.rejected += 1
-            if backup is not None:
-                backup_left = BACKUP_CALLS  # resolve the event with the explicit steps
+            self.h /= 4
+            self.out.rejected += 1
+            if self.backup is not None:
+                self.backup_left = BACKUP_CALLS  # resolve the event with the explicit steps
         elif ch.partial and replaced is None:
-            h /= 2
-            out.rejected += 1
-            halvings += 1
+            self.h /= 2
+            self.out.rejected += 1
+            self.halvings += 1
         else:
-            halvings = 0
-            h_good = h
+            self.halvings = 0
+            self.h_good = self.h
             if ch.smooth:
-                h = min(GROW * h, h_max)
+                self.h = min(GROW * self.h, self.h_max)
         if replaced is not None or (used == last and not ch.partial):
-            halvings = 0
-    out.s_range = (s_lo, s_hi)
-    out.end = (q, t, c)
-    if record and rec["q"]:
-        out.path = _samples(model, line, rec, direction)
-    return out
+            self.halvings = 0
+
+    # ------------------------------------------------------------------------ judging a chunk
+
+    def _judge(self, ch: _Chunk) -> tuple[int | None, tuple | None, int]:
+        """Walk the accepted segments in order; stop at the first that needs a smaller step
+        (``refine_at``) or is replaced by a step over a bifurcation (``replaced``); ``last``:
+        the samples to take when neither (fewer when the hits are complete).
+
+        Only segments where ``s`` turns, ``det J_p`` changes sign or a level is crossed can
+        act: a rule acting on other segments must add its condition to :func:`_eventful`.
+        """
+        full = len(self.out.hits) >= self.o.max_hits
+        for j in _eventful(ch.Q, ch.T, ch.D, ch.ok, self.o.levels, full):
+            verdict, replaced = self._segment(ch, j)
+            if verdict == "refine":
+                return j, None, ch.ok
+            if verdict == "replace":
+                return None, replaced, ch.ok
+            if verdict == "full":
+                return None, None, j + 1
+        return None, None, ch.ok
+
+    def _segment(self, ch: _Chunk, j: int) -> tuple[str, tuple | None]:
+        """The events of segment ``j``: "go", "refine", "replace" (with the replacement
+        ``(j, q, t, det)``) or "full" (the hits are complete)."""
+        Q, T, D, h = ch.Q, ch.T, ch.D, self.h
+        can_refine = h / 4 >= self.h_min
+        before_segment = len(self.out.singular)
+        turn = T[-1, j] * T[-1, j + 1] < 0
+        flip = D[j] * D[j + 1] < 0
+        at_start = self.skip_level_at_start and j == 0
+        crossing_levels = _levels_passed(self.o.levels, float(Q[-1, j]), float(Q[-1, j + 1]),
+                                         at_start)  # fmt: skip
+        hidden = any(
+            _hidden_pair(Q[-1, j], Q[-1, j + 1], T[-1, j], T[-1, j + 1], h, L)
+            for L in self.o.levels
+        )
+        # leaving a level and turning back through it within one step
+        hidden |= bool(turn and at_start and Q[-1, 0] in self.o.levels)
+        if turn and not flip and can_refine:
+            # s turned while det J_p kept its sign: not a fold (there both change sign
+            # together) but a step that jumped onto a nearby branch (e.g. across the gap
+            # where the line grazes the singular surface); smaller steps stay on the curve
+            return "refine", None
+        if (hidden or (crossing_levels and turn)) and can_refine:
+            return "refine", None
+        if flip and not turn:
+            verdict, replaced = self._flip_without_turn(ch, j)
+            if verdict != "go":
+                return verdict, replaced
+        if turn:
+            verdict, replaced = self._turn(ch, j)
+            if verdict != "go":
+                return verdict, replaced
+        return self._levels_crossed(ch, j, crossing_levels, before_segment), None
+
+    def _flip_without_turn(self, ch: _Chunk, j: int) -> tuple[str, tuple | None]:
+        """``det J_p`` changed sign without a turn of ``s``: two branches crossing (``H'``
+        drops rank at the point) or a step that jumped across a fold (then ``H'`` keeps its
+        rank, and smaller steps show the turn); first at fixed ``s`` on the incoming branch
+        (which also locates the point on it), else straight."""
+        Q, T, D, h, c = ch.Q, ch.T, ch.D, self.h, self.c
+        model, kern, line, p, weight = self.model, self.kern, self.line, self.p, self.weight
+        past = [*self.hist, *(Q[:, i] for i in range(1, j + 1))][-3:]
+        got = _step_over_in_s(model, kern, line, p, weight, past, T[:, j], c, D[j],
+                              self.o.levels, self.tol)  # fmt: skip
+        if got is not None and _is_bifurcation(model, got[4], self.dtheta):
+            self._add_singular(got[4], self.out.arc + h * (j + 0.5))
+            return "replace", (j, got[0], got[1], got[2])
+        seg = Q[:, j + 1] - Q[:, j]
+        length = float(math.sqrt(weight @ (seg * seg)))
+        replaced = None
+        q_str = _straight(kern, p, Q[:, j], T[:, j], length, c, self.tol)
+        if q_str is not None and _wdist(weight, q_str, Q[:, j + 1]) > 0.05 * length:
+            t_str, det_str = _tangent(kern, q_str, T[:, j], p, c, self.m)
+            replaced = (j, q_str, t_str, det_str)
+        q_b = replaced[1] if replaced is not None else Q[:, j + 1]
+        cr = _locate_bifurcation(model, kern, line, p, weight, Q[:, j], q_b, c, D[j])
+        if not _is_bifurcation(model, cr, self.dtheta) and h / 4 >= self.h_min:
+            return "refine", None
+        self._add_singular(cr, self.out.arc + h * (j + 0.5))
+        return ("replace", replaced) if replaced is not None else ("go", None)
+
+    def _turn(self, ch: _Chunk, j: int) -> tuple[str, tuple | None]:
+        """``s`` turned on segment ``j``: a fold, located (or interpolated) and recorded; or,
+        where two branches cross there, a step straight over the point."""
+        Q, T, D, h, c = ch.Q, ch.T, ch.D, self.h, self.c
+        model, kern, line, p, weight = self.model, self.kern, self.line, self.p, self.weight
+        locate, can_refine = self.o.locate, h / 4 >= self.h_min
+        if locate:
+            cr = _locate_fold(model, kern, line, p, Q[:, j], Q[:, j + 1], T[:, j], T[:, j + 1],
+                              c)  # fmt: skip
+        else:
+            cr = _interpolated_fold(model, line, Q[:, j], Q[:, j + 1], T[:, j], T[:, j + 1], c)
+        if locate and _is_bifurcation(model, cr, self.dtheta):
+            # not a fold: two branches cross there and the predictor swung onto the other
+            # one; step straight over the point from the sample before it
+            seg = Q[:, j + 1] - Q[:, j]
+            length = float(math.sqrt(weight @ (seg * seg)))
+            stepped = _step_over(model, kern, p, weight, Q[:, j], T[:, j], c, D[j], length,
+                                 self.tol)  # fmt: skip
+            if stepped is not None:
+                q_new, t_new, det_new, _len = stepped
+                if det_new * D[j] < 0:
+                    cr = _locate_bifurcation(model, kern, line, p, weight, Q[:, j], q_new, c,
+                                             D[j])  # fmt: skip
+                    self._add_singular(cr, self.out.arc + h * (j + 0.5))
+                return "replace", (j, q_new, t_new, det_new)
+            if can_refine:
+                return "refine", None
+        if locate and can_refine and _turns_beyond(self.o.levels, Q[-1, j], Q[-1, j + 1], cr.s):
+            # the located fold lies past a level both samples are short of: the step hid two
+            # crossings of it (too close to the fold for the interpolation to show); smaller
+            # steps put a sample between them
+            return "refine", None
+        f = np.append(features(model, cr.y)[0], cr.s * self.w)
+        arc = self.out.arc + h * j
+        for f_old, a_old in self.f_folds:
+            if np.max(np.abs(f_old - f)) < 2 * h + 1e-6 * self.scale and arc - a_old > 4 * h:
+                self.out.repeated = True
+        self.f_folds.append((f, arc))
+        self._add_singular(cr, self.out.arc + h * (j + 0.5))
+        return "go", None
+
+    def _levels_crossed(self, ch: _Chunk, j: int, crossing_levels, before: int) -> str:
+        """Finish each level crossed on segment ``j`` (a hit), or ask for a smaller step."""
+        Q, T, h = ch.Q, ch.T, self.h
+        for L in crossing_levels:
+            y_hit = _finish(self.model, self.kern, self.line, Q[:, j], Q[:, j + 1], T[:, j],
+                            T[:, j + 1], h, L, self.c, self.tol)  # fmt: skip
+            if y_hit is None:
+                if h / 4 >= self.h_min:
+                    return "refine"
+                continue
+            self._add_hit(y_hit, L, self.out.arc + h * (j + 0.5), before, Q[-1, j], Q[-1, j + 1])
+            if len(self.out.hits) >= self.o.max_hits:
+                break
+        return "full" if len(self.out.hits) >= self.o.max_hits else "go"
+
+    def _add_singular(self, cr: Crossing, arc: float) -> None:
+        self.out.singular.append(cr)
+        self.out.singular_arcs.append(arc)
+
+    def _add_hit(self, y_hit, level, arc: float, before: int, s_a, s_b) -> None:
+        """Record the solution ``y_hit`` (chart ``c``) at ``s = level``, met at arc length
+        ``arc`` on a stretch from ``s_a`` to ``s_b`` whose singular points start at index
+        ``before`` (a solution met before marks the walk repeated instead)."""
+        f_hit = local_features(self.model, y_hit, self.c)[None]
+        f_hits = self.f_hits
+        if f_hits.size and np.min(np.max(np.abs(f_hits - f_hit), axis=1)) <= 1e-6 * self.scale:
+            self.out.repeated = True
+            return
+        self.f_hits = np.vstack([f_hits, f_hit]) if f_hits.size else f_hit
+        crossings = _met_before(self.out.singular, before, float(s_a), float(level))
+        arriving = 1.0 if s_b > s_a else -1.0
+        y = self.model.chart.to_canonical(y_hit, self.c)
+        self.out.hits.append(Hit(y, float(level), arc, crossings, arriving))
+
+    # -------------------------------------------------------------------- taking the samples
+
+    def _check_closed(self, ch: _Chunk, used: int) -> None:
+        """Whether the accepted path came back to the start point (in the current chart)."""
+        q_ref = in_chart(self.q_first, self.c_first, self.c, self.rots)
+        if q_ref is None:
+            return
+        weight, h = self.weight, self.h
+        Qu = ch.Q[:, : used + 1]
+        Dq = Qu - q_ref[:, None]
+        if self.per.size:
+            Dq[self.per] = (Dq[self.per] + math.pi) % (2 * math.pi) - math.pi
+        E = np.diff(Qu, axis=1)
+        tau = np.clip(-(weight @ (Dq[:, :-1] * E)) / np.maximum(weight @ (E * E), 1e-300), 0, 1)
+        P = Dq[:, :-1] + tau * E
+        dist = np.sqrt(weight @ (P * P))
+        if not self.left:
+            self.left = bool(np.any(dist > 3 * h))
+        elif np.any(dist < 0.1 * h):
+            jj = int(np.argmin(dist))
+            self.out.closed = True
+            self.out.reversed = bool(weight @ (ch.T[:, jj + 1] * self.t_first) < 0)
+
+    def _accept(self, ch: _Chunk, used: int) -> None:
+        """Take the chunk's first ``used`` samples."""
+        Q, out, h = ch.Q, self.out, self.h
+        self.skip_level_at_start = False
+        self.s_lo = min(self.s_lo, float(Q[-1, : used + 1].min()))
+        self.s_hi = max(self.s_hi, float(Q[-1, : used + 1].max()))
+        if self.o.record:
+            for j in range(1, used + 1):
+                _record(self.rec, Q[:, j], self.c, float(ch.D[j]), out.arc + h * j)
+        out.steps += used
+        out.arc += h * used
+        self.hist = [*self.hist, *(Q[:, i].copy() for i in range(1, used + 1))][-3:]
+        self.q, self.t, self.det = Q[:, used].copy(), ch.T[:, used].copy(), float(ch.D[used])
+
+    def _jump_to(self, replaced: tuple) -> None:
+        """Take the point that replaces a segment's end (a step over a bifurcation)."""
+        _j, q_new, t_new, det_new = replaced
+        length = float(math.sqrt(self.weight @ ((q_new - self.q) ** 2)))
+        self._moved_to(q_new, t_new, det_new, length)
+
+    def _moved_to(self, q_new, t_new, det_new: float, length: float) -> None:
+        self.q, self.t, self.det = q_new, t_new, det_new
+        self.hist = [*self.hist[-2:], self.q.copy()]
+        self.out.arc += length
+        self.out.steps += 1
+        self.skip_level_at_start = False
+        if self.o.record:
+            _record(self.rec, self.q, self.c, self.det, self.out.arc)
+
+    def _recentre(self) -> None:
+        """A new orientation chart when a rotation's Rodrigues parameters grew large."""
+        if self.rots and np.max(np.abs(self.q[self.rot_idx])) > RECENTRE:
+            y_new, self.c = self.model.chart.recentre(self.q[:-1], self.c)
+            self.q = np.append(y_new, self.q[-1])
+            self.hist = [self.q.copy()]
+            self.t = np.array(self.kern.tangent(self.q, self.t, self.p, self.c)[0]).ravel()
+
+    # -------------------------------------------------------------------------- stepping over
+
+    def _step_over_stall(self) -> bool:
+        """The step keeps shrinking (next to crossing branches no tangent field is smooth and
+        the predictors creep towards the point): step over it, finishing every level the step
+        passes (a solution it skipped would be lost, or a later one taken for the first)."""
+        stepped, cr = self._try_step_over()
+        out, q = self.out, self.q
+        finished: list[tuple[float, np.ndarray | None]] = []
+        if stepped is not None:
+            q_new, t_new, det_new, length = stepped[:4]
+            passed = _levels_passed(self.o.levels, float(q[-1]), float(q_new[-1]),
+                                    self.skip_level_at_start)  # fmt: skip
+            finished = [
+                (L, _finish(self.model, self.kern, self.line, q, q_new, self.t, t_new, length,
+                            L, self.c, self.tol))
+                for L in passed
+            ]  # fmt: skip
+        if stepped is None or any(y_hit is None for _L, y_hit in finished):
+            # nothing to step over (a tight turn of a smooth curve, e.g. next to a point
+            # where two branches nearly cross, or a tight fold), or a step-over passing a
+            # level with no solution on its chord (it jumped between such branches): smaller
+            # steps follow the curve; halve on, down to h_min, else stalled
+            if self.h / 2 >= self.h_min:
+                self.halvings = 0
+                self.h /= 2
+                return _GO
+            out.stalled = True
+            return _STOP
+        out.step_overs += 1
+        before = len(out.singular)
+        if cr is not None:
+            self._add_singular(cr, out.arc + 0.5 * length)
+        for L, y_hit in finished:
+            if len(out.hits) < self.o.max_hits:
+                self._add_hit(y_hit, L, out.arc + 0.5 * length, before, q[-1], q_new[-1])
+        self._moved_to(q_new, t_new, det_new, length)
+        self.h, self.halvings = self.h_good, 0
+        self.reject_limit = max(self.reject_limit, out.rejected + CVODES_REJECTIONS)
+        if out.repeated or len(out.hits) >= self.o.max_hits:
+            return _STOP
+        return _STOP if len(out.singular) >= self.o.max_singular else _GO
+
+    def _try_step_over(self) -> tuple[tuple | None, Crossing | None]:
+        """A step over the point ahead: at fixed ``s`` first, else straight (only short
+        straight steps may pass a level of ``s``)."""
+        model, kern, line, p, weight = self.model, self.kern, self.line, self.p, self.weight
+        stepped = _step_over_in_s(model, kern, line, p, weight, self.hist, self.t, self.c,
+                                  self.det, self.o.levels, self.tol)  # fmt: skip
+        if stepped is not None:
+            return stepped, stepped[4]
+        args = (model, kern, line, p, weight, self.q, self.t, self.c, self.det, self.h_good,
+                self.tol)  # fmt: skip
+        stepped, cr = _step_over_located(*args, STEP_OVER_FACTORS)
+        if (
+            stepped is not None
+            and stepped[3] > SHORT_OVER * self.h_good
+            and _levels_passed(self.o.levels, float(self.q[-1]), float(stepped[0][-1]), False)
+        ):
+            # a long step-over past a level cannot be finished there reliably
+            short = tuple(f for f in STEP_OVER_FACTORS if f <= SHORT_OVER)
+            stepped, cr = _step_over_located(*args, short)
+        return stepped, cr
 
 
 def _turns_beyond(levels, s_a: float, s_b: float, s_turn: float) -> bool:
