@@ -137,3 +137,24 @@ def test_every_declared_product_key_is_used():
     assert declared - used == set(), "declared product keys that no module uses"
     for key in products.KEYS.values():
         assert key.holds and key.depends, key
+
+
+#: The longest function the package may hold [lines, docstring included].
+MAX_FUNCTION_LINES = 100
+
+
+def test_no_function_is_longer_than_100_lines():
+    """Small steps: every function and method of the package fits in 100 lines (the curve
+    follower's walk was one function of 438)."""
+    import ast
+
+    import scdk_sym
+
+    long = []
+    for f in sorted(Path(scdk_sym.__path__[0]).rglob("*.py")):
+        for node in ast.walk(ast.parse(f.read_text())):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                lines = node.end_lineno - node.lineno + 1
+                if lines > MAX_FUNCTION_LINES:
+                    long.append(f"{f.name}:{node.lineno} {node.name} ({lines} lines)")
+    assert not long, long

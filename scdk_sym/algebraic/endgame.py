@@ -56,6 +56,55 @@ def _segment(t0: np.ndarray, t1: np.ndarray):
     return tmap
 
 
+def _loops_around(homotopy, z, idx, r, n_data, samples, max_winding, options):
+    """Loops of radius ``r`` about ``t = 1`` from the points ``z`` (M, n) until each closes
+    (within ``max_winding`` loops): the Cauchy estimates (M, n) (NaN where no loop closed),
+    the loops each took to close (0: none, -1: its path failed) and the spread of the
+    samples about the estimate."""
+    rr = np.zeros(n_data)
+    rr[idx] = r
+    tmap = _circle(rr)
+    start = z.copy()
+    cur = start.copy()
+    total = np.zeros_like(cur)
+    taken = [start]  # the loop's samples, to measure their spread about the estimate
+    closed = np.zeros(len(z), dtype=int)
+    going = np.ones(len(z), dtype=bool)
+    for k in range(samples * max_winding):
+        g = np.flatnonzero(going)
+        if g.size == 0:
+            break
+        total[g] += cur[g]
+        res = track(
+            homotopy,
+            tmap,
+            cur[g],
+            idx[g],
+            np.full(g.size, k / samples),
+            np.full(g.size, (k + 1) / samples),
+            options,
+        )
+        cur[g] = res.z
+        bad = res.status != DONE
+        going[g[bad]] = False
+        closed[g[bad]] = -1
+        taken.append(cur.copy())
+        if (k + 1) % samples == 0:
+            loops = (k + 1) // samples
+            back = (~bad) & (rel_norm(res.z - start[g], start[g]) < 1e-6)
+            closed[g[back]] = loops
+            going[g[back]] = False
+    ok = closed > 0
+    est = np.where(ok[:, None], total / np.maximum(closed, 1)[:, None] / samples, np.nan)
+    # spread of the samples about the estimate: ~ r^(1/c) at a finite endpoint (shrinks
+    # with r), ~ r^(-1/c) on a path to infinity (grows by 4^(1/c) >= 1.18 per level)
+    stack = np.stack(taken)  # (S, M, n)
+    upto = np.arange(len(stack))[:, None] < closed[None, :] * samples
+    dev = np.abs(stack - est[None]).max(axis=2)
+    spread = np.where(upto, dev, 0.0).max(axis=0)
+    return est, closed, spread
+
+
 def cauchy_endgame(
     homotopy: Homotopy,
     z: np.ndarray,
@@ -116,48 +165,11 @@ def cauchy_endgame(
         a = np.flatnonzero(alive)
         if a.size == 0:
             break
-        rr = np.zeros(n_data)
-        rr[idx[a]] = r
-        tmap = _circle(rr)
-        start = zc[a].copy()
-        cur = start.copy()
-        total = np.zeros_like(cur)
-        taken = [start]  # the loop's samples, to measure their spread about the estimate
-        closed = np.zeros(a.size, dtype=int)
-        going = np.ones(a.size, dtype=bool)
-        for k in range(samples * max_winding):
-            g = np.flatnonzero(going)
-            if g.size == 0:
-                break
-            total[g] += cur[g]
-            res = track(
-                homotopy,
-                tmap,
-                cur[g],
-                idx[a[g]],
-                np.full(g.size, k / samples),
-                np.full(g.size, (k + 1) / samples),
-                options,
-            )
-            cur[g] = res.z
-            bad = res.status != DONE
-            going[g[bad]] = False
-            closed[g[bad]] = -1
-            taken.append(cur.copy())
-            if (k + 1) % samples == 0:
-                loops = (k + 1) // samples
-                back = (~bad) & (rel_norm(res.z - start[g], start[g]) < 1e-6)
-                closed[g[back]] = loops
-                going[g[back]] = False
+        est, closed, spread = _loops_around(
+            homotopy, zc[a], idx[a], r, n_data, samples, max_winding, options
+        )
         ok = closed > 0
-        est = np.where(ok[:, None], total / np.maximum(closed, 1)[:, None] / samples, np.nan)
         alive[a[closed <= 0]] = False  # failed, or no closure within max_winding loops
-        # spread of the samples about the estimate: ~ r^(1/c) at a finite endpoint (shrinks
-        # with r), ~ r^(-1/c) on a path to infinity (grows by 4^(1/c) >= 1.18 per level)
-        stack = np.stack(taken)  # (S, a.size, n)
-        upto = np.arange(len(stack))[:, None] < closed[None, :] * samples
-        dev = np.abs(stack - est[None]).max(axis=2)
-        spread = np.where(upto, dev, 0.0).max(axis=0)
         for j in np.flatnonzero(ok):
             i = a[j]
             s0, s1 = spread_hist[i, 0], spread_hist[i, 1]  # two levels back, one level back

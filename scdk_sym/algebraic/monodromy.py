@@ -215,28 +215,11 @@ def monodromy_solve(
 
     rng = np.random.default_rng(seed)
     offs = np.asarray(system.offset_rows, dtype=bool)
-    if start is None:
-        z0, p = system.random_point(rng)
-        z0, p = np.asarray(z0, dtype=complex), np.asarray(p, dtype=complex)
-        G, _, _ = system.evaluate(z0[None], p[None])
-        G = G[0]
-        if np.abs(G[~offs]).max(initial=0.0) > 1e-10 * (1.0 + np.abs(z0).max()):
-            raise HomotopyError(
-                f"random_point gives structural residual {np.abs(G[~offs]).max():.1e}; "
-                "fix the system's random_point so structural rows vanish"
-            )
-        b = np.where(offs, -G, 0.0)
-    else:
-        z0, p, b = (np.asarray(x, dtype=complex) for x in start)
-        G = system.evaluate(z0[None], p[None])[0][0] + b
-        if np.abs(G).max(initial=0.0) > 1e-10 * (1.0 + np.abs(z0).max()):
-            raise HomotopyError(f"the given start is no solution (residual {np.abs(G).max():.1e})")
+    z0, p, b = _start_pair(system, rng, offs, start)
     sols = z0[None].copy()
-    bscale = 1.0 + np.abs(b).max()
     # the system's own step per parameter if it has one (a form's angles), else |p|'s size
     pscale = getattr(system, "param_widths", None)
-    if pscale is None:
-        pscale = 1.0 + np.abs(p).max()
+    scales = (1.0 + np.abs(p).max() if pscale is None else pscale, 1.0 + np.abs(b).max())
     residual, passed, stable, loops = float("inf"), False, 0, 0
     failed_count = -1  # solution count at the last failed completeness test
     if test is None:
@@ -254,24 +237,8 @@ def monodromy_solve(
             if time.process_time() > deadline:
                 out_of_time = True
                 break
-            nodes = [(p, b)]
-            for _ in range(2):
-                nodes.append(
-                    (
-                        p + pscale * _cnormal(rng, p.shape),
-                        b + bscale * np.where(offs, _cnormal(rng, b.shape), 0),
-                    )
-                )
-            nodes.append((p, b))
-            z = sols
-            for (pa, ba), (pc, bc) in zip(nodes[:-1], nodes[1:], strict=True):
-                ends = _track_segment(system, z, pa, pc, ba, bc, options)
-                z = ends.z[ends.status == "success"]
-            z, ok = refine_solutions(system, z, p, b)
             before = len(sols)
-            for row in z[ok]:
-                if rel_norm(sols - row[None], sols).min() > 1e-8:
-                    sols = np.vstack([sols, row[None]])
+            sols = _loop(system, sols, p, b, scales, offs, rng, options)
             loops += 1
             stable = stable + 1 if len(sols) == before else 0
             bar.update(1)
@@ -290,33 +257,68 @@ def monodromy_solve(
                 stable = 0
     finally:
         bar.close()
-    if passed:
-        reason = ""
-    elif out_of_time:
-        reason = (
-            f"out of time ({budget:g} s of CPU) after {loops} monodromy loops, {len(sols)} "
-            "solutions"
+    reason = "" if passed else _failure(residual, trace_tol, loops, len(sols), out_of_time, budget)
+    return StartSystem(p, b, sols, len(sols), residual, passed, loops, seed, reason=reason)
+
+
+def _start_pair(system: PolynomialSystem, rng: np.random.Generator, offs: np.ndarray, start):
+    """The first solution ``z0`` of the loops, at parameters ``p`` and offsets ``b``."""
+    if start is None:
+        z0, p = system.random_point(rng)
+        z0, p = np.asarray(z0, dtype=complex), np.asarray(p, dtype=complex)
+        G, _, _ = system.evaluate(z0[None], p[None])
+        G = G[0]
+        if np.abs(G[~offs]).max(initial=0.0) > 1e-10 * (1.0 + np.abs(z0).max()):
+            raise HomotopyError(
+                f"random_point gives structural residual {np.abs(G[~offs]).max():.1e}; "
+                "fix the system's random_point so structural rows vanish"
+            )
+        return z0, p, np.where(offs, -G, 0.0)
+    z0, p, b = (np.asarray(x, dtype=complex) for x in start)
+    G = system.evaluate(z0[None], p[None])[0][0] + b
+    if np.abs(G).max(initial=0.0) > 1e-10 * (1.0 + np.abs(z0).max()):
+        raise HomotopyError(f"the given start is no solution (residual {np.abs(G).max():.1e})")
+    return z0, p, b
+
+
+def _loop(system, sols, p, b, scales, offs, rng, options) -> np.ndarray:
+    """One monodromy loop through two random parameter points: ``sols`` and the new
+    solutions it brought back (refined, distinct)."""
+    pscale, bscale = scales
+    nodes = [(p, b)]
+    for _ in range(2):
+        nodes.append(
+            (
+                p + pscale * _cnormal(rng, p.shape),
+                b + bscale * np.where(offs, _cnormal(rng, b.shape), 0),
+            )
         )
-    elif np.isfinite(residual):
-        reason = (
+    nodes.append((p, b))
+    z = sols
+    for (pa, ba), (pc, bc) in zip(nodes[:-1], nodes[1:], strict=True):
+        ends = _track_segment(system, z, pa, pc, ba, bc, options)
+        z = ends.z[ends.status == "success"]
+    z, ok = refine_solutions(system, z, p, b)
+    for row in z[ok]:
+        if rel_norm(sols - row[None], sols).min() > 1e-8:
+            sols = np.vstack([sols, row[None]])
+    return sols
+
+
+def _failure(
+    residual: float, trace_tol: float, loops: int, count: int, out_of_time: bool, budget
+) -> str:
+    """Why a set is not proven complete after its loops."""
+    if out_of_time:
+        return f"out of time ({budget:g} s of CPU) after {loops} monodromy loops, {count} solutions"
+    if np.isfinite(residual):
+        return (
             f"trace test failed (residual {residual:.1e} > {trace_tol:.0e}) after {loops} "
-            f"monodromy loops, {len(sols)} solutions"
+            f"monodromy loops, {count} solutions"
         )
-    else:
-        reason = (
-            f"no completeness test passed: {len(sols)} solutions after {loops} monodromy loops "
-            "(the count never stayed stable, or paths failed along the trace pencil)"
-        )
-    return StartSystem(
-        p=p,
-        b=b,
-        solutions=sols,
-        root_count=len(sols),
-        trace_residual=residual,
-        trace_passed=passed,
-        loops=loops,
-        seed=seed,
-        reason=reason,
+    return (
+        f"no completeness test passed: {count} solutions after {loops} monodromy loops "
+        "(the count never stayed stable, or paths failed along the trace pencil)"
     )
 
 

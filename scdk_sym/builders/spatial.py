@@ -279,6 +279,26 @@ def _rus_inverse(
     return np.array(out)
 
 
+def _hexa_points(Rb: float, Rp: float, base_spread: float, platform_spread: float):
+    """HEXA's arm planes' angles (6,), base pivots (6, 3) and platform anchors (6, 3)."""
+    bs = float(base_spread)
+    ps = float(platform_spread)
+    if not (math.isfinite(bs) and 0 < bs < 2 * math.pi / 3):
+        raise InputError(f"base_spread must be in (0, 2 pi / 3) rad, got {base_spread!r}")
+    if not (math.isfinite(ps) and 0 <= ps < 2 * math.pi / 3):
+        raise InputError(f"platform_spread must be in [0, 2 pi / 3) rad, got {platform_spread!r}")
+    centres = np.radians(LEG_ANGLES)
+    plane = np.repeat(centres, 2)
+    sides = np.tile([-1.0, 1.0], 3)
+    tangent = np.column_stack([-np.sin(plane), np.cos(plane), np.zeros(6)])
+    radial = np.column_stack([np.cos(plane), np.sin(plane), np.zeros(6)])
+    # pivots on the line tangent to the base circle at the pair's centre angle
+    base = Rb * radial + (Rb * math.tan(bs / 2)) * sides[:, None] * tangent
+    anchor_angles = plane + sides * ps / 2
+    anchors = Rp * np.column_stack([np.cos(anchor_angles), np.sin(anchor_angles), np.zeros(6)])
+    return plane, base, anchors
+
+
 def hexa(
     base_radius: float,
     platform_radius: float,
@@ -323,21 +343,7 @@ def hexa(
     Rp = positive(platform_radius, "platform_radius")
     arm = positive(arm, "arm")
     rod = positive(rod, "rod")
-    bs = float(base_spread)
-    ps = float(platform_spread)
-    if not (math.isfinite(bs) and 0 < bs < 2 * math.pi / 3):
-        raise InputError(f"base_spread must be in (0, 2 pi / 3) rad, got {base_spread!r}")
-    if not (math.isfinite(ps) and 0 <= ps < 2 * math.pi / 3):
-        raise InputError(f"platform_spread must be in [0, 2 pi / 3) rad, got {platform_spread!r}")
-    centres = np.radians(LEG_ANGLES)
-    plane = np.repeat(centres, 2)
-    sides = np.tile([-1.0, 1.0], 3)
-    tangent = np.column_stack([-np.sin(plane), np.cos(plane), np.zeros(6)])
-    radial = np.column_stack([np.cos(plane), np.sin(plane), np.zeros(6)])
-    # pivots on the line tangent to the base circle at the pair's centre angle
-    base = Rb * radial + (Rb * math.tan(bs / 2)) * sides[:, None] * tangent
-    anchor_angles = plane + sides * ps / 2
-    anchors = Rp * np.column_stack([np.cos(anchor_angles), np.sin(anchor_angles), np.zeros(6)])
+    plane, base, anchors = _hexa_points(Rb, Rp, base_spread, platform_spread)
 
     def pose_conditioning(xh: np.ndarray) -> float:
         Rm = rpy_matrix(*xh[3:])

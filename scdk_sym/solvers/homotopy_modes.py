@@ -270,9 +270,6 @@ def model_start_system(
         ``root_bound`` is the BKK bound (-1 if not computed) and ``trace_residual`` the last
         trace test's (NaN if none ran).
     """
-    from ..algebraic import monodromy_solve, trace_test
-    from ..algebraic.pencil import pencil_trace_test
-
     products = form.model.products
     key = (form.backend, seed, max_loops)
     stored = products.peek(START_SYSTEM, key)
@@ -283,56 +280,67 @@ def model_start_system(
     if path is not None and not rebuild:
         start = read_entry(path, lambda p: _load(form, p), "start system")
     if start is None:
-        _, p_star = form.random_point(np.random.default_rng(seed))
-        trace_map = frame_trace_map(form, p_star)
-        rng = np.random.default_rng(seed + 1)
-        bound, bound_note = form_root_bound(form, p_star, seed)
-        verdict: dict[str, Any] = {"certificate": "", "trace": float("nan"), "note": ""}
-
-        def test(sols: np.ndarray, p: np.ndarray, b: np.ndarray) -> float:
-            if bound is not None and np.array_equal(p, p_star):
-                ok, verdict["note"] = complete_by_bound(form, sols, p, b, bound.bound)
-                if ok:
-                    verdict["certificate"] = verdict["note"]
-                    return 0.0
-            linear = trace_test(form, sols, p, b, rng, trace_map=trace_map)
-            verdict["trace"] = linear
-            if linear <= TRACE_TOL:
-                verdict["certificate"] = f"linear trace test (residual {linear:.1e})"
-                return linear
-            pencil = pencil_trace_test(
-                form, sols, p, b, rng, coords=np.array(form.rows.slots[0].z), tol=TRACE_TOL
-            )
-            verdict["trace"] = pencil.residual
-            if pencil.passed:
-                verdict["certificate"] = (
-                    f"trace test on the curve of an offset line ({pencil.witnesses} "
-                    f"witnesses on a hyperplane, residual {pencil.residual:.1e})"
-                )
-            return pencil.residual
-
-        start = monodromy_solve(
-            form, seed, stable_loops=5, max_loops=max_loops, trace_tol=TRACE_TOL,
-            trace_map=trace_map, progress=progress, test=test,
-            target=None if bound is None else bound.bound, budget=MONODROMY_BUDGET,
-        )  # fmt: skip
-        reason = start.reason
-        if not start.trace_passed:
-            reason += (
-                f"; root bound: {verdict['note']}" if bound is not None and verdict["note"]
-                else f"; BKK root bound {bound.bound}" if bound is not None
-                else f"; no root bound ({bound_note})"
-            )  # fmt: skip
-        start = replace(
-            start,
-            trace_residual=float(verdict["trace"]),
-            root_bound=-1 if bound is None else int(bound.bound),
-            certificate=str(verdict["certificate"]) if start.trace_passed else "",
-            reason=reason,
-        )
+        start = _compute_start_system(form, seed, max_loops, progress)
         if path is not None:
             _save(start, path)
     return products.put(START_SYSTEM, start, key)
+
+
+def _compute_start_system(form, seed: int, max_loops: int, progress: bool):
+    """Monodromy from a random parameter point until a completeness test passes (the root
+    bound, the linear trace test, the trace on an offset line's curve; see
+    :func:`model_start_system`), or the loops or the budget run out."""
+    from ..algebraic import monodromy_solve, trace_test
+    from ..algebraic.pencil import pencil_trace_test
+
+    _, p_star = form.random_point(np.random.default_rng(seed))
+    trace_map = frame_trace_map(form, p_star)
+    rng = np.random.default_rng(seed + 1)
+    bound, bound_note = form_root_bound(form, p_star, seed)
+    verdict: dict[str, Any] = {"certificate": "", "trace": float("nan"), "note": ""}
+
+    def test(sols: np.ndarray, p: np.ndarray, b: np.ndarray) -> float:
+        if bound is not None and np.array_equal(p, p_star):
+            ok, verdict["note"] = complete_by_bound(form, sols, p, b, bound.bound)
+            if ok:
+                verdict["certificate"] = verdict["note"]
+                return 0.0
+        linear = trace_test(form, sols, p, b, rng, trace_map=trace_map)
+        verdict["trace"] = linear
+        if linear <= TRACE_TOL:
+            verdict["certificate"] = f"linear trace test (residual {linear:.1e})"
+            return linear
+        pencil = pencil_trace_test(
+            form, sols, p, b, rng, coords=np.array(form.rows.slots[0].z), tol=TRACE_TOL
+        )
+        verdict["trace"] = pencil.residual
+        if pencil.passed:
+            verdict["certificate"] = (
+                f"trace test on the curve of an offset line ({pencil.witnesses} "
+                f"witnesses on a hyperplane, residual {pencil.residual:.1e})"
+            )
+        return pencil.residual
+
+    start = monodromy_solve(
+        form, seed, stable_loops=5, max_loops=max_loops, trace_tol=TRACE_TOL,
+        trace_map=trace_map, progress=progress, test=test,
+        target=None if bound is None else bound.bound, budget=MONODROMY_BUDGET,
+    )  # fmt: skip
+    reason = start.reason
+    if not start.trace_passed:
+        reason += (
+            f"; root bound: {verdict['note']}" if bound is not None and verdict["note"]
+            else f"; BKK root bound {bound.bound}" if bound is not None
+            else f"; no root bound ({bound_note})"
+        )  # fmt: skip
+    start = replace(
+        start,
+        trace_residual=float(verdict["trace"]),
+        root_bound=-1 if bound is None else int(bound.bound),
+        certificate=str(verdict["certificate"]) if start.trace_passed else "",
+        reason=reason,
+    )
+    return start
 
 
 def _cache_path(form, seed: int):
@@ -466,7 +474,7 @@ def homotopy_modes(
         InputError: bad ``theta0`` or backend.
         AlgebraicFormError: a joint type with no algebraic form.
     """
-    from ..algebraic import algebraic_form, certify_configurations, solve_homotopy
+    from ..algebraic import algebraic_form, solve_homotopy
     from ..algebraic.scaled import scaled_form
 
     theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
@@ -490,6 +498,40 @@ def homotopy_modes(
                 method="homotopy",
             )
     res = solve_homotopy(form, start, form.params(theta0), seed=seed, real_tol=REAL_TOL)
+    half_turns = _path_reasons(form, res, theta0, reasons)
+    cfgs, spurious = _real_modes(model, form, res, theta0, reasons)
+    certs = _certificates(model, cfgs, theta0, reasons)
+    certified = not reasons
+    if certified:
+        report = (
+            f"certified complete: {len(cfgs)} real of {start.root_count} complex solutions "
+            f"(start system complete: {start.certificate}); each real one proven "
+            "unique in its Krawczyk box, boxes pairwise disjoint"
+        )
+        if spurious:
+            report += (
+                f"; {spurious} real root(s) of the algebraic form are no closures of the model"
+            )
+    else:
+        report = "not certified: " + "; ".join(reasons)
+    if half_turns:
+        report += (
+            f"; {half_turns} path(s) ended on roots of the form that close a weld with a half "
+            "turn (tr R_a^T R_b = -1 on all of them): no closures"
+        )
+    return AssemblyModes(
+        solutions=tuple(cfgs),
+        certified=certified,
+        root_count=int(start.root_count),
+        report=report,
+        certificates=certs,
+        method="homotopy",
+    )
+
+
+def _path_reasons(form, res, theta0: np.ndarray, reasons: list[str]) -> int:
+    """What the homotopy's paths leave unproven (appended to ``reasons``); the number of
+    singular endpoints that close a weld with a half turn (no closures, set apart)."""
     n_failed = int((res.status == "failed").sum())
     if n_failed:
         reasons.append(f"{n_failed} of {len(res.status)} paths failed before t = 1")
@@ -519,6 +561,12 @@ def homotopy_modes(
             f"{undecided} endpoint(s) nearly real (imaginary part between {REAL_TOL:.0e} and "
             f"{UNDECIDED_TOL:.0e}): real or complex undecided"
         )
+    return half_turns
+
+
+def _real_modes(model, form, res, theta0: np.ndarray, reasons: list[str]):
+    """The real endpoints as distinct model configurations polished on ``g``, sorted; the
+    number of real roots of the form that are no closures of the model."""
     # real endpoints -> model unknowns, polished on g
     scale = max(1.0, model.length_scale)
     polished: list[Configuration] = []
@@ -550,6 +598,14 @@ def homotopy_modes(
     if dropped:
         reasons.append(f"{dropped} real endpoint(s) did not polish to max |g| <= {RESIDUAL:.0e}")
     cfgs.sort(key=sort_key)
+    return cfgs, spurious
+
+
+def _certificates(model, cfgs, theta0: np.ndarray, reasons: list[str]) -> tuple:
+    """Krawczyk certificates of the real configurations in one common chart (a failure
+    appended to ``reasons``)."""
+    from ..algebraic import certify_configurations
+
     certs: tuple = ()
     if cfgs:
         ys = np.vstack([c.y for c in cfgs])
@@ -561,32 +617,7 @@ def homotopy_modes(
             certs = cs.certificates
             if not cs.proven:
                 reasons.append(f"certificates: {cs.reason}")
-    certified = not reasons
-    if certified:
-        report = (
-            f"certified complete: {len(cfgs)} real of {start.root_count} complex solutions "
-            f"(start system complete: {start.certificate}); each real one proven "
-            "unique in its Krawczyk box, boxes pairwise disjoint"
-        )
-        if spurious:
-            report += (
-                f"; {spurious} real root(s) of the algebraic form are no closures of the model"
-            )
-    else:
-        report = "not certified: " + "; ".join(reasons)
-    if half_turns:
-        report += (
-            f"; {half_turns} path(s) ended on roots of the form that close a weld with a half "
-            "turn (tr R_a^T R_b = -1 on all of them): no closures"
-        )
-    return AssemblyModes(
-        solutions=tuple(cfgs),
-        certified=certified,
-        root_count=int(start.root_count),
-        report=report,
-        certificates=certs,
-        method="homotopy",
-    )
+    return certs
 
 
 def sort_key(cfg: Configuration) -> tuple:
