@@ -142,6 +142,9 @@ class SolveResult:
         fallback: why it was computed by ``backend`` rather than the one asked for (e.g. the
             generated C follower met a singular path and handed over to "compiled"); empty
             when the backend asked for answered.
+        strategy: the divergent branch's way that answered
+            (:data:`scdk_sym.solvers.sc.DIVERGENT_STRATEGIES`: ``"paper"``, ``"nearest"``,
+            ...); empty on the convergent branch.
     """
 
     x: np.ndarray
@@ -158,6 +161,7 @@ class SolveResult:
     path: PathSamples | None = field(default=None, repr=False)
     backend: str = ""
     fallback: str = ""
+    strategy: str = ""
 
     @property
     def configuration(self) -> Configuration:
@@ -175,6 +179,8 @@ class SolveResult:
         )
         if self.fallback:
             d["fallback"] = self.fallback
+        if self.strategy:
+            d["strategy"] = self.strategy
         return d
 
 

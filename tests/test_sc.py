@@ -36,6 +36,22 @@ def test_divergent_branch_crosses_the_singular_manifold_once(seed):
     assert abs(res.crossings[0].x[2] - 0.5754) < 2e-3
 
 
+def test_divergent_answer_names_its_strategy_and_every_strategy_is_a_way(seed):
+    """The paper's example is answered by the first way, the paper's divergent path; the
+    declared strategies and the search's ways are the same list (no undeclared way)."""
+    from scdk_sym.solvers.sc import DIVERGENT_STRATEGIES, _DivergentSearch
+
+    model, start = seed
+    res = solve(model, SEED_THETA0, start=start, branch="divergent")
+    conv = solve(model, SEED_THETA0, start=start, branch="convergent")
+    assert res.strategy == "paper" and conv.strategy == ""
+    assert res.to_dict()["strategy"] == "paper" and "strategy" not in conv.to_dict()
+    names = [s.name for s in DIVERGENT_STRATEGIES]
+    ways = sorted(n[4:] for n in vars(_DivergentSearch) if n.startswith("way_"))
+    assert len(set(names)) == len(names) == 8
+    assert sorted(n.replace("-", "_") for n in names) == ways
+
+
 def test_crossing_is_on_the_singular_manifold(seed):
     model, start = seed
     res = solve(model, SEED_THETA0, start=start, branch="divergent")

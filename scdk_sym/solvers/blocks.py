@@ -11,6 +11,7 @@ at their answers.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 
@@ -105,7 +106,10 @@ def solve_blocks(
     from .sc import verified_result
 
     first = results[0][1]
-    return verified_result(model, y, theta0, crossings, first.branch, first.b, start, None)
+    res = verified_result(model, y, theta0, crossings, first.branch, first.b, start, None)
+    # each block's way, in block order, where the divergent branch answered
+    ways = ",".join(r.strategy for _sub, r in results)
+    return replace(res, strategy=ways) if any(r.strategy for _sub, r in results) else res
 
 
 def track_blocks(

@@ -14,7 +14,7 @@ tracker and the assembly-mode search); :func:`solve` returns the first one.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -374,63 +374,156 @@ def _detour(
     return None
 
 
-def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=None) -> SolveResult:
-    """The solution across the nearest singular surface (see :func:`solve`).
+@dataclass(frozen=True)
+class Strategy:
+    """One way of the divergent branch: a method of :class:`_DivergentSearch`.
 
-    Ways tried in order, the first answer kept that is verified, crossed at least one
-    singular point and differs from the convergent answer (when there is one):
-
-    1. the paper's divergent direction: the line away from ``theta0`` turns within one
-       ``|theta0 - theta1|`` and comes back through the start's ``theta`` on the other sheet,
-       then the convergent path to ``theta0`` (exactly the paper's path where it folds near);
-    2. the nearest singular configuration on the manifold, and the solution at ``theta0`` on
-       its other side nearest to it (:func:`~scdk_sym.follower.singular.across_fold`);
-    3. lines aimed at the singular surface, back on the other sheet, then convergent;
-    4. the paper's straight path in the divergent direction, however far it goes;
-    5. every real solution at ``theta0`` (:func:`~scdk_sym.solvers.modes.assembly_modes`,
-       certified): of those on the other side of the nearest singular configuration
-       (``det J_p`` of the sign opposite to the start's; where branches cross there, any
-       other than the convergent answer) the one nearest to it, picked by the rule of way 2
-       (:func:`~scdk_sym.follower.singular.nearest_across`), which guesses the candidates by
-       Newton from points beyond the singular configuration where this way has them all
-       (e.g. the Delta's mirror assembly above its base);
-    6. where the set of every real solution is not certified: the solution at ``theta0`` on
-       the other side of the singular configuration nearest to the convergent answer, by the
-       rule of way 2 (a target just before a singular surface that the start's nearest
-       singular configuration, far from it, does not lead to);
-    7. across the nearest singular configuration as in way 2, the path then going to
-       ``theta0`` the other way round on revolute actuators (:func:`other_way_round`): the
-       end of that curve only, reached continuously with no other guess;
-    8. across the singular surface met nearest on lines along each actuator's own axis
-       (:func:`~scdk_sym.follower.singular.across_axes`), back on the other sheet, then
-       convergent: where ``sigma_min`` has a non-singular valley around the start that ways
-       2 and 3 stay in (Gepetto's cassie_like: a ball written as three revolutes next to the
-       alignment of its first and last axes, while the ankle rocker has its dead points).
+    Attributes:
+        name: what :attr:`SolveResult.strategy` reports when it answers.
+        when: when it applies (otherwise it returns nothing and says why).
+        guarantees: what an answer of it is.
+        case: the case that needs it (the one earlier ways miss).
     """
-    from ..follower.singular import across, across_fold, nearest_singular
 
-    tried: list[str] = []
-    memo: list[SolveResult | None] = []
+    name: str
+    when: str
+    guarantees: str
+    case: str
 
-    def convergent() -> SolveResult | None:
-        if not memo:
+
+#: The divergent branch's ways, tried in order; the first verified answer that crossed a
+#: singular point and differs from the convergent answer is kept (every answer is checked
+#: against its crossings: ``parity_checked``).
+DIVERGENT_STRATEGIES: tuple[Strategy, ...] = (
+    Strategy(
+        "paper",
+        "the line away from theta0 turns within one |theta0 - theta1| of the start",
+        "the paper's divergent path: back through the start's theta on the other sheet, then "
+        "the convergent path to theta0",
+        "the paper's example (planar_hexa)",
+    ),
+    Strategy(
+        "nearest",
+        "a singular configuration is found near the start on its manifold",
+        "the solution at theta0 on the other side of the nearest singular configuration, "
+        "nearest to it",
+        "where the paper's line does not turn near: revolute actuators whose line wraps round, "
+        "theta0 equal to the start's theta, starts on either side of a nearby singular surface",
+    ),
+    Strategy(
+        "aimed",
+        "a line aimed at the singular surface reaches it",
+        "the convergent path from the mirror point across the surface reached",
+        "no case pinned by a test of its own yet",
+    ),
+    Strategy(
+        "straight",
+        "theta0 differs from the start's theta",
+        "the paper's literal straight path in the divergent direction, however far",
+        "no case pinned by a test of its own yet",
+    ),
+    Strategy(
+        "modes",
+        "every real solution at theta0 is certified complete",
+        "among every real solution, the one across the nearest singular configuration "
+        "nearest to it",
+        "the Delta's mirror assembly above its base",
+    ),
+    Strategy(
+        "near-convergent",
+        "the convergent answer exists and has a singular configuration near it",
+        "the solution on the other side of the singular configuration nearest to the "
+        "convergent answer",
+        "a target just before a singular surface far from the start's",
+    ),
+    Strategy(
+        "other-way-round",
+        "revolute actuators and a singular configuration near the start",
+        "the end of the curve from across the nearest singular configuration to theta0 "
+        "the other way round (theta0 + 2 pi n)",
+        "Gepetto's 5bar_linkage_iso6d",
+    ),
+    Strategy(
+        "along-axes",
+        "a singular surface is met along an actuator's own axis",
+        "the convergent path from the mirror point across that surface",
+        "Gepetto's cassie_like (a non-singular valley of sigma_min around the start)",
+    ),
+)
+
+
+def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=None) -> SolveResult:
+    """The solution across the nearest singular surface (see :func:`solve`): the first
+    answer of the ways of :data:`DIVERGENT_STRATEGIES`, in order, named in its ``strategy``.
+
+    Raises:
+        PathError: no way answered (each one's reason in the message).
+    """
+    search = _DivergentSearch(model, theta0, start, sign, backend, max_arc, record_path, nu)
+    for strategy in DIVERGENT_STRATEGIES:
+        res = getattr(search, "way_" + strategy.name.replace("-", "_"))()
+        if res is not None:
+            return replace(res, strategy=strategy.name)
+    raise PathError(
+        f"divergent branch at theta0={theta0.tolist()}: no solution across a singular surface "
+        f"was reached ({'; '.join(search.tried)}); every real solution: "
+        "sc.assembly_modes(model, theta0)"
+    )
+
+
+class _DivergentSearch:
+    """What the ways of the divergent branch share: the query, the convergent answer
+    (computed once, when a way needs it), the nearest singular configuration (located once)
+    and why each way failed (``tried``)."""
+
+    def __init__(self, model, theta0, start, sign, backend, max_arc, record_path, nu) -> None:
+        self.model, self.theta0, self.start, self.sign = model, theta0, start, sign
+        self.backend, self.max_arc, self.record_path, self.nu = backend, max_arc, record_path, nu
+        self.tried: list[str] = []
+        self._memo: list[SolveResult | None] = []
+        self._near: list = []  # [fold, beside] once located
+
+    # ------------------------------------------------------------------ shared pieces
+
+    def convergent(self) -> SolveResult | None:
+        """The convergent answer at ``theta0`` (None where it fails), computed once."""
+        if not self._memo:
             try:
-                memo.append(solve(model, theta0, start=start, branch="convergent",
-                                  backend=backend, max_arc=max_arc, record_path=False))  # fmt: skip
+                self._memo.append(
+                    solve(self.model, self.theta0, start=self.start, branch="convergent",
+                          backend=self.backend, max_arc=self.max_arc, record_path=False)
+                )  # fmt: skip
             except ScdkError:
-                memo.append(None)
-        return memo[0]
+                self._memo.append(None)
+        return self._memo[0]
 
-    def other_than_convergent(res: SolveResult | None, how: str) -> SolveResult | None:
+    def nearest(self) -> tuple[Crossing | None, Configuration | None]:
+        """The nearest singular configuration to the start and, where branches cross there,
+        the convergent answer to exclude (any other solution is on its other side)."""
+        from ..follower.singular import nearest_singular
+
+        if not self._near:
+            fold = nearest_singular(self.model, self.start, self.backend)
+            beside = None
+            if fold is not None and fold.kind == "bifurcation":
+                conv = self.convergent()
+                beside = None if conv is None else conv.configuration
+            self._near = [fold, beside]
+        return self._near[0], self._near[1]
+
+    def other_than_convergent(self, res: SolveResult | None, how: str) -> SolveResult | None:
+        """``res`` if it crossed a singular point, its crossings account for its side and it
+        is not the convergent answer; else None, the reason in ``tried``."""
+        model, start = self.model, self.start
         if res is None:
             return None
         if not res.crossings:
-            tried.append(f"{how}: no singular point crossed")
+            self.tried.append(f"{how}: no singular point crossed")
             return None
         try:  # the crossings reported must account for the answer's side
-            res = parity_checked(model, res, sign)
+            res = parity_checked(model, res, self.sign)
         except PathError as exc:
-            tried.append(f"{how}: {exc}")
+            self.tried.append(f"{how}: {exc}")
             return None
         # through folds only, det J_p has the start's sign at the convergent answer (an even
         # number of turns) and the other one here (odd): they differ; across crossing
@@ -438,123 +531,132 @@ def _divergent(model, theta0, start, sign, backend, max_arc, record_path, nu=Non
         folds_only = all(c.kind == "fold" for c in res.crossings) and len(res.crossings) % 2
         if folds_only and not _is_same_side(model, start, res):
             return res
-        conv = convergent()
+        conv = self.convergent()
         if conv is not None and _same_configuration(model, res, conv):
-            tried.append(f"{how}: came back to the convergent solution")
+            self.tried.append(f"{how}: came back to the convergent solution")
             return None
         return res
 
-    def from_mirror(other, how: str) -> SolveResult | None:
+    def from_mirror(self, other, how: str) -> SolveResult | None:
+        """The convergent path to ``theta0`` from the mirror point ``other`` across a
+        singular surface, the crossing prepended."""
         try:
-            res = solve(model, theta0, start=other.start, branch="convergent", backend=backend,
-                        max_arc=max_arc, record_path=record_path)  # fmt: skip
+            res = solve(self.model, self.theta0, start=other.start, branch="convergent",
+                        backend=self.backend, max_arc=self.max_arc,
+                        record_path=self.record_path)  # fmt: skip
         except ScdkError as exc:
-            tried.append(f"{how}: {exc}")
+            self.tried.append(f"{how}: {exc}")
             return None
         path = res.path
         if other.path is not None and path is not None:
-            path = _joined(other.path, path, -sign)
+            path = _joined(other.path, path, -self.sign)
         out = SolveResult(
             x=res.x, y=res.y, theta=res.theta, platform_pose=res.platform_pose,
             joints=res.joints, residual=res.residual,
-            crossings=(_on_path(other.crossing, start, theta0), *res.crossings),
-            status=res.status, branch="divergent", b=-sign, start=start, path=path,
+            crossings=(_on_path(other.crossing, self.start, self.theta0), *res.crossings),
+            status=res.status, branch="divergent", b=-self.sign, start=self.start, path=path,
         )  # fmt: skip
-        return other_than_convergent(out, how)
+        return self.other_than_convergent(out, how)
 
-    # 1. the paper's direction, where it turns near
-    other = across(model, start, first=start.theta - theta0, backend=backend, record=record_path,
-                   paper_only=True)  # fmt: skip
-    if other is not None:
-        res = from_mirror(other, "along the paper's path")
-        if res is not None:
-            return res
+    def across_from(self, anchor, near, exclude, how: str, leg_to=None) -> SolveResult | None:
+        """The solution at ``theta0`` on the other side of the singular configuration
+        ``near`` (found from ``anchor``), crossed on the way from the start; with
+        ``leg_to``, reached by the line from ``near`` to that equivalent of ``theta0``."""
+        from ..follower.singular import across_fold
 
-    def across_from(anchor, near, exclude, how: str, leg_to=None) -> SolveResult | None:
-        # the solution at theta0 on the other side of the singular configuration ``near``
-        # (found from ``anchor``), crossed on the way from the start; with ``leg_to``, reached
-        # by the line from ``near`` to that equivalent of theta0
-        leg = across_fold(model, anchor, near, theta0, backend=backend, exclude=exclude,
+        model, theta0, start = self.model, self.theta0, self.start
+        leg = across_fold(model, anchor, near, theta0, backend=self.backend, exclude=exclude,
                           leg_to=leg_to)  # fmt: skip
         if leg is None:
             if leg_to is None:
-                tried.append(f"{how}: no solution")
+                self.tried.append(f"{how}: no solution")
             return None
         cfg, met = leg
         crossings = (_on_path(near, start, theta0), *met)
         y = cfg.y if leg_to is None else _near_start(model, cfg.y, start)  # angles went round
-        res = solve_result(model, y, theta0, crossings, "divergent", -sign, start, None)
-        return other_than_convergent(res, how)
+        res = solve_result(model, y, theta0, crossings, "divergent", -self.sign, start, None)
+        return self.other_than_convergent(res, how)
 
-    # 2. across the nearest singular configuration (where branches cross there, any
-    # solution other than the convergent answer is on its other side)
-    fold = nearest_singular(model, start, backend)
-    beside = None
-    if fold is not None and fold.kind == "bifurcation":
-        conv = convergent()
-        beside = None if conv is None else conv.configuration
-    if fold is None:
-        tried.append("no singular configuration found near the start")
-    else:
-        res = across_from(start, fold, beside, "across the nearest singular configuration")
-        if res is not None:
-            return res
-    # 3. aimed at the singular surface
-    other = across(model, start, backend=backend)
-    if other is None:
-        tried.append("no singular surface reached by aiming at it")
-    else:
-        res = from_mirror(other, "from across the surface aimed at")
-        if res is not None:
-            return res
-    # 4. the literal straight path
-    if not _same_theta(theta0, start.theta):
+    # ------------------------------------------------------------------ the ways
+
+    def way_paper(self) -> SolveResult | None:
+        from ..follower.singular import across
+
+        other = across(self.model, self.start, first=self.start.theta - self.theta0,
+                       backend=self.backend, record=self.record_path,
+                       paper_only=True)  # fmt: skip
+        return None if other is None else self.from_mirror(other, "along the paper's path")
+
+    def way_nearest(self) -> SolveResult | None:
+        fold, beside = self.nearest()
+        if fold is None:
+            self.tried.append("no singular configuration found near the start")
+            return None
+        return self.across_from(self.start, fold, beside,
+                                "across the nearest singular configuration")  # fmt: skip
+
+    def way_aimed(self) -> SolveResult | None:
+        from ..follower.singular import across
+
+        other = across(self.model, self.start, backend=self.backend)
+        if other is None:
+            self.tried.append("no singular surface reached by aiming at it")
+            return None
+        return self.from_mirror(other, "from across the surface aimed at")
+
+    def way_straight(self) -> SolveResult | None:
+        if _same_theta(self.theta0, self.start.theta):
+            return None
         try:
-            res = _along_line(model, theta0, start, sign, -sign, "divergent", backend, max_arc,
-                              record_path, nu)  # fmt: skip
+            res = _along_line(self.model, self.theta0, self.start, self.sign, -self.sign,
+                              "divergent", self.backend, self.max_arc, self.record_path,
+                              self.nu)  # fmt: skip
         except PathError as exc:
-            tried.append(f"along the straight path: {exc}")
-        else:
-            res = other_than_convergent(res, "along the straight path")
-            if res is not None:
-                return res
-    # 5. across the nearest singular configuration, among every real solution
-    res = _across_by_modes(model, theta0, start, sign, fold, convergent, backend, tried)
-    if res is not None:
-        return res
-    # 6. across the singular configuration nearest to the convergent answer
-    conv = convergent()
-    near = None if conv is None else nearest_singular(model, conv.configuration, backend)
-    if conv is not None and near is not None:
+            self.tried.append(f"along the straight path: {exc}")
+            return None
+        return self.other_than_convergent(res, "along the straight path")
+
+    def way_modes(self) -> SolveResult | None:
+        fold, _ = self.nearest()
+        return _across_by_modes(self.model, self.theta0, self.start, self.sign, fold,
+                                self.convergent, self.backend, self.tried)  # fmt: skip
+
+    def way_near_convergent(self) -> SolveResult | None:
+        from ..follower.singular import nearest_singular
+
+        conv = self.convergent()
+        if conv is None:
+            return None
+        near = nearest_singular(self.model, conv.configuration, self.backend)
+        if near is None:
+            return None
         how = "across the singular configuration nearest to the convergent answer"
-        res = across_from(conv.configuration, near, conv.configuration, how)
-        if res is not None:
-            return res
-    # 7. across the nearest singular configuration, to theta0 the other way round
-    if fold is not None:
-        ends = other_way_round(model, theta0, fold.theta)
+        return self.across_from(conv.configuration, near, conv.configuration, how)
+
+    def way_other_way_round(self) -> SolveResult | None:
+        fold, beside = self.nearest()
+        if fold is None:
+            return None
+        ends = other_way_round(self.model, self.theta0, fold.theta)
         how = "across the nearest singular configuration, to theta0 the other way round"
         for end in ends:
-            turns = np.round((end - theta0) / (2.0 * math.pi)).astype(int).tolist()
-            res = across_from(start, fold, beside, f"{how} (+ 2 pi {turns})", leg_to=end)
+            turns = np.round((end - self.theta0) / (2.0 * math.pi)).astype(int).tolist()
+            res = self.across_from(self.start, fold, beside, f"{how} (+ 2 pi {turns})",
+                                   leg_to=end)  # fmt: skip
             if res is not None:
                 return res
         if ends:
-            tried.append(f"{how} on revolute actuators ({len(ends)} lines): no solution")
-    # 8. across the singular surface met nearest along an actuator's own axis
-    from ..follower.singular import across_axes
+            self.tried.append(f"{how} on revolute actuators ({len(ends)} lines): no solution")
+        return None
 
-    other = across_axes(model, start, backend=backend)
-    if other is None:
-        tried.append("no singular surface met along any actuator's axis")
-    else:
-        res = from_mirror(other, "from across the surface met along an actuator's axis")
-        if res is not None:
-            return res
-    raise PathError(
-        f"divergent branch at theta0={theta0.tolist()}: no solution across a singular surface "
-        f"was reached ({'; '.join(tried)}); every real solution: sc.assembly_modes(model, theta0)"
-    )
+    def way_along_axes(self) -> SolveResult | None:
+        from ..follower.singular import across_axes
+
+        other = across_axes(self.model, self.start, backend=self.backend)
+        if other is None:
+            self.tried.append("no singular surface met along any actuator's axis")
+            return None
+        return self.from_mirror(other, "from across the surface met along an actuator's axis")
 
 
 #: Lines to equivalents of theta0 (revolute actuators the other way round) tried at most.
@@ -607,7 +709,7 @@ def _near_start(model: Model, y: np.ndarray, start: Configuration) -> np.ndarray
 def _across_by_modes(
     model, theta0, start, sign, fold, convergent, backend, tried
 ) -> SolveResult | None:
-    """Way 5 of :func:`_divergent`: the real solution at ``theta0`` on the other side of
+    """The ``modes`` way of :func:`_divergent`: the real solution at ``theta0`` on the other side of
     ``fold`` nearest to it, chosen among every real solution (certified assembly modes).
 
     Where no singular configuration was found near the start (``fold`` None: the descent

@@ -10,11 +10,12 @@ of :mod:`scdk_sym.follower.kernels`, the step control of
 - the convergent solve in the convergent direction (``s`` increasing, ``b det J_p > 0``) to
   its first crossing of ``s = 1``; it refuses a path that meets a turn of ``s`` or a sign
   change of ``det J_p`` before the solution (it locates no crossing);
-- the divergent solve where it is the first way of :func:`scdk_sym.solvers.sc._divergent`,
-  the paper's divergent path: in the direction where ``s`` decreases, through exactly one
-  fold (located, reported as the answer's one crossing) back through ``s = 0`` on the other
-  sheet, then to the first crossing of ``s = 1`` without another singular point; it refuses
-  every other walk (a bifurcation, a second fold, ``s = -1`` first, ...).
+- the divergent solve where it is the first way (``"paper"``) of
+  :func:`scdk_sym.solvers.sc._divergent`, the paper's divergent path: in the direction
+  where ``s`` decreases, through exactly one fold (located, reported as the answer's one
+  crossing) back through ``s = 0`` on the other sheet, then to the first crossing of
+  ``s = 1`` without another singular point; it refuses every other walk (a bifurcation, a
+  second fold, ``s = -1`` first, ...).
 
 Both refuse a path without an answer within their arc budgets. Those cases, an explicit ``b``,
 a recorded path and an explicit ``max_arc`` are solved by :func:`scdk_sym.solvers.sc.solve`
@@ -124,7 +125,7 @@ def solve_c(
 def _divergent_result(model: Model, theta0: np.ndarray, start: Configuration, y: np.ndarray,
                       out) -> SolveResult | None:  # fmt: skip
     """The verified answer of ``<prefix>_solve_divergent`` (its output ``out``, the answer's
-    canonical ``y``), with the fold crossed as its one crossing, as the first way of
+    canonical ``y``), with the fold crossed as its one crossing, as the first way (``"paper"``) of
     :func:`scdk_sym.solvers.sc._divergent` reports it; None where the answer is singular or
     fails its residual or parity check (the compiled solve decides those)."""
     from ..follower.finish import parity_checked
@@ -139,6 +140,6 @@ def _divergent_result(model: Model, theta0: np.ndarray, start: Configuration, y:
         res = solve_result(model, y, theta0, (fold,), "divergent", -sign0, start, None)
         if res.status == "singular":
             return None
-        return parity_checked(model, res, sign0)
+        return replace(parity_checked(model, res, sign0), strategy="paper")
     except (VerificationError, PathError):
         return None
