@@ -198,3 +198,18 @@ def test_no_private_name_is_imported_from_another_module():
                 if private:
                     crossing.setdefault(str(f.relative_to(PACKAGE)), []).extend(private)
     assert not crossing, crossing
+
+
+def test_no_private_name_is_imported_across_modules():
+    """A module's ``_private`` names stay its own: no ``from x import _name`` in the
+    package (an alias such as ``import points as _points`` of a public name is fine)."""
+    crossing = []
+    for f in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(f.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module != "__future__":
+                crossing += [
+                    f"{f.relative_to(PACKAGE)}:{node.lineno} {node.module}.{a.name}"
+                    for a in node.names
+                    if a.name.startswith("_") and not a.name.startswith("__")
+                ]
+    assert not crossing, crossing

@@ -124,7 +124,7 @@ def test_jacobian_check_detects_a_wrong_jacobian(monkeypatch):
     monkeypatch.setattr(rep, "model_calls", lambda m: Skewed)
     check = rep._jacobian_check(model, model.home, "home", 1e-6)
     assert not check.passed
-    row = model._row_labels()[model.rows[1]]
+    row = model.row_labels()[model.rows[1]]
     assert check.item == f"entry J_p[{row}, {model.unknowns[2]}]"
     y, c = model.chart.to_local(model.home.y)
     J_p, J_s = (np.array(a) for a in real.jac(y, model.home.theta, c))

@@ -355,7 +355,7 @@ class Model:
                 rank,
                 self.path,
             )
-        labels = self._row_labels()
+        labels = self.row_labels()
         self._check_actuation(G, np.array(f_all(y0, th0)[4]), rank, labels)
         if rank == nrows == ncols:
             return list(range(nrows)), list(range(ncols)), rank, None
@@ -585,7 +585,9 @@ class Model:
             self.path,
         )
 
-    def _row_labels(self) -> list[str]:
+    def row_labels(self) -> list[str]:
+        """A label per closure row of the full (unreduced) system, ``"<closure>.<row>"``
+        (``x``, ``y``, ``z``, ``rx``, ``ry``, ``rz`` or ``d``)."""
         labels: list[str] = []
         for c in self.spec.closures:
             comps = {

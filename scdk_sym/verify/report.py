@@ -168,7 +168,7 @@ def _jacobian_check(model: Model, cfg: Configuration, where: str, tol: float) ->
     fd_p = central(lambda v: g(v, theta), y)
     fd_s = -central(lambda v: g(y, v), theta)
     size = max(1.0, float(np.abs(J_p).max()), float(np.abs(J_s).max()))
-    labels = model._row_labels()
+    labels = model.row_labels()
     rows = [labels[r] for r in model.rows]
     errors: dict[str, float] = {}
     for name, J, fd, cols in (
