@@ -178,6 +178,8 @@ def main(argv: list[str] | None = None) -> int:
             f" wall{'; no motion drawn for ' + ', '.join(skipped) if skipped else ''}\n"
         )
         print(report.track_table())
+    print()
+    print(strategy_table(report.solves))
     classes = report.classes()
     if classes:
         print("\nnon-ok classes (count, status, model, branch, kind, message) and a reproducer:")
@@ -192,6 +194,25 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  {o.status} {o.track.name} {o.track.kind} {o.backend}: {o.detail[:200]}")
             print(f"       {o.track.reproducer(o.backend)}")
     return 0
+
+
+def strategy_table(solves) -> str:
+    """Divergent answers per model and per way of the divergent branch that answered
+    (``?``: units saved before the way was recorded)."""
+    from collections import Counter
+
+    ways = Counter(
+        (o.scenario.name, getattr(o, "strategy", "") or "?")
+        for o in solves
+        if o.branch == "divergent" and o.status == "ok"
+    )
+    names = sorted({n for n, _ in ways})
+    cols = sorted({w for _, w in ways})
+    lines = ["divergent answers by the way that answered",
+             f"{'model':<20} " + " ".join(f"{c:>16}" for c in cols)]  # fmt: skip
+    for n in names:
+        lines.append(f"{n:<20} " + " ".join(f"{ways.get((n, c), 0):>16}" for c in cols))
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":

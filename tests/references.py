@@ -861,6 +861,7 @@ class Outcome:
     parity: str = "n/a"  # "agree", "disagree", "skipped" (|det| tiny), "n/a"
     generating: bool = False  # the result is the generating solution
     seconds: float = 0.0
+    strategy: str = ""  # divergent answers: the way that answered (SolveResult.strategy)
 
 
 def _segment(ref: PoseReference, xa, xb, n: int, modes=None):
@@ -1061,7 +1062,7 @@ def classify(ref: Reference, scen: Scenario, start, res) -> Outcome:
     u = ref.coords(res)
     residual = float(np.abs(ref.closure(u, scen.theta0)).max())
     consistency = max(ref.consistency(res), float(np.abs(res.theta - scen.theta0).max()))
-    out = Outcome(scen, res.branch, "ok", residual=residual)
+    out = Outcome(scen, res.branch, "ok", residual=residual, strategy=res.strategy)
     out.generating = ref.distance(u, scen.target) < 1e-6
     if not (residual <= RESIDUAL_TOL and consistency <= CONSISTENCY_TOL):
         out.status = "wrong_residual"
