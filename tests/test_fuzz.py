@@ -348,11 +348,41 @@ DIVERGENT_CASES = [
             [-0.2393136935975033, -0.050111216164329675],
         ),
     ),
+    # answered by a line aimed at the singular surface (the fuzz at seed 3): the ways before
+    # it find no solution across the nearest singular configuration
+    (
+        "planar_hexa_reduced",
+        "small",
+        [1.4789816271702279, -0.6047260355536176, -2.702461848063656],
+        None,
+    ),
+    # answered along the paper's literal straight path in the divergent direction (seed 3)
+    (
+        "five_bar",
+        "large",
+        [1.024367192600534, 2.1184175270736585],
+        ([0.05072366578383509, 0.3556696827550164], [0.560760281146123, 2.444686224358607]),
+    ),
 ]
 
 
-@pytest.mark.parametrize(("name", "kind", "theta0", "start"), DIVERGENT_CASES)
-def test_divergent_cases_found_refused_by_the_fuzz(name: str, kind: str, theta0, start) -> None:
+#: The way of the divergent branch that answers each of DIVERGENT_CASES (in order): every
+#: way before it fails there (``SolveResult.strategy``). Cases once answered by a later way
+#: ("near-convergent" for the targets just before a singular surface, "other-way-round" for
+#: the path round the other way) are answered by "modes" since their sets are certified.
+DIVERGENT_WAYS = [
+    "modes", "modes", "modes", "modes", "modes", "modes", "nearest", "paper", "modes",
+    "modes", "nearest", "modes", "modes", "aimed", "straight",
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("name", "kind", "theta0", "start", "way"),
+    [(*case, way) for case, way in zip(DIVERGENT_CASES, DIVERGENT_WAYS, strict=True)],
+)
+def test_divergent_cases_found_refused_by_the_fuzz(
+    name: str, kind: str, theta0, start, way: str
+) -> None:
     import scdk_sym as sc
     from scdk_sym.errors import PathError
 
@@ -374,6 +404,7 @@ def test_divergent_cases_found_refused_by_the_fuzz(name: str, kind: str, theta0,
     res = sc.solve(model, scen.theta0, start=None if start is None else cfg, branch="divergent")
     out = classify(ref, scen, cfg, res)
     assert out.status == "ok", out.detail
+    assert res.strategy == way
     assert out.residual <= 1e-7
     assert len(res.crossings) >= 1
     try:
