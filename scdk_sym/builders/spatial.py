@@ -393,3 +393,74 @@ def hexa(
         home=home,
     )
     return finish(b.build(), spec, names)
+
+
+# ---------------------------------------------------------------------------- 3-RPS
+
+
+def three_rps(
+    base_radius: float,
+    platform_radius: float,
+    *,
+    angles: ArrayLike = (math.pi / 2, 7 * math.pi / 6, 11 * math.pi / 6),
+    height: float | None = None,
+    name: str = "3rps",
+) -> Model:
+    """The 3-RPS parallel manipulator: three revolute-prismatic-spherical legs, the prismatic
+    joints actuated (``theta = leg lengths``), a platform with three freedoms.
+
+    Leg i rises from base point ``base_radius (cos a_i, sin a_i, 0)`` on a revolute joint
+    ``rev_i`` whose axis is tangent to the base circle there, so the leg swings in the
+    vertical plane through the centre; its prismatic joint ``leg_i`` runs along the leg, and
+    a ball joint (a ``3d`` point closure) joins its end to the platform point
+    ``platform_radius (cos a_i, sin a_i, 0)``. The platform is free (a ``floating`` joint:
+    ``x = [x, y, z, roll, pitch, yaw]``); its pose has three freedoms, the other three
+    (parasitic motions) follow. The direct kinematics has 16 complex solutions for general
+    leg lengths.
+
+    Args:
+        base_radius: radius of the base circle [m].
+        platform_radius: radius of the platform circle [m].
+        angles: (3,) polar angles ``a_i`` of the legs [rad], distinct modulo 2 pi.
+        height: platform height at home [m] (level, centred): default ``base_radius``.
+        name: robot name.
+
+    Returns:
+        The loaded model; ``home`` is the level platform at ``height``.
+
+    Raises:
+        InputError: a non-positive radius or height, or angles that are not three distinct
+            values.
+    """
+    Rb = positive(base_radius, "base_radius")
+    Rp = positive(platform_radius, "platform_radius")
+    h = Rb if height is None else positive(height, "height")
+    a = points(angles, (3,), "angles")
+    gaps = np.abs((a[:, None] - a[None, :] + math.pi) % (2 * math.pi) - math.pi)
+    if np.any(gaps[~np.eye(3, dtype=bool)] < 1e-6):
+        raise InputError(f"angles must be three distinct values modulo 2 pi, got {a.tolist()}")
+    b = TreeBuilder(name)
+    b.add("platform_joint", "floating", "base", "platform")
+    home = _floating_home(np.array([0.0, 0.0, h, 0.0, 0.0, 0.0]))
+    closures = []
+    for i, ai in enumerate(a):
+        n = i + 1
+        radial = np.array([math.cos(ai), math.sin(ai), 0.0])
+        tangent = np.array([-math.sin(ai), math.cos(ai), 0.0])
+        b.add(f"rev_{n}", "revolute", "base", f"swing_{n}", xyz=list(Rb * radial),
+              axis=list(tangent), limits=(-math.pi, math.pi))  # fmt: skip
+        b.add(f"leg_{n}", "prismatic", f"swing_{n}", f"leg_{n}_end", limits=(0.0, 1e3))
+        b.add(f"platform_anchor_{n}_joint", "fixed", "platform", f"platform_anchor_{n}",
+              xyz=list(Rp * radial))  # fmt: skip
+        # the leg (along the swing's z) turned about the tangent towards -radial
+        home[f"rev_{n}"] = math.atan2(Rp - Rb, h)
+        home[f"leg_{n}"] = math.hypot(Rp - Rb, h)
+        closures.append(Closure(f"leg_{n}_end", f"platform_anchor_{n}", "3d"))
+    spec = Spec(
+        closures=tuple(closures),
+        actuated=tuple(f"leg_{n}" for n in range(1, 4)),
+        platform="platform",
+        workspace=SPATIAL_WORKSPACE,
+        home=home,
+    )
+    return finish(b.build(), spec, "base_radius/platform_radius/angles/height")
