@@ -165,8 +165,9 @@ def main(argv: list[str] | None = None) -> int:
     off = report.confirm_refusals()
     print(f"\nsolves: {len(report.solves)} in {solve_time:.0f} s wall")
     print(
-        f"{off} convergent refusal(s) confirmed by the reference: the curve through the start "
-        "closes without reaching s = 1 (column 'off'; no answer exists on that branch)\n"
+        f"{off} refusal(s) confirmed by the reference: the curve through the start closes "
+        "without reaching s = 1 (column 'off'; no answer on the convergent branch, nor on the "
+        "paper's divergent path along the same curve)\n"
     )
     print(report.table())
     print()

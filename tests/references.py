@@ -1489,10 +1489,20 @@ def _turn_near(sa: float, sb: float, da: float, db: float, level: float) -> bool
     return bool(np.any(side * (s - level) <= GRAZE))
 
 
+#: What a refusal says when the curve through the start gave no answer: the convergent
+#: branch's, and the divergent branch's after every way failed.
+_NO_ANSWER = {
+    "convergent": "did not reach s = 1",
+    "divergent": "no solution across a singular surface was reached",
+}
+
+
 def confirm_off_curve(o: Outcome) -> bool:
-    """A convergent refusal ("did not reach s = 1") confirmed by the reference: the curve
-    through the start closes without reaching ``s = 1`` (:func:`line_curve_reaches`)."""
-    if o.branch != "convergent" or o.status != "refused" or "did not reach s = 1" not in o.detail:
+    """A refusal confirmed by the reference: the curve through the start closes without
+    reaching ``s = 1`` (:func:`line_curve_reaches`). Convergent: no answer on that branch.
+    Divergent: the paper's divergent path runs along the same closed curve the other way,
+    so it has no answer either (the branch's further ways are searches beyond the path)."""
+    if o.status != "refused" or _NO_ANSWER.get(o.branch, "\0") not in o.detail:
         return False
     scen = o.scenario
     ref, model = reference(scen.name), load(scen.name)
@@ -1537,8 +1547,9 @@ class Report:
         return sum(len(v) == 2 and all(o.status in no for o in v) for v in by.values())
 
     def confirm_refusals(self) -> int:
-        """Relabel the convergent refusals that the reference confirms (the curve through the
-        start closes without reaching ``s = 1``) as "off_curve"; returns their number."""
+        """Relabel the refusals that the reference confirms (the curve through the start
+        closes without reaching ``s = 1``: :func:`confirm_off_curve`) as "off_curve"; returns
+        their number."""
         n = 0
         for o in self.solves:
             if confirm_off_curve(o):

@@ -470,6 +470,30 @@ def test_the_reference_continuation_tells_a_closed_curve(name, theta0, start, re
             sc.solve(model, theta0, start=cfg)
 
 
+@pytest.mark.parametrize("branch", ["convergent", "divergent"])
+def test_a_refusal_is_confirmed_only_where_the_curve_closes(branch: str) -> None:
+    """Both branches' "no answer" refusals on the closed curve of LINE_CURVES[0] are
+    confirmed; the same refusal on a curve that reaches s = 1 (LINE_CURVES[1]), or another
+    refusal, is not."""
+    from references import Outcome, confirm_off_curve
+
+    text = {
+        "convergent": "PathError: convergent branch: the solution curve from the start did not "
+        "reach s = 1 (theta0=[...]): the curve closed on itself",
+        "divergent": "PathError: divergent branch at theta0=[...]: no solution across a "
+        "singular surface was reached (...)",
+    }[branch]
+    for (name, theta0, _start, reaches), expected in zip(
+        LINE_CURVES[:2], (True, False), strict=True
+    ):
+        assert reaches is not expected
+        ref = reference(name)
+        scen = Scenario(name, "near_singular", np.array(theta0), ref.coords(load(name).home))
+        assert confirm_off_curve(Outcome(scen, branch, "refused", text)) is expected
+        assert not confirm_off_curve(Outcome(scen, branch, "refused", "SolveError: other"))
+        assert not confirm_off_curve(Outcome(scen, branch, "timeout", text))
+
+
 def test_convergent_next_to_a_fold_at_s_1_keeps_the_incoming_sheet() -> None:
     """The seed robot from home to a theta0 2e-5 rad from the singular surface (a case the
     fuzz found answered with the mirror solution and no crossing): the curve folds at
