@@ -426,3 +426,28 @@ def test_modes_certified_per_block_say_so_in_json() -> None:
     assert d["certified"] and d["count"] == len(sols) == 64
     assert all(s["certified"] for s in d["solutions"])
     assert d["report"].startswith("certified complete per block")
+
+
+def test_a_cassie_divergent_case_is_answered_only_along_an_actuator_axis() -> None:
+    """A divergent scenario of the legged fuzz (seed 0) that every earlier way of the
+    divergent branch misses (``sigma_min`` has a non-singular valley around the start): the
+    answer comes from across the singular surface met along an actuator's own axis, closes on
+    Pinocchio's constraint models, has crossed a singular point and is not the convergent
+    answer."""
+    m, gm = model("cassie_like"), gepetto("cassie_like")
+    y = [
+        1.3412320580837307, 1.7669490846797022, -1.1549934211647916, -0.045429722317925365,
+        -1.7318940741309958, -2.0679038160013308, 1.509014213553823, -1.851644235810635,
+        -0.9606034990360778, 2.3008867859233355, 1.4216765962757352, -2.967538538731432,
+    ]  # fmt: skip
+    theta = [0.05565591055954592, 0.07895369343606344, 0.03140850208113244,
+             0.0794177160665419, 0.01444626963915542]  # fmt: skip
+    theta0 = np.array([-0.17853360511709696, -0.3428930082426849, 0.3001110582813621,
+                       0.2562388743718417, 0.006872097217738451])  # fmt: skip
+    start = m.configuration(np.array(y), np.array(theta))
+    r = sc.solve(m, theta0, start=start, branch="divergent")
+    assert r.strategy == "along-axes" and len(r.crossings) >= 1
+    q = pinocchio_q(m, r.configuration, gm.model)
+    assert gl.closure_residuals(gm, q).max() <= 1e-9
+    conv = sc.solve(m, theta0, start=start)
+    assert np.abs(conv.y - r.y).max() > 1e-3
