@@ -594,3 +594,20 @@ def test_the_reference_sees_a_turn_of_s_next_to_the_level_inside_a_step() -> Non
         c = 0.01
         end = 1 - e - c / 4
         assert _turn_near(end, end, c, -c, 1.0) is flagged
+
+
+def test_analytic_reference_jacobian_equals_central_differences(monkeypatch) -> None:
+    """wl16_like's reference Jacobian (Pinocchio's frame Jacobians through Jlog6) equals
+    the central differences of its closure residuals, on and off the manifold."""
+    import references
+
+    ref = reference("wl16_like")
+    cols = ref.free + ref.motors
+    rng = np.random.default_rng(5)
+    for q in (ref.home_q, ref.home_q + 0.1 * rng.normal(size=ref.home_q.shape)):
+        analytic = ref._jac(q, cols)
+        monkeypatch.setattr(references, "ANALYTIC_JACOBIANS", frozenset())
+        differences = ref._jac(q, cols)
+        monkeypatch.undo()
+        assert np.abs(analytic - differences).max() <= 1e-7
+        assert np.abs(analytic).max() > 0.1
