@@ -415,20 +415,23 @@ def _distributed(todo, args, finished, workers, scheduler) -> None:
 
 @contextlib.contextmanager
 def _quiet_distributed():
-    """While a killed cluster closes, Dask's loggers say nothing below CRITICAL.
+    """While a killed cluster closes, Dask's loggers (and those of the event loop under it)
+    say nothing below CRITICAL.
 
     Closing the connections of killed workers makes ``distributed`` log the closed comms
     with their tracebacks (at INFO); the interrupt is already reported in one line.
     """
     import logging
 
-    logger = logging.getLogger("distributed")
-    level = logger.level
-    logger.setLevel(logging.CRITICAL)
+    loggers = [logging.getLogger(name) for name in ("distributed", "tornado", "asyncio")]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.CRITICAL)
     try:
         yield
     finally:
-        logger.setLevel(level)
+        for logger, level in zip(loggers, levels, strict=True):
+            logger.setLevel(level)
 
 
 def _kill_workers(cluster) -> None:
