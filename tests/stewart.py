@@ -60,6 +60,36 @@ def fold_path(home: np.ndarray, n: int) -> np.ndarray:
     return X
 
 
+def lm_poses(residual, jacobian, p, R, iterations: int, singular: float):
+    """Batched Levenberg-Marquardt on poses (p (N, 3), R (N, 3, 3)): ``iterations`` damped
+    Gauss-Newton steps with updates p += dp, R = exp(dw) R (a step kept only where it lowers
+    the cost), then 6 Newton steps where |det J| > ``singular``. ``residual(p, R) -> (r (N,
+    6), d)``, ``jacobian(R, d) -> J (N, 6, 6)``. Returns (p, R, r) at the end."""
+    starts = len(p)
+    r, d = residual(p, R)
+    cost = np.sum(r * r, axis=1)
+    mu = np.full(starts, 1e-2)
+    for _ in range(iterations):
+        J = jacobian(R, d)
+        JtJ = J.transpose(0, 2, 1) @ J
+        damped = JtJ + mu[:, None, None] * (np.eye(6) * (1 + np.einsum("nii->ni", JtJ)[:, :, None]))
+        step = -np.linalg.solve(damped, np.einsum("nki,nk->ni", J, r)[..., None])[..., 0]
+        p_new, R_new = p + step[:, :3], rotations(step[:, 3:]) @ R
+        r_new, d_new = residual(p_new, R_new)
+        c_new = np.sum(r_new * r_new, axis=1)
+        ok = c_new < cost
+        p[ok], R[ok], r[ok], d[ok], cost[ok] = p_new[ok], R_new[ok], r_new[ok], d_new[ok], c_new[ok]
+        mu = np.where(ok, mu / 3, mu * 4)
+    for _ in range(6):
+        J = jacobian(R, d)
+        regular = np.abs(np.linalg.det(J)) > singular
+        step = np.zeros((starts, 6))
+        step[regular] = -np.linalg.solve(J[regular], r[regular][..., None])[..., 0]
+        p, R = p + step[:, :3], rotations(step[:, 3:]) @ R
+        r, d = residual(p, R)
+    return p, R, r
+
+
 def stewart_reference(A, B, lengths, starts: int, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
     """Real poses (p, R) of a 6-6 platform: |p + R B_i - A_i| = L_i, by random-start LM.
 
@@ -89,27 +119,7 @@ def stewart_reference(A, B, lengths, starts: int, seed: int) -> list[tuple[np.nd
     def jacobian(R, d):
         return np.concatenate([d, np.cross(np.einsum("nij,kj->nki", R, B), d)], axis=2)
 
-    r, d = residual(p, R)
-    cost = np.sum(r * r, axis=1)
-    mu = np.full(starts, 1e-2)
-    for _ in range(60):
-        J = jacobian(R, d)
-        JtJ = J.transpose(0, 2, 1) @ J
-        damped = JtJ + mu[:, None, None] * (np.eye(6) * (1 + np.einsum("nii->ni", JtJ)[:, :, None]))
-        step = -np.linalg.solve(damped, np.einsum("nki,nk->ni", J, r)[..., None])[..., 0]
-        p_new, R_new = p + step[:, :3], rotations(step[:, 3:]) @ R
-        r_new, d_new = residual(p_new, R_new)
-        c_new = np.sum(r_new * r_new, axis=1)
-        ok = c_new < cost
-        p[ok], R[ok], r[ok], d[ok], cost[ok] = p_new[ok], R_new[ok], r_new[ok], d_new[ok], c_new[ok]
-        mu = np.where(ok, mu / 3, mu * 4)
-    for _ in range(6):
-        J = jacobian(R, d)
-        regular = np.abs(np.linalg.det(J)) > 1e-14
-        step = np.zeros((starts, 6))
-        step[regular] = -np.linalg.solve(J[regular], r[regular][..., None])[..., 0]
-        p, R = p + step[:, :3], rotations(step[:, 3:]) @ R
-        r, d = residual(p, R)
+    p, R, r = lm_poses(residual, jacobian, p, R, iterations=60, singular=1e-14)
     good = np.all(np.isfinite(r), axis=1) & (np.abs(r).max(axis=1) < 1e-11)
     sols: list[tuple[np.ndarray, np.ndarray]] = []
     for pi, Ri in zip(p[good], R[good], strict=True):

@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 import pytest
-from stewart import rotations, stewart_reference
+from stewart import lm_poses, rotations, stewart_reference
 from test_modes import assert_same_stewart_poses
 
 import scdk_sym as sc
@@ -63,27 +63,7 @@ def rps_reference(Rb: float, Rp: float, angles, lengths, starts: int, seed: int)
         jw_len = np.cross(arm, d)
         return np.concatenate([jp, np.concatenate([jw_plane, jw_len], axis=1)], axis=2)
 
-    r, d = residual(p, R)
-    cost = np.sum(r * r, axis=1)
-    mu = np.full(starts, 1e-2)
-    for _ in range(80):
-        J = jacobian(R, d)
-        JtJ = J.transpose(0, 2, 1) @ J
-        damped = JtJ + mu[:, None, None] * (np.eye(6) * (1 + np.einsum("nii->ni", JtJ)[:, :, None]))
-        step = -np.linalg.solve(damped, np.einsum("nki,nk->ni", J, r)[..., None])[..., 0]
-        p_new, R_new = p + step[:, :3], rotations(step[:, 3:]) @ R
-        r_new, d_new = residual(p_new, R_new)
-        c_new = np.sum(r_new * r_new, axis=1)
-        ok = c_new < cost
-        p[ok], R[ok], r[ok], d[ok], cost[ok] = p_new[ok], R_new[ok], r_new[ok], d_new[ok], c_new[ok]
-        mu = np.where(ok, mu / 3, mu * 4)
-    for _ in range(6):  # Newton to full precision
-        J = jacobian(R, d)
-        regular = np.abs(np.linalg.det(J)) > 1e-12
-        step = np.zeros((starts, 6))
-        step[regular] = -np.linalg.solve(J[regular], r[regular][..., None])[..., 0]
-        p, R = p + step[:, :3], rotations(step[:, 3:]) @ R
-        r, d = residual(p, R)
+    p, R, r = lm_poses(residual, jacobian, p, R, iterations=80, singular=1e-12)
     found: list[tuple[np.ndarray, np.ndarray]] = []
     for i in np.flatnonzero(np.abs(r).max(axis=1) < 1e-11):
         if all(max(np.abs(p[i] - q).max(), np.abs(R[i] - S).max()) > 1e-7 for q, S in found):
