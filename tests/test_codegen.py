@@ -39,8 +39,8 @@ def built(tmp_path_factory):
 
 def test_sources_are_self_contained(built):
     src, _ = built
-    generated = {p.name for p in (src.kernels_h, src.tracker_h)}
-    for path in (src.kernels_c, src.kernels_h, src.tracker_c, src.tracker_h):
+    generated = {p.name for p in (src.kernels_h, src.tracker_h, src.lu_h)}
+    for path in (src.kernels_c, src.kernels_h, src.tracker_c, src.tracker_h, src.lu_h):
         text = path.read_text()
         included = set(re.findall(r'#include [<"]([^>"]+)[>"]', text))
         assert included <= STANDARD_HEADERS | generated, (path.name, included)
@@ -334,7 +334,8 @@ def test_cli_writes_sources_with_a_prefix(tmp_path, capsys):
                  "--prefix", "rpr", "--no-shared", "--json"]) == 0  # fmt: skip
     out = capsys.readouterr().out
     names = sorted(p.name for p in tmp_path.iterdir())
-    assert names == ["rpr_kernels.c", "rpr_kernels.h", "rpr_tracker.c", "rpr_tracker.h"]
+    generated = ["rpr_kernels.c", "rpr_kernels.h", "rpr_tracker.c", "rpr_tracker.h"]
+    assert names == [*generated, "scdk_lu.h"]
     assert '"library": null' in out
     header = (tmp_path / "rpr_tracker.h").read_text()
     assert "#define RPR_NC 0" in header and "int rpr_tracker_step(rpr_state *st" in header

@@ -209,16 +209,17 @@ def test_generated_library_keys_change_with_flags_and_compiler(tmp_path, monkeyp
 
     gen = importlib.import_module("scdk_sym.codegen.generate")  # the module, not the function
 
-    parts = [tmp_path / n for n in ("k.c", "k.h", "t.c", "t.h")]
+    parts = [tmp_path / n for n in ("k.c", "k.h", "t.c", "t.h", "lu.h")]
     for i, p in enumerate(parts):
         p.write_text(f"/* {i} */\n")
-    src = gen.GeneratedSources(
-        tmp_path, "p", parts[0], parts[1], parts[2], parts[3], ()
-    )  # fmt: skip
+    src = gen.GeneratedSources(tmp_path, "p", *parts, ())
     key = gen.source_key(src)
     parts[2].write_text("/* template changed */\n")
     changed = gen.source_key(src)
     assert changed != key
+    parts[4].write_text("/* the elimination changed */\n")
+    assert gen.source_key(src) not in (key, changed)
+    changed = gen.source_key(src)
     monkeypatch.setattr(gen, "SHARED_FLAGS", (*gen.SHARED_FLAGS, "-O3"))
     flagged = gen.source_key(src)
     assert flagged != changed
@@ -238,9 +239,9 @@ def test_unoptimised_sources_compile_at_O0_and_enter_the_key(tmp_path, monkeypat
     comp.compile_parallel([a, b], tmp_path / "lib.so", ("-O1", "-fPIC"), unoptimised=[b])
     flags = {Path(c[c.index("-c") + 1]).name: c[: c.index("-c")] for c in calls if "-c" in c}
     assert flags == {"a.c": ["-O1", "-fPIC"], "b.c": ["-O1", "-fPIC", "-O0"]}
-    parts = [tmp_path / n for n in ("k.c", "k.h", "t.c", "t.h")]
+    parts = [tmp_path / n for n in ("k.c", "k.h", "t.c", "t.h", "lu.h")]
     for i, p in enumerate(parts):
         p.write_text(f"/* {i} */\n")
-    src = gen.GeneratedSources(tmp_path, "p", parts[0], parts[1], parts[2], parts[3], (a, b))
+    src = gen.GeneratedSources(tmp_path, "p", *parts, (a, b))
     cold = gen.GeneratedSources(tmp_path, "p", *parts, (a, b), (b,))
     assert gen.source_key(src) != gen.source_key(cold)

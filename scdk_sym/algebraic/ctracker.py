@@ -60,25 +60,27 @@ def source_dir() -> Path:
 
 
 def source_library(stem: str, flags: tuple[str, ...]) -> Path:
-    """A library compiled from ``c/<stem>.c`` (and ``c/<stem>.h``), cached under the hash of
-    its sources, flags and compiler.
+    """A library compiled from ``c/<stem>.c`` (and ``c/<stem>.h``, and the package's LU
+    factorisation :data:`~scdk_sym.kernels.compile.LU_HEADER` it may include), cached under
+    the hash of its sources, flags and compiler.
 
     Raises:
         BuildError: no C compiler, or the compilation failed.
     """
     from ..kernels.cache import cache_dir, cached_file
-    from ..kernels.compile import compiler_tag, run_compiler
+    from ..kernels.compile import LU_HEADER, compiler_tag, run_compiler
 
     src = source_dir()
     h = hashlib.sha256()
-    for name in (f"{stem}.h", f"{stem}.c"):
-        h.update((src / name).read_bytes())
+    for path in (src / f"{stem}.h", src / f"{stem}.c", LU_HEADER):
+        h.update(path.read_bytes())
     h.update(" ".join(flags).encode())
     h.update(compiler_tag().encode())
     target = cache_dir() / f"{stem}_{h.hexdigest()[:20]}.so"
+    include = f"-I{LU_HEADER.parent}"
 
     def build(path: Path) -> None:
-        run_compiler([*flags, str(src / f"{stem}.c"), "-o", str(path), "-lm"])
+        run_compiler([*flags, include, str(src / f"{stem}.c"), "-o", str(path), "-lm"])
 
     return cached_file(target, build, "compiled library")
 

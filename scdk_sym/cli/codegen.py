@@ -66,7 +66,7 @@ def _codegen(args: argparse.Namespace) -> int:
     library = None
     if not args.no_shared:
         library = compile_library(src, src.directory / f"lib{src.prefix}_tracker.so")
-    files = [src.kernels_c, src.kernels_h, src.tracker_c, src.tracker_h]
+    files = [src.kernels_c, src.kernels_h, src.tracker_c, src.tracker_h, src.lu_h]
     if args.json:
         dump({"files": [str(f) for f in files], "library": str(library) if library else None})
         return 0

@@ -26,7 +26,15 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, OutputError
-from ..kernels.compile import LOOP_OPT, OPT, compile_parallel, compiler_tag, write_c, write_c_parts
+from ..kernels.compile import (
+    LOOP_OPT,
+    LU_HEADER,
+    OPT,
+    compile_parallel,
+    compiler_tag,
+    write_c,
+    write_c_parts,
+)
 from . import templates
 from .kernels import UNOPTIMISED, build_tracker_kernels
 
@@ -59,6 +67,8 @@ class GeneratedSources:
         kernels_h: their header.
         tracker_c: the tracker (``<prefix>_tracker.c``).
         tracker_h: its header (include this one).
+        lu_h: the LU factorisation the tracker includes (``scdk_lu.h``, a copy of
+            :data:`~scdk_sym.kernels.compile.LU_HEADER`).
         parts: written split, the kernels' sources, one per group of kernels
             (``<prefix>_kernels_00.c``, ..., see :data:`~scdk_sym.codegen.kernels.GROUPS`),
             else empty.
@@ -72,6 +82,7 @@ class GeneratedSources:
     kernels_h: Path
     tracker_c: Path
     tracker_h: Path
+    lu_h: Path
     parts: tuple[Path, ...] = ()
     unoptimised: tuple[Path, ...] = ()
 
@@ -111,7 +122,7 @@ def source_key(sources: GeneratedSources) -> str:
     """Content hash of generated sources (templates filled), the library flags and the
     compiler (the cache key)."""
     h = hashlib.sha256()
-    for path in (*sources.sources, sources.kernels_h, sources.tracker_h):
+    for path in (*sources.sources, sources.kernels_h, sources.tracker_h, sources.lu_h):
         h.update(path.read_bytes())
         h.update(b"\0")
     h.update(" ".join(SHARED_FLAGS).encode())
@@ -243,6 +254,7 @@ def _generate(
     source = templates.fill(templates.template(templates.SOURCE), values)
     (out / f"{prefix}_tracker.h").write_text(header)
     (out / f"{prefix}_tracker.c").write_text(source)
+    (out / LU_HEADER.name).write_bytes(LU_HEADER.read_bytes())
     return GeneratedSources(
         directory=out,
         prefix=prefix,
@@ -250,6 +262,7 @@ def _generate(
         kernels_h=out / f"{prefix}_kernels.h",
         tracker_c=out / f"{prefix}_tracker.c",
         tracker_h=out / f"{prefix}_tracker.h",
+        lu_h=out / LU_HEADER.name,
         parts=tuple(parts) if split else (),
         unoptimised=tuple(unoptimised),
     )

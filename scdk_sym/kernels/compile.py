@@ -57,6 +57,9 @@ KERNEL_SOURCES = (
 )
 #: Root of the package, the folder the source lists are relative to.
 PACKAGE_ROOT = Path(__file__).resolve().parents[1]
+#: The package's one pivoted elimination in C (real and complex LU with partial pivoting),
+#: included by every C source that eliminates (package data).
+LU_HEADER = Path(__file__).resolve().parent / "c" / "scdk_lu.h"
 
 _announced: set[str] = set()
 

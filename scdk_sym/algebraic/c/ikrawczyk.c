@@ -10,6 +10,7 @@
  * to the ball-arithmetic test (certify.py), never proven here.
  */
 #include "ikrawczyk.h"
+#include "scdk_lu.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -160,9 +161,9 @@ static int replay(const scdk_tape *t, const ival *x, const ival *p, ival *w, iva
     return 0;
 }
 
-/* Y ~ A^-1 (n x n row-major) by Gauss-Jordan elimination with partial pivoting, and the
- * infinity-norm condition estimate |A| |Y|; 0 on success. A is overwritten. */
-static int invert(double *A, double *Y, int64_t n, double *cond) {
+/* Y ~ A^-1 (n x n row-major) from the package's LU with partial pivoting (scdk_lu.h; piv:
+ * n ints), and the infinity-norm condition estimate |A| |Y|; 0 on success. A is overwritten. */
+static int invert(double *A, double *Y, int64_t n, int *piv, double *cond) {
     double na = 0.0;
     for (int64_t i = 0; i < n; ++i) {
         double s = 0.0;
@@ -170,36 +171,9 @@ static int invert(double *A, double *Y, int64_t n, double *cond) {
         if (s > na) na = s;
         for (int64_t j = 0; j < n; ++j) Y[i * n + j] = i == j ? 1.0 : 0.0;
     }
-    for (int64_t j = 0; j < n; ++j) {
-        int64_t piv = j;
-        for (int64_t i = j + 1; i < n; ++i)
-            if (fabs(A[i * n + j]) > fabs(A[piv * n + j])) piv = i;
-        const double d = A[piv * n + j];
-        if (!(d != 0.0) || !isfinite(d)) return 1;
-        if (piv != j) {
-            for (int64_t c = 0; c < n; ++c) {
-                double t = A[j * n + c];
-                A[j * n + c] = A[piv * n + c];
-                A[piv * n + c] = t;
-                t = Y[j * n + c];
-                Y[j * n + c] = Y[piv * n + c];
-                Y[piv * n + c] = t;
-            }
-        }
-        for (int64_t c = 0; c < n; ++c) {
-            A[j * n + c] /= d;
-            Y[j * n + c] /= d;
-        }
-        for (int64_t i = 0; i < n; ++i) {
-            if (i == j) continue;
-            const double f = A[i * n + j];
-            if (f == 0.0) continue;
-            for (int64_t c = 0; c < n; ++c) {
-                A[i * n + c] -= f * A[j * n + c];
-                Y[i * n + c] -= f * Y[j * n + c];
-            }
-        }
-    }
+    if (!scdk_lu_factor(A, NULL, (int)n, (int)n, 1, piv)) return 1;
+    for (int64_t j = 0; j < n; ++j) /* column j of Y: A^-1 e_j */
+        scdk_lu_solve(A, NULL, (int)n, (int)n, 1, piv, Y + j, NULL, (int)n, 0);
     double ny = 0.0;
     for (int64_t i = 0; i < n; ++i) {
         double s = 0.0;
@@ -216,6 +190,7 @@ typedef struct {
     const ival *P;
     ival *w, *out, *X, *mid, *newton, *C, *K, *D; /* D = B - c */
     double *A, *Y;
+    int *piv;
 } work;
 
 /* Y ~ J(c)^-1 (from the midpoints of the interval Jacobian at the point c); 0 on success. */
@@ -225,7 +200,7 @@ static int inverse_at(work *s, const double *c, double max_cond) {
     if (replay(s->jacobian, s->mid, s->P, s->w, s->out)) return 1;
     for (int64_t i = 0; i < n * n; ++i) s->A[i] = 0.5 * s->out[i].lo + 0.5 * s->out[i].hi;
     double cond;
-    if (invert(s->A, s->Y, n, &cond)) return 1;
+    if (invert(s->A, s->Y, n, s->piv, &cond)) return 1;
     return cond < max_cond ? 0 : 1;
 }
 
@@ -318,10 +293,12 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
     ival *P = malloc((size_t)(k + 1) * sizeof(ival));
     ival *iv = malloc((size_t)(W + 1 + n * n + 6 * n + n * n) * sizeof(ival));
     double *dv = malloc((size_t)(2 * n * n + n) * sizeof(double));
-    if (!P || !iv || !dv) {
+    s.piv = malloc((size_t)n * sizeof(int));
+    if (!P || !iv || !dv || !s.piv) {
         free(P);
         free(iv);
         free(dv);
+        free(s.piv);
         return SCDK_K_NO_MEMORY;
     }
     for (int64_t i = 0; i < k; ++i) {
@@ -377,6 +354,7 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
     free(P);
     free(iv);
     free(dv);
+    free(s.piv);
     return SCDK_K_OK;
 }
 

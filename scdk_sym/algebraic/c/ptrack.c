@@ -9,10 +9,11 @@
  *              also gives the velocity at the new point;
  *   step control: accepted, h = min(h clip((eta / nu1)^(1/5), 0.25, 2), h_max), the factor at
  *              most 1 right after a rejected step; rejected, h / 2.
- * Linear systems: Gaussian elimination with partial pivoting (pivot of largest |re| + |im|,
- * as LAPACK); an exactly zero pivot gives NaN solutions, which reject the step.
+ * Linear systems: the package's LU with partial pivoting (scdk_lu.h: pivot of largest
+ * |re| + |im|, as LAPACK); an exactly zero pivot gives NaN solutions, which reject the step.
  */
 #include "ptrack.h"
+#include "scdk_lu.h"
 
 #include <complex.h>
 #include <math.h>
@@ -37,6 +38,7 @@ typedef struct {
     /* linear algebra */
     cplx *rhs;
     double *ar, *ai; /* augmented matrix [H_z B] of the solve, n x (n + nrhs), row-major */
+    int *piv;        /* its pivots */
 } context;
 
 static double abs2(cplx a) { return creal(a) * creal(a) + cimag(a) * cimag(a); }
@@ -85,69 +87,25 @@ static int homotopy(context *c, const cplx *z, double t, int64_t d, int64_t nrhs
 }
 
 /* Solve Hz X = B for nrhs (1 or 2) right-hand sides B (n x nrhs column-major, in rhs; X
- * replaces it), Hz as the last homotopy call with the same nrhs left it. Gaussian elimination
- * with partial pivoting on the augmented matrix [Hz B], row-major with separate real and
- * imaginary parts (contiguous, vectorisable rows). */
+ * replaces it), Hz as the last homotopy call with the same nrhs left it: the package's LU with
+ * partial pivoting (scdk_lu.h) on the augmented matrix [Hz B], row-major with separate real
+ * and imaginary parts (contiguous rows), B's columns solved in place. */
 static void solve(context *c, int64_t nrhs) {
-    const int64_t n = c->n, W = n + nrhs;
+    const int n = (int)c->n, W = n + (int)nrhs;
     double *ar = c->ar, *ai = c->ai;
-    for (int64_t i = 0; i < n; ++i) {
-        for (int64_t r = 0; r < nrhs; ++r) {
-            ar[i * W + n + r] = creal(c->rhs[r * n + i]);
-            ai[i * W + n + r] = cimag(c->rhs[r * n + i]);
-        }
+    if (!scdk_lu_factor(ar, ai, n, W, 1, c->piv)) { /* exactly singular (or NaN): no solution */
+        for (int64_t i = 0; i < c->n * nrhs; ++i) c->rhs[i] = NAN;
+        return;
     }
-    for (int64_t j = 0; j < n; ++j) {
-        int64_t p = j;
-        double best = fabs(ar[j * W + j]) + fabs(ai[j * W + j]);
-        for (int64_t i = j + 1; i < n; ++i) {
-            const double v = fabs(ar[i * W + j]) + fabs(ai[i * W + j]);
-            if (v > best) {
-                best = v;
-                p = i;
-            }
-        }
-        if (!(best > 0.0)) { /* exactly singular (or NaN): no solution */
-            for (int64_t i = 0; i < n * nrhs; ++i) c->rhs[i] = NAN;
-            return;
-        }
-        if (p != j) {
-            for (int64_t col = j; col < W; ++col) {
-                double t = ar[j * W + col];
-                ar[j * W + col] = ar[p * W + col];
-                ar[p * W + col] = t;
-                t = ai[j * W + col];
-                ai[j * W + col] = ai[p * W + col];
-                ai[p * W + col] = t;
-            }
-        }
-        const double d = ar[j * W + j] * ar[j * W + j] + ai[j * W + j] * ai[j * W + j];
-        const double ir = ar[j * W + j] / d, ii = -ai[j * W + j] / d;
-        ar[j * W + j] = ir; /* the diagonal keeps its reciprocal for the back substitution */
-        ai[j * W + j] = ii;
-        const double *rr = ar + j * W, *ri = ai + j * W;
-        for (int64_t i = j + 1; i < n; ++i) {
-            double *xr = ar + i * W, *xi = ai + i * W;
-            const double lr = xr[j] * ir - xi[j] * ii, li = xr[j] * ii + xi[j] * ir;
-            for (int64_t col = j + 1; col < W; ++col) {
-                const double ur = rr[col], ui = ri[col];
-                xr[col] -= lr * ur - li * ui;
-                xi[col] -= lr * ui + li * ur;
-            }
-        }
-    }
-    for (int64_t r = 0; r < nrhs; ++r) {
+    for (int r = 0; r < (int)nrhs; ++r) {
         cplx *x = c->rhs + r * n;
-        for (int64_t i = n - 1; i >= 0; --i) {
-            double accr = ar[i * W + n + r], acci = ai[i * W + n + r];
-            for (int64_t col = i + 1; col < n; ++col) {
-                const double ur = ar[i * W + col], ui = ai[i * W + col];
-                accr -= ur * creal(x[col]) - ui * cimag(x[col]);
-                acci -= ur * cimag(x[col]) + ui * creal(x[col]);
-            }
-            const double dr = ar[i * W + i], di = ai[i * W + i];
-            x[i] = (accr * dr - acci * di) + I * (accr * di + acci * dr);
+        double *br = ar + n + r, *bi = ai + n + r;
+        for (int i = 0; i < n; ++i) {
+            br[i * W] = creal(x[i]);
+            bi[i * W] = cimag(x[i]);
         }
+        scdk_lu_solve(ar, ai, n, W, 1, c->piv, br, bi, W, 0);
+        for (int i = 0; i < n; ++i) x[i] = br[i * W] + I * bi[i * W];
     }
 }
 
@@ -283,10 +241,12 @@ int scdk_ptrack(scdk_eval_fn eval, int64_t sz_iw, int64_t sz_w, int64_t n, int64
     c.in = malloc((nin + nout + (size_t)sz_w + 1) * sizeof(double));
     c.iw = malloc(((size_t)sz_iw + 1) * sizeof(long long));
     cplx *cbuf = malloc((size_t)(2 * n + 2 * n + 8 * n + n * (n + 2)) * sizeof(cplx));
-    if (!c.in || !c.iw || !cbuf) {
+    c.piv = malloc((size_t)n * sizeof(int));
+    if (!c.in || !c.iw || !cbuf || !c.piv) {
         free(c.in);
         free(c.iw);
         free(cbuf);
+        free(c.piv);
         return SCDK_NO_MEMORY;
     }
     c.out = c.in + nin;
@@ -314,5 +274,6 @@ int scdk_ptrack(scdk_eval_fn eval, int64_t sz_iw, int64_t sz_w, int64_t n, int64
     free(c.in);
     free(c.iw);
     free(cbuf);
+    free(c.piv);
     return rc;
 }
