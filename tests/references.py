@@ -1403,6 +1403,14 @@ LINE_STEPS = 100000
 LINE_ARC = 1000.0
 #: Largest corrector move of :func:`line_curve_reaches`, relative to the step.
 LINE_CORRECTION = 0.05
+#: Largest step of :func:`line_curve_reaches` [reference coordinates and s], and the finer
+#: one of the second look that confirms a refusal (a fold sharper than a step is jumped by
+#: it: the step lands on the neighbouring sheet within the corrector's tolerance).
+LINE_H_MAX = 0.05
+LINE_H_FINE = 0.002
+#: A step that crosses ``s = 1`` counts only when it is at most this long; a longer one is
+#: taken again at a quarter (a fold just short of 1 would otherwise be jumped).
+LINE_CROSS = 1e-4
 
 
 def _free(ref: Reference, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -1412,7 +1420,15 @@ def _free(ref: Reference, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.arange(len(u)), np.zeros(len(u))
 
 
-def line_curve_reaches(ref: Reference, u0, theta1, theta0) -> bool | None:
+def line_curve_reaches(
+    ref: Reference,
+    u0,
+    theta1,
+    theta0,
+    h_max: float = LINE_H_MAX,
+    direction: float = 1.0,
+    turns: list[float] | None = None,
+) -> bool | None:
     """Whether the solution curve of the closures along the line ``theta1 + s (theta0 -
     theta1)`` through the start ``u0`` (at ``s = 0``) reaches ``s = 1``, followed from the
     start towards increasing ``s`` (the convergent branch's first direction).
@@ -1423,6 +1439,11 @@ def line_curve_reaches(ref: Reference, u0, theta1, theta0) -> bool | None:
     when a budget ran out or the corrector failed (undecided), and None too for a closed
     curve on which ``s`` turned inside a step within :data:`GRAZE` of 1 (a fold just past
     1 crosses it twice within one step: the check of the step's ends would not see it).
+    Steps are at most ``h_max`` long; one that crosses 1 counts only when at most
+    :data:`LINE_CROSS` long (a longer one is taken again shorter). ``direction=-1`` follows
+    the curve towards decreasing ``s`` first (the paper's divergent direction); ``turns``,
+    if given, receives the ``s`` of every step inside which ``s`` turned (a fold), and
+    ``inf`` last where a budget (steps or arc) ran out, not the corrector.
     """
     theta1 = np.asarray(theta1, dtype=float)
     dth = np.asarray(theta0, dtype=float) - theta1
@@ -1453,7 +1474,7 @@ def line_curve_reaches(ref: Reference, u0, theta1, theta0) -> bool | None:
         return None
     e_s = np.zeros(len(v))
     e_s[-1] = 1.0
-    t = tangent(v, e_s)
+    t = tangent(v, direction * e_s)
     t_start = t.copy()
     h, arc, far, grazed = 1e-3, 0.0, False, False
     for _ in range(LINE_STEPS):
@@ -1479,7 +1500,12 @@ def line_curve_reaches(ref: Reference, u0, theta1, theta0) -> bool | None:
             h *= 0.5
             continue
         if (v[-1] - 1.0) * (w[-1] - 1.0) <= 0:
+            if h > LINE_CROSS:  # approach the level in short steps: a fold may be next to it
+                h *= 0.25
+                continue
             return True
+        if turns is not None and t[-1] * t_new[-1] < 0:
+            turns.append(float(w[-1]))
         if t[-1] * t_new[-1] < 0 and _turn_near(v[-1], w[-1], h * t[-1], h * t_new[-1], 1.0):
             grazed = True  # s turned inside the step next to 1: it may cross 1 twice there
         arc += h
@@ -1494,8 +1520,12 @@ def line_curve_reaches(ref: Reference, u0, theta1, theta0) -> bool | None:
             # where it turned next to s = 1)
             return None if grazed else False
         if arc > LINE_ARC:
+            if turns is not None:
+                turns.append(math.inf)  # the arc budget ran out (not a failed corrector)
             return None
-        h = min(1.5 * h, 0.05)
+        h = min(1.5 * h, h_max)
+    if turns is not None:
+        turns.append(math.inf)  # the step budget ran out
     return None
 
 
@@ -1527,13 +1557,36 @@ def confirm_off_curve(o: Outcome) -> bool:
     """A refusal confirmed by the reference: the curve through the start closes without
     reaching ``s = 1`` (:func:`line_curve_reaches`). Convergent: no answer on that branch.
     Divergent: the paper's divergent path runs along the same closed curve the other way,
-    so it has no answer either (the branch's further ways are searches beyond the path)."""
+    so it has no answer either (the branch's further ways are searches beyond the path);
+    and a divergent refusal is confirmed too where the curve has no singular point at all:
+    ``s`` never turns, from the start to ``s = 1`` and the other way over a whole budget
+    (:data:`LINE_STEPS` steps or :data:`LINE_ARC`; :func:`line_curve_monotone`).
+    Where the continuation with its usual steps does not find the curve closed, it is run
+    again with steps of at most :data:`LINE_H_FINE` (a fold sharper than a step is jumped)."""
     if o.status != "refused" or _NO_ANSWER.get(o.branch, "\0") not in o.detail:
         return False
     scen = o.scenario
     ref, model = reference(scen.name), load(scen.name)
     start = scen.start(model)
-    return line_curve_reaches(ref, ref.coords(start), start.theta, scen.theta0) is False
+    u0 = ref.coords(start)
+    for h_max in (LINE_H_MAX, LINE_H_FINE):
+        if line_curve_reaches(ref, u0, start.theta, scen.theta0, h_max) is False:
+            return True
+    return o.branch == "divergent" and line_curve_monotone(ref, u0, start.theta, scen.theta0)
+
+
+def line_curve_monotone(ref: Reference, u0, theta1, theta0) -> bool:
+    """Whether ``s`` never turns on the line's solution curve through the start
+    (:func:`line_curve_reaches`, steps of at most :data:`LINE_H_FINE`): followed forwards
+    it reaches ``s = 1`` and backwards it runs through a whole budget, with no fold
+    on either side; so the paper's divergent path meets no singular point."""
+    ahead: list[float] = []
+    behind: list[float] = []
+    fwd = line_curve_reaches(ref, u0, theta1, theta0, LINE_H_FINE, turns=ahead)
+    if fwd is not True or ahead:
+        return False
+    back = line_curve_reaches(ref, u0, theta1, theta0, LINE_H_FINE, -1.0, behind)
+    return back is None and behind == [math.inf]
 
 
 # ---------------------------------------------------------------------------- summaries

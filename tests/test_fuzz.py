@@ -367,9 +367,10 @@ DIVERGENT_CASES = [
 
 
 #: The way of the divergent branch that answers each of DIVERGENT_CASES (in order): every
-#: way before it fails there (``SolveResult.strategy``). Cases once answered by a later way
-#: ("near-convergent" for the targets just before a singular surface, "other-way-round" for
-#: the path round the other way) are answered by "modes" since their sets are certified.
+#: way before it fails there (``SolveResult.strategy``). Cases once answered by ways since
+#: removed (across the singular configuration nearest to the convergent answer; theta0 the
+#: other way round on revolute actuators) are answered by "modes" since their sets are
+#: certified.
 DIVERGENT_WAYS = [
     "modes", "modes", "modes", "modes", "modes", "modes", "nearest", "paper", "modes",
     "modes", "nearest", "modes", "modes", "aimed", "straight",
@@ -492,6 +493,59 @@ def test_a_refusal_is_confirmed_only_where_the_curve_closes(branch: str) -> None
         assert confirm_off_curve(Outcome(scen, branch, "refused", text)) is expected
         assert not confirm_off_curve(Outcome(scen, branch, "refused", "SolveError: other"))
         assert not confirm_off_curve(Outcome(scen, branch, "timeout", text))
+
+
+def test_a_fold_sharper_than_the_reference_step_is_seen_by_its_second_look() -> None:
+    """A Delta refusal of the 10^5 fuzz (seed 3): the curve through the start folds at
+    s = 0.99923 and closes (s in [-16.9, 0.9992]); the reference's usual steps jump that fold
+    and land on a sheet that reaches s = 1, its steps of at most LINE_H_FINE follow it. The
+    refusal is confirmed (the second look), and the package refuses."""
+    from references import LINE_H_FINE, Outcome, confirm_off_curve
+
+    import scdk_sym as sc
+    from scdk_sym.errors import PathError
+
+    ref, model = reference("delta"), load("delta")
+    theta0 = np.array([1.6495675767066378, -2.6519500933557576, -2.6520067145936106])
+    start = model.configuration(
+        [-0.008718969312934312, 0.03327347758847072, -0.1229865579168588],
+        [0.6059022128981693, -1.9893231852588076, -1.9271281829695304],
+    )
+    u0 = ref.coords(start)
+    assert line_curve_reaches(ref, u0, start.theta, theta0) is True  # the jump
+    turns: list[float] = []
+    assert line_curve_reaches(ref, u0, start.theta, theta0, LINE_H_FINE, turns=turns) is False
+    assert 0.999 < max(turns) < 1.0
+    with pytest.raises(PathError, match="did not reach s = 1") as info:
+        sc.solve(model, theta0, start=start)
+    scen = Scenario("delta", "across", theta0, u0, start_yt=(start.y, start.theta))
+    assert confirm_off_curve(Outcome(scen, "convergent", "refused", f"PathError: {info.value}"))
+
+
+def test_a_divergent_refusal_on_a_curve_without_a_fold_is_confirmed() -> None:
+    """A Delta divergent refusal of the 10^5 fuzz (seed 3): the line's curve through the
+    start reaches s = 1 (the convergent answer) and, followed the other way, runs the whole
+    arc budget with s falling and never turning: the paper's divergent path meets no singular
+    point. The package refuses, and the reference confirms the refusal."""
+    from references import Outcome, confirm_off_curve, line_curve_monotone
+
+    import scdk_sym as sc
+    from scdk_sym.errors import PathError
+
+    ref, model = reference("delta"), load("delta")
+    theta0 = np.array([0.4214350964495318, -0.025371517831316474, 0.11867667002075927])
+    x0 = np.array([0.004500597966257116, 0.01761183758453398, -0.12011669822080709])
+    start = model.inverse_kinematics(x0)
+    u0 = ref.coords(start)
+    assert line_curve_monotone(ref, u0, start.theta, theta0)
+    with pytest.raises(PathError, match="no solution across a singular surface") as info:
+        sc.solve(model, theta0, start=start, branch="divergent")
+    scen = Scenario("delta", "small", theta0, u0, start_x=x0)
+    text = f"PathError: {info.value}"
+    assert confirm_off_curve(Outcome(scen, "divergent", "refused", text))
+    # a convergent refusal there is not confirmed: that curve reaches s = 1
+    conv = "PathError: convergent branch: the solution curve from the start did not reach s = 1"
+    assert not confirm_off_curve(Outcome(scen, "convergent", "refused", conv))
 
 
 def test_convergent_next_to_a_fold_at_s_1_keeps_the_incoming_sheet() -> None:
