@@ -48,7 +48,7 @@ def test_divergent_answer_names_its_strategy_and_every_strategy_is_a_way(seed):
     assert res.to_dict()["strategy"] == "paper" and "strategy" not in conv.to_dict()
     names = [s.name for s in DIVERGENT_STRATEGIES]
     ways = sorted(n[4:] for n in vars(_DivergentSearch) if n.startswith("way_"))
-    assert len(set(names)) == len(names) == 8
+    assert len(set(names)) == len(names) == 6
     assert sorted(n.replace("-", "_") for n in names) == ways
 
 
@@ -321,17 +321,3 @@ def test_warm_fast_path_reports_the_branch_sign_of_the_full_path(name, monkeypat
     assert fast.path is None and fast.branch == "convergent"
     assert fast.b == full.b
     np.testing.assert_allclose(fast.x, full.x, atol=1e-9)
-
-
-def test_targets_the_other_way_round_are_theta0_shifted_by_whole_turns():
-    from scdk_sym.solvers.sc import other_way_round
-
-    # five_bar: both actuators revolute; d = theta0 - anchor = (-2, -1), so going round the
-    # other way adds +2 pi; lines of length |(2 pi - 2, -1)| < |(-2, 2 pi - 1)| < both
-    ends = other_way_round(shipped("five_bar"), np.array([-2.0, -2.0]), np.array([0.0, -1.0]))
-    tau = 2.0 * np.pi
-    expected = [[tau - 2.0, -2.0], [-2.0, tau - 2.0], [tau - 2.0, tau - 2.0]]
-    np.testing.assert_allclose(np.array(ends), expected, rtol=0, atol=1e-15)
-    # prismatic legs: no other way round
-    gough = shipped("stewart_gough")
-    assert other_way_round(gough, gough.home.theta + 0.01, gough.home.theta) == []

@@ -486,7 +486,6 @@ def across_fold(
     exclude: Configuration | None = None,
     backend: str = "cvodes",
     predictor: str = "rk4",
-    leg_to: np.ndarray | None = None,
 ) -> tuple[Configuration, list[Crossing]] | None:
     """The solution at ``theta0`` on the other side of ``fold``, nearest to it.
 
@@ -510,10 +509,6 @@ def across_fold(
         theta0: (k,) target.
         backend: kernel backend.
         predictor: predictor of the curve follower.
-        leg_to: (k,) end of the curve's line from the fold, when not ``theta0``: an
-            equivalent of it (``theta0 + 2 pi n`` on revolute actuators, the other way round).
-            Then the end of that curve is the only candidate (no Newton guesses: the solution
-            is the one the path reaches).
 
     Returns:
         (configuration at ``theta0``, singular points met after the fold) or None.
@@ -523,17 +518,13 @@ def across_fold(
     kern = follower_calls(model, backend)
     sign0 = det_sign(model, start)
     candidates: list[tuple[np.ndarray, list[Crossing]]] = []
-    end = theta0 if leg_to is None else leg_to
-    leg = from_fold(model, fold, end, sign0, backend=backend, predictor=predictor)
+    leg = from_fold(model, fold, theta0, sign0, backend=backend, predictor=predictor)
     if isinstance(leg, list):
         candidates.extend(leg)
     elif leg is not None:
         candidates.append(leg)
     y_f, c = model.chart.to_local(fold.y)
     Jp, Js = (np.array(a) for a in model_calls(model).jac(y_f, fold.theta, c))
-    if leg_to is not None:
-        return nearest_across(model, fold.y, theta0, candidates, sign0,
-                              any_sign=_branches_cross(Jp, Js), exclude=exclude)  # fmt: skip
     # to first order about the fold the configurations over theta are
     # y_f + J_p^+ J_s (theta - theta_f) + t u (u: null vector of J_p), the two sheets having
     # opposite signs of t: Newton at theta0 from points on the other sheet's side, at multiples

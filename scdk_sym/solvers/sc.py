@@ -430,20 +430,6 @@ DIVERGENT_STRATEGIES: tuple[Strategy, ...] = (
         "the Delta's mirror assembly above its base",
     ),
     Strategy(
-        "near-convergent",
-        "the convergent answer exists and has a singular configuration near it",
-        "the solution on the other side of the singular configuration nearest to the "
-        "convergent answer",
-        "a target just before a singular surface far from the start's",
-    ),
-    Strategy(
-        "other-way-round",
-        "revolute actuators and a singular configuration near the start",
-        "the end of the curve from across the nearest singular configuration to theta0 "
-        "the other way round (theta0 + 2 pi n)",
-        "Gepetto's 5bar_linkage_iso6d",
-    ),
-    Strategy(
         "along-axes",
         "a singular surface is met along an actuator's own axis",
         "the convergent path from the mirror point across that surface",
@@ -558,23 +544,19 @@ class _DivergentSearch:
         )  # fmt: skip
         return self.other_than_convergent(out, how)
 
-    def across_from(self, anchor, near, exclude, how: str, leg_to=None) -> SolveResult | None:
+    def across_from(self, anchor, near, exclude, how: str) -> SolveResult | None:
         """The solution at ``theta0`` on the other side of the singular configuration
-        ``near`` (found from ``anchor``), crossed on the way from the start; with
-        ``leg_to``, reached by the line from ``near`` to that equivalent of ``theta0``."""
+        ``near`` (found from ``anchor``), crossed on the way from the start."""
         from ..follower.singular import across_fold
 
         model, theta0, start = self.model, self.theta0, self.start
-        leg = across_fold(model, anchor, near, theta0, backend=self.backend, exclude=exclude,
-                          leg_to=leg_to)  # fmt: skip
+        leg = across_fold(model, anchor, near, theta0, backend=self.backend, exclude=exclude)
         if leg is None:
-            if leg_to is None:
-                self.tried.append(f"{how}: no solution")
+            self.tried.append(f"{how}: no solution")
             return None
         cfg, met = leg
         crossings = (_on_path(near, start, theta0), *met)
-        y = cfg.y if leg_to is None else _near_start(model, cfg.y, start)  # angles went round
-        res = solve_result(model, y, theta0, crossings, "divergent", -self.sign, start, None)
+        res = solve_result(model, cfg.y, theta0, crossings, "divergent", -self.sign, start, None)
         return self.other_than_convergent(res, how)
 
     # ------------------------------------------------------------------ the ways
@@ -621,34 +603,6 @@ class _DivergentSearch:
         return _across_by_modes(self.model, self.theta0, self.start, self.sign, fold,
                                 self.convergent, self.backend, self.tried)  # fmt: skip
 
-    def way_near_convergent(self) -> SolveResult | None:
-        from ..follower.singular import nearest_singular
-
-        conv = self.convergent()
-        if conv is None:
-            return None
-        near = nearest_singular(self.model, conv.configuration, self.backend)
-        if near is None:
-            return None
-        how = "across the singular configuration nearest to the convergent answer"
-        return self.across_from(conv.configuration, near, conv.configuration, how)
-
-    def way_other_way_round(self) -> SolveResult | None:
-        fold, beside = self.nearest()
-        if fold is None:
-            return None
-        ends = other_way_round(self.model, self.theta0, fold.theta)
-        how = "across the nearest singular configuration, to theta0 the other way round"
-        for end in ends:
-            turns = np.round((end - self.theta0) / (2.0 * math.pi)).astype(int).tolist()
-            res = self.across_from(self.start, fold, beside, f"{how} (+ 2 pi {turns})",
-                                   leg_to=end)  # fmt: skip
-            if res is not None:
-                return res
-        if ends:
-            self.tried.append(f"{how} on revolute actuators ({len(ends)} lines): no solution")
-        return None
-
     def way_along_axes(self) -> SolveResult | None:
         from ..follower.singular import across_axes
 
@@ -657,53 +611,6 @@ class _DivergentSearch:
             self.tried.append("no singular surface met along any actuator's axis")
             return None
         return self.from_mirror(other, "from across the surface met along an actuator's axis")
-
-
-#: Lines to equivalents of theta0 (revolute actuators the other way round) tried at most.
-WRAPS = 8
-
-
-def other_way_round(model: Model, theta0: np.ndarray, anchor: np.ndarray) -> list[np.ndarray]:
-    """Equivalents ``theta0 + 2 pi n`` of ``theta0`` reached from ``anchor`` by going the other
-    way round on some revolute actuators, the shortest lines first (at most ``WRAPS``).
-
-    A revolute actuator's ``theta`` is an angle: the straight line from ``anchor`` to
-    ``theta0`` is one of the lines to the same target, and where it leaves the manifold's
-    sheet the line going round the other way may stay on it (e.g. on Gepetto's
-    5bar_linkage_iso6d from a start of ``tests/test_fuzz.py``).
-
-    Args:
-        model: the model.
-        theta0: (k,) target [rad or model length unit].
-        anchor: (k,) where the lines start.
-
-    Returns:
-        (k,) targets, ``theta0`` shifted by ``-2 pi sign(theta0 - anchor)`` on each revolute
-        actuator of a non-empty subset; none for a model without revolute actuators.
-    """
-    units = model.units
-    d = np.asarray(theta0, float) - np.asarray(anchor, float)
-    rev = [i for i, a in enumerate(model.actuated) if units[a] == "rad"]
-    ends = []
-    for mask in range(1, 2 ** len(rev)):
-        end = np.array(theta0, dtype=float)
-        for bit, i in enumerate(rev):
-            if mask >> bit & 1:
-                end[i] -= math.copysign(2.0 * math.pi, d[i])
-        ends.append(end)
-    ends.sort(key=lambda e: float(np.linalg.norm(e - anchor)))
-    return ends[:WRAPS]
-
-
-def _near_start(model: Model, y: np.ndarray, start: Configuration) -> np.ndarray:
-    """Canonical unknowns with each revolute angle the one of its values (modulo ``2 pi``)
-    nearest to the start's."""
-    from ..follower.geometry import difference, periodic
-
-    out = np.array(y, dtype=float)
-    per = periodic(model)
-    out[per] = start.y[per] + difference(model, out, start.y)[per]
-    return out
 
 
 def _across_by_modes(
