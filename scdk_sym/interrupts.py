@@ -20,7 +20,7 @@ import re
 import signal
 import sys
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from types import FrameType
 
 from .errors import Interrupted
@@ -29,6 +29,9 @@ from .errors import Interrupted
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 _state: dict[str, object] = {"signal": None, "depth": 0}
+
+#: What runs in the signal handler, before the raise (see :func:`on_stop`).
+_hooks: list[Callable[[], None]] = []
 
 
 def requested() -> str | None:
@@ -92,7 +95,23 @@ class _QuietStop:
 def _handler(signum: int, frame: FrameType | None) -> None:
     name = signal.Signals(signum).name
     _state["signal"] = name
+    for hook in list(_hooks):
+        with contextlib.suppress(Exception):
+            hook()
     raise Interrupted(f"stopped by {name}", name)
+
+
+@contextlib.contextmanager
+def on_stop(hook: Callable[[], None]) -> Iterator[None]:
+    """Within the block, ``hook()`` runs in the signal handler when SIGINT or SIGTERM
+    arrives, before :class:`~scdk_sym.errors.Interrupted` is raised: before any other thread
+    can react to the raise (Dask's event loop logs the futures it cancels). Its errors are
+    ignored."""
+    _hooks.append(hook)
+    try:
+        yield
+    finally:
+        _hooks.remove(hook)
 
 
 @contextlib.contextmanager

@@ -11,7 +11,7 @@ import sys
 import pytest
 
 from scdk_sym.errors import Interrupted
-from scdk_sym.interrupts import check, requested, stop_for, stop_on_signals
+from scdk_sym.interrupts import check, on_stop, requested, stop_for, stop_on_signals
 
 
 def _library_call_interrupted_by(sig: signal.Signals) -> None:
@@ -73,3 +73,16 @@ def test_casadi_s_report_of_the_interrupt_is_not_printed_but_other_lines_are(cap
     err = capsys.readouterr().err
     assert "failed:" not in err and "KeyboardInterrupt" not in err, err
     assert "before the signal\n" in err and "after it\n" in err, err
+
+
+def test_a_stop_hook_runs_in_the_handler_before_the_raise_and_only_within_its_block():
+    seen: list[str | None] = []
+    with pytest.raises(Interrupted), stop_on_signals(), on_stop(lambda: seen.append(requested())):
+        os.kill(os.getpid(), signal.SIGTERM)
+        seen.append("after the raise")  # never reached
+    assert seen == ["SIGTERM"]
+    with pytest.raises(Interrupted), stop_on_signals():
+        with on_stop(lambda: seen.append("inner")):
+            pass
+        os.kill(os.getpid(), signal.SIGINT)
+    assert seen == ["SIGTERM"]

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import AtlasError, InputError, Interrupted
-from ..interrupts import check, stop_for, stop_on_signals
+from ..interrupts import check, on_stop, stop_for, stop_on_signals
 from ..optional import require
 from .chunk import STATUS, ModelSource, keep_model, model_source, solve_chunk, worker_model
 from .grid import Grid, make_grid
@@ -365,6 +365,7 @@ def _distributed(todo, args, finished, workers, scheduler) -> None:
     try:
         if scheduler is None:
             hidden.enter_context(_main_not_reimported())
+            hidden.enter_context(on_stop(_silence_distributed))
             cluster = LocalCluster(
                 n_workers=int(workers), threads_per_worker=1, processes=True, dashboard_address=":0"
             )
@@ -399,9 +400,12 @@ def _distributed(todo, args, finished, workers, scheduler) -> None:
                 pending.add(
                     client.submit(_task, *args(nxt), key=f"scdk-atlas-{run}-{nxt}", pure=False)
                 )
-    except BaseException:
+    except BaseException as exc:
         if cluster is not None:  # an interrupt or a failure: end the chunks in flight now
-            hidden.enter_context(_quiet_distributed())
+            if isinstance(exc, KeyboardInterrupt) or stop_for(exc) is not None:
+                _silence_distributed()  # the closing loop's callbacks outlive this call
+            else:
+                hidden.enter_context(_quiet_distributed())
             _kill_workers(cluster)
         raise
     finally:
@@ -413,17 +417,35 @@ def _distributed(todo, args, finished, workers, scheduler) -> None:
         hidden.close()
 
 
+#: The loggers of Dask and of the event loop under it.
+_DASK_LOGGERS = ("distributed", "tornado", "asyncio")
+
+
+def _silence_distributed() -> None:
+    """After a stop: Dask's loggers say nothing below CRITICAL for the rest of the process.
+
+    Run in the signal handler (before the main thread's raise lets Dask cancel its futures
+    on the event loop, which logs a traceback), and again on the way out of an interrupt. The
+    levels are not restored: the closing cluster's callbacks run after the call has returned,
+    and the process is stopping.
+    """
+    import logging
+
+    for name in _DASK_LOGGERS:
+        logging.getLogger(name).setLevel(logging.CRITICAL)
+
+
 @contextlib.contextmanager
 def _quiet_distributed():
     """While a killed cluster closes, Dask's loggers (and those of the event loop under it)
     say nothing below CRITICAL.
 
     Closing the connections of killed workers makes ``distributed`` log the closed comms
-    with their tracebacks (at INFO); the interrupt is already reported in one line.
+    with their tracebacks (at INFO); the failure is reported on its own.
     """
     import logging
 
-    loggers = [logging.getLogger(name) for name in ("distributed", "tornado", "asyncio")]
+    loggers = [logging.getLogger(name) for name in _DASK_LOGGERS]
     levels = [logger.level for logger in loggers]
     for logger in loggers:
         logger.setLevel(logging.CRITICAL)
