@@ -10,10 +10,13 @@ table of the user guide, docs/guide/c.md, is the same list):
 - ``compiled``: the same kernels generated as C, compiled once and cached on disk;
 - ``c``: the whole path in the generated C follower, compiled once and cached.
 
-A function validates its ``backend`` with :func:`resolve`, which returns the concrete name it
-runs (``auto`` resolved) and raises :class:`~scdk_sym.errors.InputError` listing the names the
-function offers. Deprecated aliases (:data:`ALIASES`, e.g. ``casadi`` for ``cvodes``) keep
-working and warn once per process with a :class:`DeprecationWarning`.
+A public function validates its ``backend`` once with :func:`resolve`, which returns the
+concrete name it runs as a :class:`Resolved` (``auto`` resolved) and raises
+:class:`~scdk_sym.errors.InputError` listing the names the function offers. The
+:class:`Resolved` is passed down: the layers below take it as it is (a ``str``, compared with
+the names), without a second validation or a second choice for ``auto``. Deprecated aliases
+(:data:`ALIASES`, e.g. ``casadi`` for ``cvodes``) keep working and warn once per process
+with a :class:`DeprecationWarning`.
 """
 
 from __future__ import annotations
@@ -41,6 +44,25 @@ class Backend:
     name: str
     help: str
     needs_compiler: bool = False
+
+
+class Resolved(str):
+    """A backend name resolved once, at a public boundary, and passed down as it is.
+
+    A ``str`` (the concrete name: compare it with ``"c"``, ``"compiled"``, ...), so results
+    and JSON carry the plain name.
+
+    Attributes:
+        asked: what the caller passed (``"auto"``, a deprecated alias, or the name itself);
+            ``None`` when unknown (a copy made by pickling).
+    """
+
+    asked: str | None
+
+    def __new__(cls, name: str, asked: str | None = None) -> Resolved:
+        obj = super().__new__(cls, name)
+        obj.asked = asked
+        return obj
 
 
 #: Every backend name -> its definition.
@@ -158,23 +180,28 @@ def _compiler_found(cc: str, path: str) -> bool:
     return True
 
 
-def resolve(backend: str, function: str) -> str:
+def resolve(backend: str, function: str) -> Resolved:
     """The concrete backend ``function`` runs for ``backend`` (validated, ``auto`` resolved).
 
+    A :class:`Resolved` passed down from a public function is returned as it is when
+    ``function`` offers it (no second validation, no second choice for ``auto``).
+
     Args:
-        backend: a backend name or deprecated alias.
+        backend: a backend name or deprecated alias, or a :class:`Resolved`.
         function: a key of :data:`OFFERS`.
 
     Returns:
-        One of ``OFFERS[function]``.
+        One of ``OFFERS[function]``, as a :class:`Resolved`.
 
     Raises:
         InputError: ``function`` does not offer ``backend`` (the names it offers listed).
     """
-    name = canonical(backend, function)
-    if name != "auto":
-        return name
-    return next((n for n in OFFERS[function] if available(n)), OFFERS[function][-1])
+    if isinstance(backend, Resolved) and backend in OFFERS[function]:
+        return backend
+    name = canonical(str(backend) if isinstance(backend, Resolved) else backend, function)
+    if name == "auto":
+        name = next((n for n in OFFERS[function] if available(n)), OFFERS[function][-1])
+    return Resolved(name, backend)
 
 
 def help_text(function: str, default: str | None = None) -> str:

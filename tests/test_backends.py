@@ -161,3 +161,36 @@ def test_cli_notes_the_deprecated_name(capsys, fresh_warnings):
     assert "note: --backend casadi is deprecated; use --backend cvodes" in err
     assert cli.main(argv) == 0
     assert capsys.readouterr().out == out  # the same solution as the default
+
+
+@pytest.mark.parametrize("function", ["solve", "track", "modes", "curves"])
+@pytest.mark.parametrize("name", ["auto", "cvodes"])
+def test_a_public_call_resolves_its_backend_once_and_passes_the_choice_down(
+    monkeypatch, function, name
+):
+    """The layers under a public function (the follower, its kernels, the algebraic form)
+    take the resolved choice as it is: one validation per call, and ``auto`` chosen once."""
+    ENTRY_POINTS[function]("cvodes")  # build what the call needs once, outside the count
+    calls: list[tuple[str, str]] = []
+    canonical = backends.canonical
+
+    def counted(backend, fn):
+        calls.append((backend, fn))
+        return canonical(backend, fn)
+
+    monkeypatch.setattr(backends, "canonical", counted)
+    ENTRY_POINTS[function](name)
+    assert calls == [(name, function)]
+
+
+def test_a_resolved_choice_stays_itself_below_and_is_checked_against_another_function():
+    import pickle
+
+    choice = backends.resolve("cvodes", "solve")
+    assert isinstance(choice, backends.Resolved) and choice == "cvodes"
+    assert choice.asked == "cvodes" and backends.resolve(choice, "kernels") is choice
+    copy = pickle.loads(pickle.dumps(choice))
+    assert copy == "cvodes" and isinstance(copy, backends.Resolved)
+    c = backends.Resolved("c", "auto")  # the C follower: solve's and track's, not the kernels'
+    with pytest.raises(InputError, match="backend 'c' is not offered by kernels"):
+        backends.resolve(c, "kernels")

@@ -11,7 +11,7 @@ from typing import Any
 
 from numpy.typing import ArrayLike
 
-from ..backends import DEFAULTS
+from ..backends import DEFAULTS, resolve
 from ..errors import InputError
 from ..results import AssemblyModes
 from ..robot import Model, as_vector
@@ -99,7 +99,7 @@ def assembly_modes(
             )
         from .block_modes import block_modes, split
 
-        chosen = backend or DEFAULTS["modes"]
+        chosen = resolve(backend or DEFAULTS["modes"], "modes")
         parts = split(model)
         if parts is not None:
             theta = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
@@ -121,7 +121,7 @@ def assembly_modes(
         theta0,
         seed=seed,
         progress=progress,
-        backend=backend or DEFAULTS["curves"],
+        backend=resolve(backend or DEFAULTS["curves"], "curves"),
         **{**_CURVE_DEFAULTS, **options},
     )
     return curves_result(search)

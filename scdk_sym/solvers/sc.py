@@ -195,7 +195,6 @@ def _solve(
         options = dict(branch=branch, b=b, backend=backend, max_arc=max_arc)
         options.update(record_path=False, fast=fast)
         return solve_blocks(model, subs, theta0, validate_start(model, start), solve, **options)
-    backend = resolve(backend, "solve")
     if backend == "c":  # one call of the generated C follower (scdk_sym.solvers.solve_c)
         return solve_c(model, theta0, start, branch, b, max_arc=max_arc, record_path=record_path)
     theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")

@@ -32,6 +32,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..backends import Resolved
 from ..errors import NotAssembledError, PathError, SolveError, VerificationError
 from ..results import Configuration, Crossing, SolveResult
 from ..robot import Model, as_vector
@@ -77,7 +78,7 @@ def solve_c(
     from .sc import solve, validate_start
 
     kwargs.pop("backend", None)
-    options = dict(kwargs, backend="compiled")
+    options = dict(kwargs, backend=Resolved("compiled", "c"))  # handed over, not re-chosen
 
     def fallback(theta, why: str) -> SolveResult:
         res = solve(model, theta, start, branch, b, **options)

@@ -198,6 +198,7 @@ def track(
             solution was met (``ERR_NO_SOLUTION``: the readings leave the reachable set or
             jump too far), or a sample failed its verification.
     """
+    backend = resolve(backend, "track")
     if len(model.stages) > 1:  # a leg's knee, then its ankle (each leg in turn): one each
         from .blocks import track_blocks
 
@@ -205,7 +206,7 @@ def track(
         return track_blocks(
             model, model.stages, readings, validate_start(model, start), track, backend=backend
         )
-    if resolve(backend, "track") == "c":
+    if backend == "c":
         from .track_c import track_c
 
         return track_c(model, thetas, start)
