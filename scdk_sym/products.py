@@ -68,6 +68,11 @@ ATLAS_SWEEPS = Key("atlas_sweeps", "the atlas sweeps of the model", "the model o
 PINOCCHIO_MODEL = Key(
     "pinocchio_model", "Pinocchio model of the edited joint tree", "the model only"
 )
+#: The closure rows as one square SX system, for Krawczyk
+#: (:func:`scdk_sym.algebraic.certify.closure_function`).
+CLOSURE_FUNCTION = Key(
+    "closure_function", "closure rows as an SX Function of (y, [theta; c])", "the model only"
+)
 #: The block whose joints alone place the reported frame (:mod:`scdk_sym.solvers.blocks`).
 PLACING_BLOCK = Key(
     "placing_block", "index of the block that alone places the reported frame", "the model only"
@@ -90,6 +95,7 @@ KEYS: dict[str, Key] = {
         ATLAS_SWEEPS,
         PINOCCHIO_MODEL,
         PLACING_BLOCK,
+        CLOSURE_FUNCTION,
     )
 }
 

@@ -139,6 +139,52 @@ def test_every_declared_product_key_is_used():
         assert key.holds and key.depends, key
 
 
+#: The module-level tables the package may fill (memos, a registry), none of them a product
+#: of one model (those go through ``model.products``) -> why it is kept per process.
+PROCESS_MEMOS = {
+    "kernels/curve.py:_SOLVERS": "the linear-solve Function of a sparsity pattern, any model",
+    "atlas/store.py:_OPEN": "the atlas stores this process has open",
+    "atlas/chunk.py:_MODELS": "a worker's models, rebuilt from their sources once per process",
+    "algebraic/certify.py:_SQUARES": "square systems of CasADi Functions, by Function identity",
+    "algebraic/interval.py:_CACHE": "interval translations of CasADi Functions, by identity",
+    "cli/common.py:COMMANDS": "the subcommands' registry, filled as their modules import",
+}
+
+
+def _module_memos(root: Path) -> set[str]:
+    """``file:name`` of every module-level empty dict or function cache under ``root``."""
+    import ast
+
+    found = set()
+    for f in sorted(root.rglob("*.py")):
+        for node in ast.parse(f.read_text()).body:
+            value = node.value if isinstance(node, (ast.Assign, ast.AnnAssign)) else None
+            targets = (
+                node.targets if isinstance(node, ast.Assign) else [getattr(node, "target", None)]
+            )
+            empty = isinstance(value, ast.Dict) and not value.keys
+            call = isinstance(value, ast.Call) and getattr(value.func, "id", "") in (
+                "dict", "OrderedDict", "FunctionCache", "WeakKeyDictionary", "WeakValueDictionary"
+            )  # fmt: skip
+            if empty or call:
+                found.update(
+                    f"{f.relative_to(root).as_posix()}:{t.id}"
+                    for t in targets
+                    if isinstance(t, ast.Name)
+                )
+    return found
+
+
+def test_no_module_level_cache_holds_a_model_s_product(tmp_path):
+    """One cache of model products (``model.products``); the only other memos are listed, each
+    with the reason it is per process."""
+    probe = tmp_path / "pkg" / "probe.py"
+    probe.parent.mkdir()
+    probe.write_text("_BY_MODEL: dict[str, object] = {}\nTABLE = {'a': 1}\n")
+    assert _module_memos(tmp_path) == {"pkg/probe.py:_BY_MODEL"}
+    assert _module_memos(PACKAGE) == set(PROCESS_MEMOS), "use model.products.get(KEY, build)"
+
+
 #: The longest function the package may hold [lines, docstring included].
 MAX_FUNCTION_LINES = 100
 

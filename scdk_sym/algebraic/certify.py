@@ -47,6 +47,7 @@ from numpy.typing import ArrayLike
 from ..errors import InputError
 from ..kernels.fastcall import Buffered
 from ..model.rotations import gibbs, rot_exp
+from ..products import CLOSURE_FUNCTION
 from ..results import frozen_array
 from .ckrawczyk import IntervalKrawczyk, interval_krawczyk
 from .interval import FunctionCache, IntervalFunction, as_sx_function, interval_function
@@ -566,9 +567,6 @@ def certify_all(
     )
 
 
-_CLOSURES: dict[str, ca.Function] = {}
-
-
 def closure_function(model: Model) -> ca.Function:
     """The closure rows of ``model`` as a square system for :func:`krawczyk`.
 
@@ -578,14 +576,15 @@ def closure_function(model: Model) -> ca.Function:
     Returns:
         The SX Function ``(y[m], q[k + 9 f]) -> g[m]`` of ``model.symbolic``, with the
         parameters ``q = [theta; c]`` (actuated values, then the chart: the reference rotations
-        of the floating joints, column-major). Built once per model content.
+        of the floating joints, column-major). Built once per model (``model.products``).
     """
-    key = model.content_hash
-    if key not in _CLOSURES:
+
+    def build() -> ca.Function:
         s = model.symbolic
         q = ca.vertcat(s.theta, s.c)
-        _CLOSURES[key] = ca.Function("closure", [s.y, q], [s.g], ["y", "q"], ["g"])
-    return _CLOSURES[key]
+        return ca.Function("closure", [s.y, q], [s.g], ["y", "q"], ["g"])
+
+    return model.products.get(CLOSURE_FUNCTION, build)
 
 
 def certify_solution(
