@@ -34,7 +34,7 @@ import numpy as np
 from ..errors import AlgebraicFormError
 from ..model.rotations import axis_rotation, quaternion_numerator
 from ..model.spec import Closure
-from ..symbolic.kinematics import rotation_error
+from ..symbolic.kinematics import closure_residual
 
 if TYPE_CHECKING:
     from ..robot import Model
@@ -189,23 +189,13 @@ def polynomial_joint_values(
 
 
 def _closure_rows(closure: Closure, T_a: ca.SX, T_b: ca.SX, values: dict) -> ca.SX:
-    d = T_a[:3, 3] - T_b[:3, 3]
-    if closure.type == "3d":
-        return d
-    if closure.type == "2d":
-        return d[:2]
-    if closure.type == "distance":
-        if closure.length_joint is None:
-            L = closure.length
-        else:
-            L = values[closure.length_joint]
-            if isinstance(L, tuple):
-                raise AlgebraicFormError(
-                    f"distance closure {closure.label}: length joint {closure.length_joint!r} "
-                    "is revolute; give a prismatic joint or a number as its length"
-                )
-        return ca.dot(d, d) - L * L
-    return ca.vertcat(d, rotation_error(T_a[:3, :3], T_b[:3, :3]))
+    length = values.get(closure.length_joint) if closure.type == "distance" else None
+    if isinstance(length, tuple):
+        raise AlgebraicFormError(
+            f"distance closure {closure.label}: length joint {closure.length_joint!r} "
+            "is revolute; give a prismatic joint or a number as its length"
+        )
+    return closure_residual(closure, T_a, T_b, values, polynomial=True)
 
 
 def polynomial_rows(model: Model) -> PolynomialRows:

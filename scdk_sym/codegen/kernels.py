@@ -28,13 +28,13 @@ tracker's Newton iterations and determinants call.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import casadi as ca
 
 from ..follower.kernels import build_follower_kernels
 from ..kernels.curve import closure_function
-from ..kernels.functions import build_kernels
+from ..kernels.functions import FunctionSet, build_kernels
 from ..model.rotations import cayley
 from ..symbolic.system import Symbolic
 
@@ -53,7 +53,7 @@ UNOPTIMISED = ("ik_step",)
 
 
 @dataclass(frozen=True)
-class TrackerKernels:
+class TrackerKernels(FunctionSet):
     """CasADi Functions code-generated for the C tracker (names carry the C prefix).
 
     Attributes:
@@ -98,10 +98,6 @@ class TrackerKernels:
     check: ca.Function
     gjp: ca.Function
     jsdir: ca.Function
-
-    def all(self) -> list[ca.Function]:
-        """Every kernel, in declaration order."""
-        return [getattr(self, f.name) for f in fields(self)]
 
     def groups(self) -> list[list[ca.Function]]:
         """The kernels by source file (:data:`GROUPS`)."""

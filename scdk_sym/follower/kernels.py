@@ -21,7 +21,7 @@ built from; the generated C tracker's curve kernels are this module's Functions
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import casadi as ca
 
@@ -35,6 +35,7 @@ from ..kernels.curve import (
     solve_by_columns,
 )
 from ..kernels.fastcall import Dense
+from ..kernels.functions import FunctionSet
 from ..products import FOLLOWER_CALLS, FOLLOWER_KERNELS
 from ..symbolic.system import Symbolic
 
@@ -64,7 +65,7 @@ UNOPTIMISED = ("plane", "fold")
 
 
 @dataclass(frozen=True)
-class FollowerKernels:
+class FollowerKernels(FunctionSet):
     """CasADi Functions of the follower of one model (``c``: chart of the floating joints).
 
     Attributes:
@@ -99,10 +100,6 @@ class FollowerKernels:
     newton: ca.Function
     predict: ca.Function
     singular: ca.Function
-
-    def all(self) -> list[ca.Function]:
-        """Every Function, in declaration order."""
-        return [getattr(self, f.name) for f in fields(self)]
 
 
 @dataclass(frozen=True)

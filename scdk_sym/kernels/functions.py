@@ -33,8 +33,16 @@ WARM_RK_STEPS = 1
 NEWTON_STEPS = 4
 
 
+class FunctionSet:
+    """A frozen dataclass whose fields are CasADi Functions (a model's kernels)."""
+
+    def all(self) -> list[ca.Function]:
+        """Every Function, in declaration order."""
+        return [getattr(self, f.name) for f in fields(self)]  # type: ignore[arg-type]
+
+
 @dataclass(frozen=True)
-class Kernels:
+class Kernels(FunctionSet):
     """CasADi Functions of one model.
 
     Attributes:
@@ -62,9 +70,6 @@ class Kernels:
     probe: ca.Function
     ik_step: ca.Function
     warm: ca.Function
-
-    def all(self) -> list[ca.Function]:
-        return [getattr(self, f.name) for f in fields(self)]
 
 
 def _sc_parts(sym: Symbolic, closure: ca.Function | None = None):

@@ -85,12 +85,24 @@ def rotation_error(R_a: ca.SX, R_b: ca.SX) -> ca.SX:
 
 
 def closure_residual(
-    closure: Closure, T_a: ca.SX, T_b: ca.SX, values: Mapping[str, ca.SX | float] | None = None
+    closure: Closure,
+    T_a: ca.SX,
+    T_b: ca.SX,
+    values: Mapping[str, ca.SX | float] | None = None,
+    *,
+    polynomial: bool = False,
 ) -> ca.SX:
     """Residual rows of one closure (length unit of the model; radians for 6d rotations).
 
-    ``values`` (joint coordinate -> value) supplies the length of a distance closure whose
-    length is a joint.
+    Args:
+        closure: the closure.
+        T_a: (4, 4) placement of its frame ``a``.
+        T_b: (4, 4) placement of its frame ``b``.
+        values: joint coordinate -> value: the length of a distance closure whose length is
+            a joint.
+        polynomial: the distance row as ``|d|^2 - L^2`` [length^2] (a polynomial when the
+            placements are) instead of ``(|d|^2 - L^2) / (2 L)`` [length] (the distance
+            error to first order).
     """
     d = T_a[:3, 3] - T_b[:3, 3]
     if closure.type == "3d":
@@ -99,7 +111,7 @@ def closure_residual(
         return d[:2]
     if closure.type == "distance":
         L = values[closure.length_joint] if closure.length_joint and values else closure.length
-        return (ca.dot(d, d) - L * L) / (2 * L)
+        return ca.dot(d, d) - L * L if polynomial else (ca.dot(d, d) - L * L) / (2 * L)
     return ca.vertcat(d, rotation_error(T_a[:3, :3], T_b[:3, :3]))
 
 
