@@ -86,3 +86,33 @@ def test_write_then_parse_is_identical():
 def test_malformed_urdf_is_refused(text, message):
     with pytest.raises(ModelError, match=message):
         parse_urdf(text, "robot.urdf")
+
+
+def test_a_urdf_is_read_without_trimesh_which_still_loads_when_a_scene_is_built():
+    """yourdfpy reads the URDF while ``trimesh`` is a stand-in (no mesh machinery imported);
+    a scene built afterwards gets the real trimesh: the box's extents, the same numbers."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = """
+import io, sys
+import scdk_sym as sc
+m = sc.load_model("models/planar_hexa")
+print(sorted(n for n in sys.modules if n.split(".")[0] == "trimesh"))
+import yourdfpy
+box = '''<robot name="r"><link name="a"><visual><geometry><box size="0.1 0.2 0.3"/></geometry>
+</visual></link></robot>'''
+u = yourdfpy.URDF.load(io.StringIO(box), build_scene_graph=True, load_meshes=True)
+print(type(u.scene).__module__, sorted(float(e) for e in u.scene.extents))
+"""
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run(
+        [sys.executable, "-c", script], cwd=root, capture_output=True, text=True, timeout=120
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    loaded, scene = out.stdout.splitlines()
+    assert "'trimesh'" not in loaded and "trimesh.scene" not in loaded, loaded
+    module, extents = scene.split(" ", 1)
+    assert module == "trimesh.scene.scene"
+    np.testing.assert_allclose(eval(extents), [0.1, 0.2, 0.3], atol=1e-12)

@@ -10,6 +10,8 @@ import io
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from types import ModuleType
+from typing import Any
 
 import numpy as np
 
@@ -182,13 +184,54 @@ def parse_urdf(text: str, path: str | None = None) -> Tree:
     return Tree(robot.name, root, order_links, order_joints)
 
 
+def import_yourdfpy() -> ModuleType:
+    """``yourdfpy``, imported without loading trimesh's mesh machinery until it is used.
+
+    yourdfpy imports trimesh at its own import (about 1 s, most of a cold model load) for
+    meshes and scenes that parsing a URDF never builds. While yourdfpy is imported for the
+    first time, ``trimesh`` is a stand-in package: its submodules load from the real one
+    (yourdfpy's ``trimesh.transformations``), the names yourdfpy's annotations read are
+    placeholders, and any later use (a mesh, a scene) imports the real trimesh and reads
+    from it. Where trimesh or yourdfpy is already imported, this is a plain import.
+    """
+    import importlib
+    import importlib.util
+    import logging
+    import sys
+
+    if "yourdfpy" in sys.modules or "trimesh" in sys.modules:
+        import yourdfpy
+    else:
+        spec = importlib.util.find_spec("trimesh")
+        stand_in = _TrimeshStandIn("trimesh")
+        stand_in.__path__ = list(spec.submodule_search_locations or ()) if spec else []
+        sys.modules["trimesh"] = stand_in
+        try:
+            import yourdfpy
+        finally:
+            if sys.modules.get("trimesh") is stand_in:
+                del sys.modules["trimesh"]
+    logging.getLogger("yourdfpy").setLevel(logging.ERROR)
+    return yourdfpy
+
+
+class _TrimeshStandIn(ModuleType):
+    """``trimesh`` while yourdfpy imports (see :func:`import_yourdfpy`)."""
+
+    def __getattr__(self, name: str) -> Any:
+        import importlib
+        import sys
+
+        if name.startswith("__"):
+            raise AttributeError(name)
+        if sys.modules.get("trimesh") is self:  # yourdfpy's annotations, at its import
+            return type(name, (), {"__module__": "trimesh"})
+        return getattr(importlib.import_module("trimesh"), name)
+
+
 def _load(text: str, path: str | None):
     """The URDF's robot as yourdfpy reads it (no meshes, no scene graph)."""
-    import logging
-
-    import yourdfpy
-
-    logging.getLogger("yourdfpy").setLevel(logging.ERROR)
+    yourdfpy = import_yourdfpy()
     try:
         urdf = yourdfpy.URDF.load(
             io.StringIO(text),

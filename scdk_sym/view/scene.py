@@ -20,6 +20,7 @@ from types import MappingProxyType
 import numpy as np
 
 from ..errors import ViewError
+from ..model.urdf import import_yourdfpy
 from ..plot import first_hit, format_vector, placements, rigid_groups, robot_drawing_3d
 from ..results import Configuration, SolveResult, TrackResult
 from ..robot import Model
@@ -288,11 +289,7 @@ def _solve_frames(model: Model, res: SolveResult) -> tuple[list, list]:
 
 def _urdf_shapes(model: Model) -> tuple[list[Shape], list[str]]:
     """Visual (else collision) geometry of every link, and notes on what was not found."""
-    import logging
-
-    import yourdfpy
-
-    logging.getLogger("yourdfpy").setLevel(logging.ERROR)
+    yourdfpy = import_yourdfpy()
     robot = yourdfpy.URDF.load(
         io.StringIO(model.urdf_text),
         build_scene_graph=False,
