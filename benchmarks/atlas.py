@@ -26,8 +26,8 @@ import numpy as np
 from distributed import Client, LocalCluster
 
 import scdk_sym as sc
-from scdk_sym.atlas import make_grid, open_atlas
-from scdk_sym.atlas.chunk import model_source
+from scdk_sym.atlases import make_grid, open_atlas
+from scdk_sym.atlases.chunk import model_source
 
 ROOT = Path(__file__).resolve().parents[1]
 THETA0 = np.array([1.292, -0.802, -2.896])
@@ -98,7 +98,7 @@ def main() -> None:
 
 def warm_worker(source) -> None:
     """Build the model and load its compiled kernels on a worker (before timing)."""
-    from scdk_sym.atlas.chunk import _sweeps, worker_model
+    from scdk_sym.atlases.chunk import _sweeps, worker_model
     from scdk_sym.follower.cvodes import engine
 
     model = worker_model(source)

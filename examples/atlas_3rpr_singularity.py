@@ -34,8 +34,8 @@ from pathlib import Path
 import numpy as np
 
 import scdk_sym as sc
-from scdk_sym.atlas import open_atlas
-from scdk_sym.atlas.plot import plot_atlas
+from scdk_sym.atlases import open_atlas
+from scdk_sym.atlases.plot import plot_atlas
 
 #: Base pivots [m] (the paper's cm / 100).
 BASE = np.array([[0.0, 0.0], [15.91, 0.0], [0.0, 10.0]]) / 100

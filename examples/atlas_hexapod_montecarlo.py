@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 import scdk_sym as sc
-from scdk_sym.atlas import open_atlas
+from scdk_sym.atlases import open_atlas
 
 
 def main() -> None:

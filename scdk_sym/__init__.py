@@ -7,13 +7,11 @@ The public names are imported on first use, so that importing a lower layer (for
 from __future__ import annotations
 
 import importlib
-import sys
-import types
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from . import builders
-    from .atlas import atlas
+    from .atlases import atlas, open_atlas
     from .errors import ScdkError
     from .results import Configuration, Crossing, SolveResult, TrackResult
     from .robot import Model, load_model
@@ -31,9 +29,10 @@ _PUBLIC: dict[str, tuple[str, str | None]] = {
     "SolveResult": (".results", "SolveResult"),
     "TrackResult": (".results", "TrackResult"),
     "assembly_modes": (".solvers.modes", "assembly_modes"),
-    "atlas": (".atlas", "atlas"),
+    "atlas": (".atlases", "atlas"),
     "builders": (".builders", None),
     "load_model": (".robot", "load_model"),
+    "open_atlas": (".atlases", "open_atlas"),
     "solve": (".solvers.sc", "solve"),
     "track": (".solvers.track", "track"),
     "VerifyReport": (".verify.report", "VerifyReport"),
@@ -52,24 +51,11 @@ __all__ = [
     "atlas",
     "builders",
     "load_model",
+    "open_atlas",
     "solve",
     "track",
     "verify_model",
 ]
-
-
-class _Package(types.ModuleType):
-    """The package module: a subpackage named like a public function (``atlas``) stays the
-    function when the import system binds the subpackage on its first import."""
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        module, attr = _PUBLIC.get(name, ("", None))
-        if attr is not None and getattr(value, "__name__", "") == f"{__name__}{module}":
-            value = getattr(value, attr)
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package
 
 
 def __getattr__(name: str) -> Any:

@@ -20,7 +20,7 @@ import pytest
 from factories import MODELS, SEED_X1, shipped
 
 import scdk_sym as sc
-from scdk_sym.atlas import STATUS, make_grid, open_atlas
+from scdk_sym.atlases import STATUS, make_grid, open_atlas
 from scdk_sym.cli import main as cli_main
 from scdk_sym.errors import AtlasError, PathError, StoreMismatchError, UnknownNameError
 
@@ -128,7 +128,7 @@ def test_workers_equal_direct_solves(seed, reference, serial_store, client, tmp_
 def test_sweep_equals_solve_fallback(seed, reference, monkeypatch):
     """The compiled sweep settles most points; with it disabled every point goes through
     sc.solve: both agree to 1e-12 and fail on the same points."""
-    from scdk_sym.atlas import chunk
+    from scdk_sym.atlases import chunk
 
     model, start = seed
     thetas = reference[0]
@@ -148,7 +148,7 @@ def test_sweep_on_a_turning_platform_equals_solve(monkeypatch):
     chart centred on the answer to 1e-10. Alone in a fresh cache it compiles the 6-6's
     kernels (13 min wall at load average 10-15, 2 min CPU); in a full test run they are compiled
     once for every 6-6 test."""
-    from scdk_sym.atlas import chunk
+    from scdk_sym.atlases import chunk
 
     model = shipped("stewart_gough")
     start = model.inverse_kinematics([0.02, -0.01, 0.56, 0.1, -0.05, 0.3])

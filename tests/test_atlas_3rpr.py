@@ -31,7 +31,7 @@ import pytest
 from factories import ROOT
 from test_modes import pose_distance, rpr_reference
 
-from scdk_sym.atlas import open_atlas
+from scdk_sym.atlases import open_atlas
 
 pytest.importorskip("zarr")
 

@@ -14,8 +14,8 @@ import time
 import pytest
 from factories import MODELS
 
-from scdk_sym.atlas.lock import lock_path, store_lock
-from scdk_sym.atlas.store import done_mask
+from scdk_sym.atlases.lock import lock_path, store_lock
+from scdk_sym.atlases.store import done_mask
 from scdk_sym.errors import StoreLockedError
 
 pytest.importorskip("zarr")
@@ -116,7 +116,7 @@ def test_a_second_writer_refuses_in_one_line_and_a_stale_lock_is_taken_over(tmp_
     out = tmp_path / "s.zarr"
     holder = subprocess.Popen(
         [sys.executable, "-c",
-         "import sys, time; from scdk_sym.atlas.lock import store_lock\n"
+         "import sys, time; from scdk_sym.atlases.lock import store_lock\n"
          f"with store_lock({str(out)!r}):\n    print('held', flush=True); time.sleep(60)"],
         stdout=subprocess.PIPE, text=True,
     )  # fmt: skip

@@ -34,7 +34,7 @@ import casadi as ca
 import numpy as np
 import scdk_sym as sc
 from scdk_sym.algebraic import krawczyk
-from scdk_sym.atlas import open_atlas
+from scdk_sym.atlases import open_atlas
 
 m = sc.load_model(sys.argv[1])
 t0 = np.asarray(m.home.theta)

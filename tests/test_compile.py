@@ -159,7 +159,7 @@ SOURCES = [
 
 @pytest.mark.parametrize("part", SOURCES)
 def test_kernel_and_sweep_keys_change_with_each_source_they_are_built_from(package_copy, part):
-    from scdk_sym.atlas.sweep import sweep_key
+    from scdk_sym.atlases.sweep import sweep_key
 
     model = shipped("planar_hexa")
     before = comp.cache_key(model), sweep_key(model)
@@ -171,17 +171,17 @@ def test_kernel_and_sweep_keys_change_with_each_source_they_are_built_from(packa
 
 
 def test_sweep_key_changes_with_its_own_module_only(package_copy):
-    from scdk_sym.atlas.sweep import sweep_key
+    from scdk_sym.atlases.sweep import sweep_key
 
     model = shipped("planar_hexa")
     key, sweep = comp.cache_key(model), sweep_key(model)
-    with open(package_copy / "atlas" / "sweep.py", "a") as f:
+    with open(package_copy / "atlases" / "sweep.py", "a") as f:
         f.write("\n# changed\n")
     assert comp.cache_key(model) == key and sweep_key(model) != sweep
 
 
 def test_kernel_key_changes_with_flags_casadi_model_and_reduction(monkeypatch):
-    from scdk_sym.atlas.sweep import sweep_key
+    from scdk_sym.atlases.sweep import sweep_key
 
     model = shipped("planar_hexa")
     key, sweep = comp.cache_key(model), sweep_key(model)

@@ -143,8 +143,8 @@ def test_every_declared_product_key_is_used():
 #: of one model (those go through ``model.products``) -> why it is kept per process.
 PROCESS_MEMOS = {
     "kernels/curve.py:_SOLVERS": "the linear-solve Function of a sparsity pattern, any model",
-    "atlas/store.py:_OPEN": "the atlas stores this process has open",
-    "atlas/chunk.py:_MODELS": "a worker's models, rebuilt from their sources once per process",
+    "atlases/store.py:_OPEN": "the atlas stores this process has open",
+    "atlases/chunk.py:_MODELS": "a worker's models, rebuilt from their sources once per process",
     "algebraic/certify.py:_SQUARES": "square systems of CasADi Functions, by Function identity",
     "algebraic/interval.py:_CACHE": "interval translations of CasADi Functions, by identity",
     "cli/common.py:COMMANDS": "the subcommands' registry, filled as their modules import",

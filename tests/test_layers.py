@@ -46,7 +46,7 @@ TIERS = (
     ("codegen",),
     ("solvers",),
     ("plot", "verify"),
-    ("atlas", "view"),
+    ("atlases", "view"),
     ("<init>",),
     ("cli",),
     ("__main__",),
@@ -178,14 +178,19 @@ def test_public_names_still_resolve():
         _ = sc.not_a_name
 
 
-def test_atlas_stays_the_function_after_its_subpackage_is_imported():
+def test_atlas_is_the_function_and_its_subpackage_has_another_name():
+    """``sc.atlas`` is the function whatever was imported before (its subpackage is
+    ``scdk_sym.atlases``: no name is both), and the package is a plain module."""
     code = (
-        "import scdk_sym as sc, scdk_sym.atlas.store\n"
-        "from scdk_sym import atlas\n"
-        "print(callable(sc.atlas), sc.atlas is atlas, sc.atlas.__module__)"
+        "import types, scdk_sym as sc, scdk_sym.atlases.store\n"
+        "from scdk_sym import atlas, open_atlas\n"
+        "print(callable(sc.atlas), sc.atlas is atlas, sc.atlas.__module__, "
+        "open_atlas.__module__, type(sc) is types.ModuleType)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.split() == ["True", "True", "scdk_sym.atlas.run"]
+    assert out.stdout.split() == [
+        "True", "True", "scdk_sym.atlases.run", "scdk_sym.atlases.store", "True"
+    ]  # fmt: skip
 
 
 def test_no_private_name_is_imported_from_another_module():

@@ -80,7 +80,7 @@ def _atlas_args(p: argparse.ArgumentParser) -> None:
     "--from-x 0,0,0.4 --out seed.zarr",
 )
 def _atlas(args: argparse.Namespace) -> int:
-    from ..atlas import STATUS, atlas
+    from ..atlases import STATUS, atlas
 
     model = load(args)
     start = start_configuration(model, args)
@@ -149,7 +149,7 @@ def _plot_atlas_args(p: argparse.ArgumentParser) -> None:
     "scdk plot-atlas seed.zarr --out seed.png --axes theta_1,theta_2 --at theta_3=-2.9",
 )
 def _plot_atlas(args: argparse.Namespace) -> int:
-    from ..atlas.plot import plot_atlas
+    from ..atlases.plot import plot_atlas
 
     axes = tuple(a.strip() for a in args.axes.split(",")) if args.axes else None
     at = None

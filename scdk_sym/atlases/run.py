@@ -1,9 +1,9 @@
 """``sc.atlas``: the convergent direct kinematics over a joint grid, chunk by chunk, on Dask.
 
 Each chunk of points is one task: a worker rebuilds the model once per process
-(:func:`~scdk_sym.atlas.chunk.worker_model`), loads its compiled kernels from the disk cache
+(:func:`~scdk_sym.atlases.chunk.worker_model`), loads its compiled kernels from the disk cache
 (built here, on the client, before any task starts), solves the chunk
-(:func:`~scdk_sym.atlas.chunk.solve_chunk`) and writes it into the Zarr store, its
+(:func:`~scdk_sym.atlases.chunk.solve_chunk`) and writes it into the Zarr store, its
 done-marker last. Re-running with the same ``out`` solves only the chunks without a marker, so
 an interrupted run (Ctrl-C, a killed worker) resumes and ends byte-identical to an
 uninterrupted one. At most a few tasks per worker are in flight, so the client's memory does
@@ -156,7 +156,7 @@ def atlas(
 
     Returns:
         The :class:`AtlasRun` summary; the data is in the store (see
-        :mod:`scdk_sym.atlas.store`).
+        :mod:`scdk_sym.atlases.store`).
 
     Raises:
         InputError: bad grid, thetas, chunk or worker count.
@@ -167,7 +167,7 @@ def atlas(
         Interrupted: SIGINT or SIGTERM (within about a second; the chunks written are kept
             and the same call resumes; a ``KeyboardInterrupt``).
 
-    A store has one writer at a time (:mod:`scdk_sym.atlas.lock`). Worker processes do not
+    A store has one writer at a time (:mod:`scdk_sym.atlases.lock`). Worker processes do not
     re-import the calling script, so a script needs no ``if __name__ == "__main__":`` guard.
     """
     t0 = time.perf_counter()

@@ -118,7 +118,7 @@ def sweep_key(model) -> str:
     from ..kernels.compile import cache_key, compiler_tag, source_digest
 
     h = hashlib.sha256(cache_key(model).encode())
-    h.update(source_digest(("atlas/sweep.py",)))
+    h.update(source_digest(("atlases/sweep.py",)))
     h.update(compiler_tag().encode())
     return h.hexdigest()[:24]
 

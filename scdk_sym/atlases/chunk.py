@@ -3,7 +3,7 @@
 The model travels to workers as its text (:class:`ModelSource`); each worker process builds
 it once (:func:`worker_model`) and loads the compiled sweep from the disk cache.
 :func:`solve_chunk` runs the sweep over the whole chunk and hands every point it cannot vouch
-for to :func:`scdk_sym.solve` itself (see :mod:`scdk_sym.atlas.sweep`).
+for to :func:`scdk_sym.solve` itself (see :mod:`scdk_sym.atlases.sweep`).
 """
 
 from __future__ import annotations
