@@ -363,6 +363,24 @@ DIVERGENT_CASES = [
         [1.024367192600534, 2.1184175270736585],
         ([0.05072366578383509, 0.3556696827550164], [0.560760281146123, 2.444686224358607]),
     ),
+    # answered along an actuator's axis (seed 5): once answered by the removed way across the
+    # singular configuration nearest to the convergent answer, the same solution
+    (
+        "5bar_linkage_iso6d",
+        "across",
+        [-3.8134104470019614, -0.716828101432123],
+        (
+            [
+                0.1944289990237489,
+                0.07008026821631497,
+                1.438242346555363e-15,
+                1.029103469675034,
+                -4.160150989224811e-16,
+                1.5707963267948948,
+            ],
+            [-0.29092315444207695, -0.0224966313804224],
+        ),
+    ),
 ]
 
 
@@ -373,7 +391,7 @@ DIVERGENT_CASES = [
 #: certified.
 DIVERGENT_WAYS = [
     "modes", "modes", "modes", "modes", "modes", "modes", "nearest", "paper", "modes",
-    "modes", "nearest", "modes", "modes", "aimed", "straight",
+    "modes", "nearest", "modes", "modes", "aimed", "straight", "along-axes",
 ]  # fmt: skip
 
 
