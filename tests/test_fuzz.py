@@ -544,8 +544,9 @@ def test_a_divergent_refusal_on_a_curve_without_a_fold_is_confirmed() -> None:
     """A Delta divergent refusal of the 10^5 fuzz (seed 3): the line's curve through the
     start reaches s = 1 (the convergent answer) and, followed the other way, runs the whole
     arc budget with s falling and never turning: the paper's divergent path meets no singular
-    point. The package refuses, and the reference confirms the refusal."""
-    from references import Outcome, confirm_off_curve, line_curve_monotone
+    point. The package refuses, and the reference confirms the refusal (it can only by
+    :func:`references.line_curve_monotone`: the curve is not closed)."""
+    from references import Outcome, confirm_off_curve
 
     import scdk_sym as sc
     from scdk_sym.errors import PathError
@@ -555,7 +556,7 @@ def test_a_divergent_refusal_on_a_curve_without_a_fold_is_confirmed() -> None:
     x0 = np.array([0.004500597966257116, 0.01761183758453398, -0.12011669822080709])
     start = model.inverse_kinematics(x0)
     u0 = ref.coords(start)
-    assert line_curve_monotone(ref, u0, start.theta, theta0)
+    assert line_curve_reaches(ref, u0, start.theta, theta0) is True  # not a closed curve
     with pytest.raises(PathError, match="no solution across a singular surface") as info:
         sc.solve(model, theta0, start=start, branch="divergent")
     scen = Scenario("delta", "small", theta0, u0, start_x=x0)
