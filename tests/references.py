@@ -535,6 +535,11 @@ def _rod_reference(name: str) -> RodReference:
 #: central differences keep the seeded scenarios of earlier runs): wl16_like's 36 columns of
 #: differences made one scenario take minutes to draw.
 ANALYTIC_JACOBIANS = frozenset({"wl16_like"})
+#: Gepetto references whose det ratio is ``sign(det) sigma_min / sigma_max`` of the row-scaled
+#: Jacobian: the product of the scaled singular values shrinks with the dimension (wl16_like's
+#: 36: below TINY_DET at every regular point, so no scenario could be drawn); the other
+#: references keep the product, and their seeded scenarios.
+CONDITION_DETS = frozenset({"wl16_like"})
 
 
 class GepettoReference(Reference):
@@ -626,6 +631,19 @@ class GepettoReference(Reference):
         q = np.array(u, dtype=float)
         q[self.motors] = theta
         return self.residual_q(q)
+
+    def det_ratio(self, u: np.ndarray, theta: np.ndarray) -> float:
+        """The base class's ratio, or for :data:`CONDITION_DETS` the signed inverse
+        condition number of the row-scaled Jacobian (0 on the singular manifold)."""
+        if self.name not in CONDITION_DETS:
+            return super().det_ratio(u, theta)
+        J = self.jacobian(u, theta)
+        norms = np.linalg.norm(J, axis=1)
+        if not np.all(norms > 0):
+            return 0.0
+        J = J / norms[:, None]
+        sv = np.linalg.svd(J, compute_uv=False)
+        return float(np.sign(np.linalg.det(J)) * sv[-1] / sv[0])
 
     def _jac(self, q, cols, h=1e-7) -> np.ndarray:
         if self.name in ANALYTIC_JACOBIANS:
