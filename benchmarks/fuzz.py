@@ -135,6 +135,13 @@ def main(argv: list[str] | None = None) -> int:
         resumed, t0 = done, time.perf_counter()
         for fut in as_completed(futures):
             outs = fut.result()
+            name, chunk, size = futures[fut]
+            if len(outs) < 2 * size:  # scenarios the reference could not draw: said, not hidden
+                print(
+                    f"  note: {name} unit {chunk}: {len(outs) // 2} of {size} scenarios drawn",
+                    file=sys.stderr,
+                    flush=True,
+                )
             path = saved.get(futures[fut])
             if path is not None:
                 part = path.with_suffix(".part")
