@@ -198,7 +198,7 @@ def resolve(backend: str, function: str) -> Resolved:
     """
     if isinstance(backend, Resolved) and backend in OFFERS[function]:
         return backend
-    name = canonical(str(backend) if isinstance(backend, Resolved) else backend, function)
+    name = canonical(backend, function)
     if name == "auto":
         name = next((n for n in OFFERS[function] if available(n)), OFFERS[function][-1])
     return Resolved(name, backend)

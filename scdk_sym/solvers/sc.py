@@ -543,13 +543,13 @@ class _DivergentSearch:
         )  # fmt: skip
         return self.other_than_convergent(out, how)
 
-    def across_from(self, anchor, near, exclude, how: str) -> SolveResult | None:
+    def across_from(self, near, exclude, how: str) -> SolveResult | None:
         """The solution at ``theta0`` on the other side of the singular configuration
-        ``near`` (found from ``anchor``), crossed on the way from the start."""
+        ``near`` (found from the start), crossed on the way from the start."""
         from ..follower.singular import across_fold
 
         model, theta0, start = self.model, self.theta0, self.start
-        leg = across_fold(model, anchor, near, theta0, backend=self.backend, exclude=exclude)
+        leg = across_fold(model, start, near, theta0, backend=self.backend, exclude=exclude)
         if leg is None:
             self.tried.append(f"{how}: no solution")
             return None
@@ -573,7 +573,7 @@ class _DivergentSearch:
         if fold is None:
             self.tried.append("no singular configuration found near the start")
             return None
-        return self.across_from(self.start, fold, beside,
+        return self.across_from(fold, beside,
                                 "across the nearest singular configuration")  # fmt: skip
 
     def way_aimed(self) -> SolveResult | None:
