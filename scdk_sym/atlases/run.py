@@ -447,8 +447,7 @@ def _quiet_distributed():
 
     loggers = [logging.getLogger(name) for name in _DASK_LOGGERS]
     levels = [logger.level for logger in loggers]
-    for logger in loggers:
-        logger.setLevel(logging.CRITICAL)
+    _silence_distributed()
     try:
         yield
     finally:
