@@ -98,11 +98,11 @@ def main() -> None:
 
 def warm_worker(source) -> None:
     """Build the model and load its compiled kernels on a worker (before timing)."""
-    from scdk_sym.atlases.chunk import _sweeps, worker_model
+    from scdk_sym.atlases.chunk import _tracker, worker_model
     from scdk_sym.follower.cvodes import engine
 
     model = worker_model(source)
-    _sweeps(model)
+    _tracker(model)
     engine(model, "compiled")
 
 

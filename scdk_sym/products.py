@@ -61,8 +61,6 @@ HOMOTOPY_TRACKER = Key(
 )
 #: Start systems of the homotopy (:func:`scdk_sym.solvers.homotopy_modes.start_system`).
 START_SYSTEM = Key("start_system", "monodromy start system", "(backend, seed, max_loops)")
-#: Sweeps of the atlas loaded from the store (:func:`scdk_sym.atlases.sweep.load_sweeps`).
-ATLAS_SWEEPS = Key("atlas_sweeps", "the atlas sweeps of the model", "the model only")
 
 #: The Pinocchio model of an edited joint tree (:func:`scdk_sym.verify.pinocchio.pinocchio_model`).
 PINOCCHIO_MODEL = Key(
@@ -92,7 +90,6 @@ KEYS: dict[str, Key] = {
         ALGEBRAIC_FORM,
         HOMOTOPY_TRACKER,
         START_SYSTEM,
-        ATLAS_SWEEPS,
         PINOCCHIO_MODEL,
         PLACING_BLOCK,
         CLOSURE_FUNCTION,

@@ -125,16 +125,31 @@ def test_workers_equal_direct_solves(seed, reference, serial_store, client, tmp_
         assert files(out) == files(serial_store)
 
 
+class _NoSweep:
+    """Stands for the C tracker library with a sweep that leaves every point to sc.solve."""
+
+    def __init__(self, model):
+        self.n = len(model.workspace)
+
+    def sweep(self, y1, c1, theta1, thetas, offset, shape, rcond_min):
+        from scdk_sym.codegen.library import ERR_SINGULAR_PATH, SweepOutput
+
+        N = len(thetas)
+        nan = np.full(N, np.nan)
+        codes = np.full(N, ERR_SINGULAR_PATH, dtype=np.intc)
+        return SweepOutput(np.full((N, self.n), np.nan), nan, nan.copy(), codes)
+
+
 def test_sweep_equals_solve_fallback(seed, reference, monkeypatch):
-    """The compiled sweep settles most points; with it disabled every point goes through
-    sc.solve: both agree to 1e-12 and fail on the same points."""
+    """The C sweep settles every regular reachable point; with it disabled every point goes
+    through sc.solve: both agree to 1e-12 and fail on the same points."""
     from scdk_sym.atlases import chunk
 
     model, start = seed
     thetas = reference[0]
-    swept = chunk.solve_chunk(model, start, thetas)
+    swept = chunk.solve_chunk(model, start, thetas, offset=0, shape=(4, 3, 3))
     assert swept.swept == np.sum(reference[2] == 0)
-    monkeypatch.setattr(chunk, "_sweeps", lambda model: ())
+    monkeypatch.setattr(chunk, "_tracker", _NoSweep)
     direct = chunk.solve_chunk(model, start, thetas)
     assert direct.swept == 0
     np.testing.assert_array_equal(direct.status, swept.status)
@@ -144,10 +159,8 @@ def test_sweep_equals_solve_fallback(seed, reference, monkeypatch):
 
 def test_sweep_on_a_turning_platform_equals_solve(monkeypatch):
     """The 6-6 platform turns between the start and the points (its rotation chart is
-    re-centred on each answer): the compiled sweep and sc.solve agree to 1e-12, det J_p in the
-    chart centred on the answer to 1e-10. Alone in a fresh cache it compiles the 6-6's
-    kernels (13 min wall at load average 10-15, 2 min CPU); in a full test run they are compiled
-    once for every 6-6 test."""
+    re-centred on each answer): the C sweep and sc.solve agree to 1e-12, det J_p in the
+    chart centred on the answer to 1e-10."""
     from scdk_sym.atlases import chunk
 
     model = shipped("stewart_gough")
@@ -157,12 +170,47 @@ def test_sweep_on_a_turning_platform_equals_solve(monkeypatch):
     thetas = np.array([model.inverse_kinematics(x).theta for x in poses])
     swept = chunk.solve_chunk(model, start, thetas)
     assert swept.swept == len(thetas)
-    monkeypatch.setattr(chunk, "_sweeps", lambda model: ())
+    monkeypatch.setattr(chunk, "_tracker", _NoSweep)
     direct = chunk.solve_chunk(model, start, thetas)
     assert direct.swept == 0 and np.all(direct.status == 0)
     np.testing.assert_allclose(swept.x, direct.x, rtol=0, atol=X_TOL)
     np.testing.assert_allclose(swept.x, poses, rtol=0, atol=1e-9)  # the poses themselves
     np.testing.assert_allclose(swept.det_jp, direct.det_jp, rtol=1e-10)
+
+
+def test_a_hexapod_grid_is_swept_from_neighbours_and_equals_solve():
+    """A 4^6 grid of the 6-6's leg lengths around home, in chunks of 256: nearly every point
+    is continued from its grid neighbour (one direct solve per chunk), and 40 seeded points
+    equal sc.solve from home to 1e-12 (x) and 1e-10 (det J_p, relative); one chunk of the
+    whole grid gives the same answers."""
+    from scdk_sym.atlases import chunk
+    from scdk_sym.codegen.library import SWEEP_CONTINUED, tracker_library
+
+    model = shipped("stewart_gough")
+    home = model.home
+    axes = [np.linspace(t - 0.04, t + 0.04, 4) for t in home.theta]
+    thetas = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 6)
+    shape = (4,) * 6
+    parts = [
+        chunk.solve_chunk(model, home, thetas[a : a + 256], offset=a, shape=shape)
+        for a in range(0, len(thetas), 256)
+    ]
+    x = np.concatenate([p.x for p in parts])
+    det = np.concatenate([p.det_jp for p in parts])
+    assert all(p.swept == 256 for p in parts)
+    whole = chunk.solve_chunk(model, home, thetas, offset=0, shape=shape)
+    np.testing.assert_allclose(whole.x, x, rtol=0, atol=X_TOL)
+    y1, c1 = model.chart.to_local(home.y)
+    codes = tracker_library(model).sweep(y1, c1, home.theta, thetas, 0, shape, 1e-5).codes
+    assert np.sum(codes == SWEEP_CONTINUED) == len(thetas) - 1  # the first point is direct
+    rng = np.random.default_rng(5)
+    for i in rng.choice(len(thetas), 40, replace=False):
+        r = sc.solve(model, thetas[i], start=home, branch="convergent")
+        assert r.status == "converged"
+        np.testing.assert_allclose(x[i], r.x, rtol=0, atol=X_TOL)
+        y_loc, c = model.chart.to_local(r.y)
+        d = np.linalg.det(np.array(model.kernels.jac(y_loc, r.theta, c)[0]))
+        np.testing.assert_allclose(det[i], d, rtol=1e-10)
 
 
 def test_client_interrupt_resumes_identically(seed, serial_store, tmp_path):

@@ -1,7 +1,7 @@
 """The disk cache survives what a real machine leaves in it.
 
-A truncated or corrupted entry of every kind (kernel and follower libraries, the C tracker,
-the homotopy libraries, the atlas sweep, start systems) is rebuilt with one line on stderr,
+A truncated or corrupted entry of every kind (kernel and follower libraries, the C tracker (with
+the atlas sweep), the homotopy libraries, start systems) is rebuilt with one line on stderr,
 and solve, track, modes and atlas give the same answers as on a clean cache. The runs are
 subprocesses: a process never re-opens a shared library it has loaded once.
 """
@@ -61,7 +61,7 @@ print(json.dumps({
 
 #: Every kind of cached artefact the script above leaves (name prefixes in the cache).
 KINDS = ("kernels_", "scdk_follow_", "tracker_", "algebraic_G_", "ptrack_", "ikrawczyk_",
-         "atlas_sweep_", "homotopy/")  # fmt: skip
+         "homotopy/")  # fmt: skip
 
 
 def _run(cache: Path, out: Path) -> tuple[dict, str]:

@@ -16,7 +16,7 @@ from scdk_sym.kernels.curve import closure_function
 
 EXAMPLE = ROOT / "examples" / "c"
 CFLAGS = ["-std=c99", "-O2", "-Wall"]
-STANDARD_HEADERS = {"math.h", "stddef.h", "string.h", "stdio.h", "time.h"}
+STANDARD_HEADERS = {"math.h", "stddef.h", "stdlib.h", "string.h", "stdio.h", "time.h"}
 
 pytestmark = [
     needs_compiler(),

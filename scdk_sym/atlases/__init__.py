@@ -1,8 +1,8 @@
 """Atlases: direct kinematics over large joint grids, chunked on Dask, stored in Zarr.
 
 * :mod:`~scdk_sym.atlases.grid`: ``NAME=lo:hi:n`` grids and their C-order flattening;
-* :mod:`~scdk_sym.atlases.sweep`: the compiled convergent sweep of a chunk;
-* :mod:`~scdk_sym.atlases.chunk`: one chunk on a worker (sweep, then ``sc.solve`` for the rest);
+* :mod:`~scdk_sym.atlases.chunk`: one chunk on a worker (the C tracker library's sweep, each
+  grid point continued from its neighbour, then ``sc.solve`` for the points it leaves);
 * :mod:`~scdk_sym.atlases.store`: the Zarr layout, done-markers and the run check;
 * :mod:`~scdk_sym.atlases.run`: :func:`atlas`, the client loop (local, LocalCluster or a
   scheduler address);

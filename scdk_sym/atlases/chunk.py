@@ -1,9 +1,12 @@
 """One chunk of an atlas: the convergent solves of a block of ``theta`` rows, on a worker.
 
 The model travels to workers as its text (:class:`ModelSource`); each worker process builds
-it once (:func:`worker_model`) and loads the compiled sweep from the disk cache.
-:func:`solve_chunk` runs the sweep over the whole chunk and hands every point it cannot vouch
-for to :func:`scdk_sym.solve` itself (see :mod:`scdk_sym.atlases.sweep`).
+it once (:func:`worker_model`) and loads the model's C tracker library from the disk cache.
+:func:`solve_chunk` runs the library's sweep over the whole chunk in one call (each grid point
+continued from its neighbour, one grid step away, and solved from the start where that is not
+vouched for: the rule is stated in the generated header, ``<prefix>_sweep``) and hands every
+point the sweep leaves (a singular path, a nearly singular solution) to :func:`scdk_sym.solve`
+itself.
 """
 
 from __future__ import annotations
@@ -14,7 +17,6 @@ import numpy as np
 
 from ..errors import InputError, PathError, ScdkError, SolveError, VerificationError
 from ..interrupts import check
-from ..products import ATLAS_SWEEPS
 
 #: Status codes of an atlas point (stored in the store's attributes as well).
 STATUS = {
@@ -25,11 +27,9 @@ STATUS = {
     4: "singular: solved, theta on the singular surface (J_p singular)",
 }
 SOLVED, PATH, VERIFICATION, SOLVE, SINGULAR = 0, 1, 2, 3, 4
-#: A sweep end is accepted if its smallest singular value of J_p exceeds this (relative);
+#: A swept solution is kept if a lower bound of sigma_min / sigma_max of its J_p exceeds this;
 #: sc.solve calls a solution singular below 1e-6.
 COND_MARGIN = 1e-5
-#: Largest accepted Newton correction of a sweep step, relative to the step's motion.
-CORRECTION_TOL = 1e-3
 
 
 @dataclass(frozen=True)
@@ -51,7 +51,7 @@ class ChunkResult:
         det_jp: (N,) det J_p at the solution, in the chart centred on it (NaN if not solved).
         status: (N,) int8 codes of :data:`STATUS`.
         n_modes: (N,) int16 number of real assembly modes found (-1 if not computed/failed).
-        swept: how many points the compiled sweep settled (the rest went to sc.solve).
+        swept: how many points the C sweep settled (the rest went to sc.solve).
     """
 
     x: np.ndarray
@@ -95,10 +95,10 @@ def worker_model(source: ModelSource):
     return model
 
 
-def _sweeps(model):
-    from .sweep import load_sweeps
+def _tracker(model):
+    from ..codegen.library import tracker_library
 
-    return model.products.get(ATLAS_SWEEPS, lambda: load_sweeps(model))
+    return tracker_library(model)
 
 
 def _det_local(model, y: np.ndarray, theta: np.ndarray) -> float:
@@ -106,14 +106,25 @@ def _det_local(model, y: np.ndarray, theta: np.ndarray) -> float:
     return float(np.linalg.det(np.array(model.kernels.jac(y_loc, theta, c)[0])))
 
 
-def solve_chunk(model, start, thetas: np.ndarray, modes: bool = False) -> ChunkResult:
+def solve_chunk(
+    model,
+    start,
+    thetas: np.ndarray,
+    modes: bool = False,
+    *,
+    offset: int = 0,
+    shape: tuple[int, ...] | None = None,
+) -> ChunkResult:
     """Convergent solves of every row of ``thetas`` from ``start``.
 
     Args:
         model: the model.
         start: the assembled start Configuration (non-singular).
-        thetas: (N, k) actuated values.
+        thetas: (N, k) actuated values: points ``offset`` to ``offset + N - 1`` of a grid.
         modes: also count the real assembly modes at each point (:func:`scdk_sym.assembly_modes`).
+        offset: flat (C-order) index of the first row in the grid.
+        shape: the grid's shape (default ``(N,)``: a list of readings, each row continued from
+            the row before it).
 
     Returns:
         The :class:`ChunkResult`; each solved point equals
@@ -122,40 +133,25 @@ def solve_chunk(model, start, thetas: np.ndarray, modes: bool = False) -> ChunkR
     from ..solvers.sc import solve
 
     thetas = np.ascontiguousarray(thetas, dtype=float)
-    N, m, n = len(thetas), model.m, len(model.workspace)
+    N, n = len(thetas), len(model.workspace)
     x = np.full((N, n), np.nan)
     det = np.full(N, np.nan)
     status = np.full(N, SOLVE, dtype=np.int8)
-    todo = np.flatnonzero(np.all(np.isfinite(thetas), axis=1))
-    y1, c = model.chart.to_local(start.y)
+    finite = np.all(np.isfinite(thetas), axis=1)
     swept = 0
-    for sweep in _sweeps(model):
-        if not todo.size:
-            break
-        cnt = todo.size
-        out = sweep.map(cnt)(
-            np.repeat(y1[:, None], cnt, 1),
-            np.repeat(np.asarray(start.theta, float)[:, None], cnt, 1),
-            thetas[todo].T,
-            np.repeat(c[:, None], cnt, 1),
+    if N:
+        y1, c = model.chart.to_local(start.y)
+        out = _tracker(model).sweep(
+            y1, c, start.theta, thetas, offset, (N,) if shape is None else shape, COND_MARGIN
         )
-        y0, ratio, corr, res, J, x0 = (np.array(o) for o in out)
-        Js = J.T.reshape(cnt, m, m).transpose(0, 2, 1)  # column-major vec -> (cnt, m, m)
-        with np.errstate(invalid="ignore"):
-            sv = np.linalg.svd(np.nan_to_num(Js), compute_uv=False)
-            ok = (
-                np.all(np.isfinite(y0), axis=0)
-                & (ratio.ravel() > 0)
-                & (corr.ravel() <= CORRECTION_TOL)
-                & (res.ravel() <= model.tolerance)
-                & (sv[:, -1] > COND_MARGIN * sv[:, 0])
-            )
-        idx = todo[ok]
-        x[idx] = x0[:, ok].T
-        status[idx] = SOLVED
-        det[idx] = np.linalg.det(Js[ok])
-        swept += idx.size
-        todo = todo[~ok]
+        ok = (out.codes >= 0) & (out.residual <= model.tolerance) & finite
+        x[ok] = out.x[ok]
+        det[ok] = out.det[ok]
+        status[ok] = SOLVED
+        swept = int(np.sum(ok))
+        todo = np.flatnonzero(finite & ~ok)
+    else:
+        todo = np.flatnonzero(finite)
     for i in todo:
         check()  # a stop between points: the chunk is not written, a rerun redoes it
         try:

@@ -69,7 +69,7 @@ class AtlasRun:
             loading on a worker's first task included).
         cpu: CPU time of the threads that ran those tasks [s] (what the tasks cost, whatever
             else shares the cores).
-        swept: points of this call settled by the compiled sweep (the others by sc.solve).
+        swept: points of this call settled by the C sweep (the others by sc.solve).
     """
 
     out: Path
@@ -110,7 +110,10 @@ def _task(
     a, b = layout.bounds(index)
     th = grid.thetas(a, b) if grid is not None else thetas
     assert th is not None  # _points gives a grid or the thetas
-    res = solve_chunk(model, cfg, th, modes)
+    if grid is not None:
+        res = solve_chunk(model, cfg, th, modes, offset=a, shape=grid.shape)
+    else:
+        res = solve_chunk(model, cfg, th, modes)
     write_chunk(out, layout, index, th, res)
     return index, time.perf_counter() - t0, time.thread_time() - c0, res.swept
 
@@ -336,10 +339,10 @@ def _points(model, grid_or_thetas, start) -> tuple[Grid | None, np.ndarray | Non
 
 def _prebuild(model) -> None:
     """Compile (or find in the disk cache) every kernel the workers load."""
+    from ..codegen.library import tracker_library
     from ..follower.cvodes import engine
-    from .sweep import sweep_library
 
-    sweep_library(model)
+    tracker_library(model)
     engine(model, "compiled")
 
 

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import BuildError
+from ..errors import BuildError, SolveError
 from ..kernels.cache import cache_dir, cached_file
 from ..kernels.compile import announce
 from ..products import C_TRACKER
@@ -46,6 +46,8 @@ OK, OK_PATH, OK_PREDICTED = 0, 1, 2
 ERR_NULL, ERR_SIZE, ERR_NONFINITE, ERR_NOT_ASSEMBLED = -1, -2, -3, -4
 ERR_NO_SOLUTION, ERR_VERIFY, ERR_STATE, ERR_OPTIONS = -5, -6, -7, -8
 ERR_UNDECIDABLE, ERR_SINGULAR_PATH = -9, -10
+#: Codes of a point of ``<PREFIX>_sweep`` (the error codes otherwise).
+SWEEP_CONTINUED, SWEEP_DIRECT = 0, 1
 
 
 class Options(ctypes.Structure):
@@ -182,6 +184,13 @@ class CTracker:
         self._solve_divergent = getattr(lib, f"{p}_solve_divergent")
         self._solve_divergent.restype = ctypes.c_int
         self._solve_divergent.argtypes = [*self._solve.argtypes, _dp]
+        self._sweep = getattr(lib, f"{p}_sweep")
+        self._sweep.restype = ctypes.c_int
+        self._sweep.argtypes = [
+            _dp, ctypes.c_int, _dp, ctypes.c_int, _dp, ctypes.c_int, ctypes.POINTER(Options),
+            ctypes.c_long, _dp, ctypes.c_long, ctypes.c_int, _lp, ctypes.c_double,
+            _dp, _dp, _dp, _ip,
+        ]  # fmt: skip
 
     def default_options(self) -> Options:
         """The library's default options (tolerance, budgets)."""
@@ -283,6 +292,57 @@ class CTracker:
         return self._call_solve(self._solve_divergent, y1, c1, theta1, theta0, options,
                                 fold=True)  # fmt: skip
 
+    def sweep(
+        self,
+        y1: np.ndarray,
+        c1: np.ndarray,
+        theta1: np.ndarray,
+        thetas: np.ndarray,
+        offset: int,
+        shape: tuple[int, ...],
+        rcond_min: float,
+        options: Options | None = None,
+    ) -> SweepOutput:
+        """The convergent solutions of a chunk of a grid, each continued from its neighbour,
+        in one call into C (``<prefix>_sweep``, whose header states the rule).
+
+        Args:
+            y1: (m,) start unknowns in the chart ``c1``.
+            c1: (nc,) start chart.
+            theta1: (k,) start actuated values.
+            thetas: (N, k) readings of grid points ``offset`` to ``offset + N - 1``.
+            offset: flat (C-order) index of the first point in the grid.
+            shape: the grid's shape (a list of readings: ``(total,)``, each point the
+                neighbour of the one before).
+            rcond_min: points whose ``1 / (m |J_p|_1 |J_p^-1|_1)`` is not above this are left
+                to the caller.
+            options: tracker options (default: the library's).
+
+        Raises:
+            SolveError: the call refused its input (status and meaning in the message).
+        """
+        y1, c1, theta1 = (np.ascontiguousarray(a, dtype=float) for a in (y1, c1, theta1))
+        th = np.ascontiguousarray(thetas, dtype=float).reshape(-1, self.k)
+        N = th.shape[0]
+        shp = np.ascontiguousarray(shape, dtype=np.int_)
+        X = np.empty((N, self.n))
+        D = np.empty(N)
+        R = np.empty(N)
+        codes = np.empty(N, dtype=np.intc)
+        status = self._sweep(
+            _ptr(y1), y1.size, _ptr(c1) if c1.size else _ptr(np.zeros(1)), c1.size,
+            _ptr(theta1), theta1.size, ctypes.byref(options) if options is not None else None,
+            N, _ptr(th), int(offset), shp.size, shp.ctypes.data_as(_lp), float(rcond_min),
+            _ptr(X), _ptr(D), _ptr(R), codes.ctypes.data_as(_ip),
+        )  # fmt: skip
+        if status < 0:
+            why = STATUS.get(status, f"status {status}")
+            raise SolveError(
+                f"C sweep refused a chunk of {N} points at offset {offset} of a grid of shape "
+                f"{tuple(shape)}: {why} (status {status})"
+            )
+        return SweepOutput(X, D, R, codes)
+
     def _call_solve(self, fn, y1, c1, theta1, theta0, options, fold=False) -> SolveOutput:
         y1, c1, theta1, theta0 = (
             np.ascontiguousarray(a, dtype=float) for a in (y1, c1, theta1, theta0)
@@ -334,6 +394,24 @@ class SolveOutput:
     fold_y: np.ndarray | None = None
     fold_x: np.ndarray | None = None
     fold_c: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class SweepOutput:
+    """Raw output of one call of ``<prefix>_sweep`` over N points.
+
+    Attributes:
+        x: (N, n) workspace coordinates (NaN where the point is left to the caller).
+        det: (N,) ``det J_p`` at each solution, in the chart centred on it.
+        residual: (N,) max |closure row| at each solution [model length unit].
+        codes: (N,) 0 continued from its neighbour, 1 solved from the start, < 0 left to
+            the caller.
+    """
+
+    x: np.ndarray
+    det: np.ndarray
+    residual: np.ndarray
+    codes: np.ndarray
 
 
 def _ptr(a: np.ndarray):
