@@ -14,8 +14,8 @@ thread):
 * ``sc.atlas`` in this process (no Dask) on the same grid, and its ratio to the per-worker
   rate;
 * the check: ``--check`` seeded points of each store against ``sc.solve(model, theta,
-  start=home, branch="convergent")``: the largest |x - sc.solve| and whether the statuses
-  agree.
+  start=home, branch="convergent", backend="compiled")`` (the solve the atlas documents its
+  points equal to): the largest |x - sc.solve| and whether the same points are unsolved.
 
     OMP_NUM_THREADS=1 python benchmarks/atlas_hexapod.py [--n 8] [--half 0.05] [--workers 2]
 """
@@ -77,7 +77,7 @@ def main() -> None:
     for j, i in enumerate(check):
         with contextlib.suppress(sc.ScdkError):
             ref_x[j] = sc.solve(model, grid.thetas(int(i), int(i) + 1)[0], start=home,
-                                branch="convergent").x  # fmt: skip
+                                branch="convergent", backend="compiled").x  # fmt: skip
 
     with tempfile.TemporaryDirectory() as tmp:
         t = time.perf_counter()
