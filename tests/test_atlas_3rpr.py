@@ -149,3 +149,49 @@ def test_det_jp_vanishes_where_the_count_changes(atlas_run):
         dets = np.abs([det_jp(model, s, side) for s in rpr_reference(ex.BASE, C, side)])
         # the two solutions that merge there are nearly singular (the scale: the neighbours)
         assert len(dets) >= 2 and np.sort(dets)[1] < 5e-3 * scale, (p, q, dets, scale)
+
+
+def test_a_chunk_of_mode_sets_walked_from_neighbours_equals_the_polynomial():
+    """A 12 x 12 slice in chunks of 48 (4 grid lines, the second and later chunks starting
+    mid-grid): each point's certified set comes from its grid neighbour's complete root set
+    wherever that is known (all but one point of each chunk here), and every count equals
+    the real roots of the polynomial, across the singular curves of the slice."""
+    from scdk_sym.atlases import chunk, make_grid
+
+    ex = load_example()
+    model = ex.build_model()
+    n = 12
+    grid = make_grid(model, ex.grid(n), model.home.theta)
+    thetas = grid.thetas(0, grid.size)
+    counts, continued = [], 0
+    for a in range(0, grid.size, 48):
+        part = chunk.solve_chunk(model, model.home, thetas[a : a + 48], modes=True, offset=a,
+                                 shape=grid.shape)  # fmt: skip
+        counts.append(part.n_modes)
+        continued += part.modes_continued
+    counts = np.concatenate(counts)
+    ref = reference_counts(ex, thetas)
+    assert len(set(ref.tolist())) >= 3  # the slice crosses singular curves
+    np.testing.assert_array_equal(counts, ref)
+    assert continued == grid.size - grid.size // 48
+
+
+def test_each_grid_point_follows_the_neighbour_one_step_back_on_its_last_nonzero_axis():
+    """``predecessors`` against the definition, point by point on a 3 x 1 x 4 x 2 grid, for
+    chunks starting anywhere."""
+    from scdk_sym.atlases.chunk import predecessors
+
+    shape = (3, 1, 4, 2)
+    total = int(np.prod(shape))
+    for offset in (0, 5, 8):
+        for count in (1, 7, total - offset):
+            got = predecessors(offset, count, shape)
+            for i in range(count):
+                index = list(np.unravel_index(offset + i, shape))
+                axes = [a for a in range(len(shape)) if index[a] != 0]
+                if not axes:
+                    assert got[i] == -1
+                    continue
+                index[axes[-1]] -= 1
+                want = int(np.ravel_multi_index(index, shape)) - offset
+                assert got[i] == (want if want >= 0 else -1), (offset, count, i)

@@ -294,6 +294,7 @@ def solve_homotopy(
     real_tol: float = 1e-8,
     attempts: int = 3,
     tracker: str = "auto",
+    gamma: complex = 1.0,
 ) -> HomotopyResult:
     """Every solution of G(z, p0) = 0 by the parameter homotopy from a start system.
 
@@ -313,6 +314,9 @@ def solve_homotopy(
             then arcs with random gammas; each attempt reruns all paths).
         tracker: ``"auto"`` (the C tracker for a model's algebraic form when a C compiler is
             present, else numpy), ``"c"`` or ``"python"``.
+        gamma: the gamma of the first attempt (1: the straight segment; a non-real one: an
+            arc through complex parameters, which misses the real discriminant between two
+            real parameter points).
 
     Returns:
         A :class:`HomotopyResult` (of the last attempt).
@@ -341,8 +345,8 @@ def solve_homotopy(
         # a path that fails on the way passed close to a point where its solution escapes to
         # infinity; an arc with a random gamma moves every path away from it (all paths are
         # rerun, so the endpoints stay one arc's complete set)
-        gamma = 1.0 + 0j if attempt == 1 else complex(np.exp(2j * np.pi * rng.uniform()))
-        hom = ParameterHomotopy(system, start.p[None], p0[None], start.b[None], b_to[None], [gamma])
+        g = complex(gamma) if attempt == 1 else complex(np.exp(2j * np.pi * rng.uniform()))
+        hom = ParameterHomotopy(system, start.p[None], p0[None], start.b[None], b_to[None], [g])
         ends = track_parameter_homotopy(
             system, start.solutions, hom, np.zeros(R, dtype=int), options, tracker=tracker
         )
@@ -359,7 +363,7 @@ def solve_homotopy(
         real_solutions=merged,
         complete=bool(np.isin(ends.status, ("success", "singular", "at_infinity")).all()),
         start_certified=bool(start.trace_passed),
-        gamma=gamma,
+        gamma=g,
         steps=ends.steps,
         attempts=attempt,
     )

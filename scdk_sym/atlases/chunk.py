@@ -52,6 +52,7 @@ class ChunkResult:
         status: (N,) int8 codes of :data:`STATUS`.
         n_modes: (N,) int16 number of real assembly modes found (-1 if not computed/failed).
         swept: how many points the C sweep settled (the rest went to sc.solve).
+        modes_continued: how many mode sets came from a grid neighbour's root set.
     """
 
     x: np.ndarray
@@ -59,6 +60,7 @@ class ChunkResult:
     status: np.ndarray
     n_modes: np.ndarray
     swept: int
+    modes_continued: int = 0
 
 
 def model_source(model) -> ModelSource:
@@ -175,15 +177,73 @@ def solve_chunk(
             status[i] = SINGULAR if r.status == "singular" else SOLVED
     check()  # an interrupt some library reported as a failed solve is not a failed point
     n_modes = np.full(N, -1, dtype=np.int16)
+    continued = 0
     if modes:
-        from ..solvers.modes import assembly_modes
+        n_modes, continued = _mode_counts(model, thetas, offset, (N,) if shape is None else shape)
+    return ChunkResult(x, det, status, n_modes, swept, continued)
 
-        for row in range(N):
-            check()
-            try:
-                sols = assembly_modes(model, thetas[row], backend="compiled")
-                n_modes[row] = len(sols) if sols.certified else -1
-            except ScdkError:
-                n_modes[row] = -1
+
+def predecessors(offset: int, count: int, shape: tuple[int, ...]) -> np.ndarray:
+    """The neighbour each point of a chunk is continued from, as the C sweep takes it.
+
+    Grid point ``g`` (C order) follows ``g - stride[t]``, ``t`` the last axis along which its
+    index is not 0 (point 0 follows none): a spanning tree of the grid whose every edge is
+    one grid step.
+
+    Args:
+        offset: flat index of the chunk's first point.
+        count: points in the chunk.
+        shape: the grid's shape.
+
+    Returns:
+        (count,) int: the neighbour's index within the chunk, -1 where it is outside the
+        chunk or there is none.
+    """
+    g = offset + np.arange(count, dtype=np.int64)
+    if not count:
+        return g
+    idx = np.stack(np.unravel_index(g, shape))  # (axes, count)
+    strides = np.cumprod((*shape[1:], 1)[::-1])[::-1]
+    nonzero = idx != 0
+    last = len(shape) - 1 - np.argmax(nonzero[::-1], axis=0)  # last nonzero axis (0 if none)
+    pred = g - strides[last] - offset
+    pred[(g == 0) | (pred < 0)] = -1
+    return pred
+
+
+def _mode_counts(model, thetas: np.ndarray, offset: int, shape) -> tuple[np.ndarray, int]:
+    """Certified real-mode counts of a chunk (-1 where not certified), each point's set from
+    its grid neighbour's complete root set where that is known
+    (:func:`scdk_sym.solvers.homotopy_modes.modes_from_neighbour`; models of independent
+    blocks: :func:`scdk_sym.assembly_modes` at each point); also how many came from a
+    neighbour."""
+    from ..solvers.block_modes import split
+    from ..solvers.homotopy_modes import ModeSeed, modes_from_neighbour
+    from ..solvers.modes import assembly_modes
+
+    N = len(thetas)
+    n_modes = np.full(N, -1, dtype=np.int16)
+    pred = predecessors(offset, N, tuple(shape))
+    last_use = np.full(N, -1)
+    last_use[pred[pred >= 0]] = np.flatnonzero(pred >= 0)  # rows ascend: the last one stays
+    walk = split(model) is None
+    seeds: dict[int, ModeSeed] = {}
+    continued = 0
+    for row in range(N):
         check()
-    return ChunkResult(x, det, status, n_modes, swept)
+        try:
+            if walk:
+                near = seeds.get(int(pred[row]))
+                sols, seed, used = modes_from_neighbour(model, thetas[row], near)
+                continued += used
+                if seed is not None and last_use[row] > row:
+                    seeds[row] = seed
+            else:
+                sols = assembly_modes(model, thetas[row], backend="compiled")
+            n_modes[row] = len(sols) if sols.certified else -1
+        except ScdkError:
+            n_modes[row] = -1
+        if pred[row] >= 0 and last_use[pred[row]] == row:
+            seeds.pop(int(pred[row]), None)
+    check()
+    return n_modes, continued

@@ -48,9 +48,12 @@ IN_FLIGHT = 3
 CLOSE_TIMEOUT = 1.0
 #: What produced n_modes (recorded in the store).
 MODES_METHOD = (
-    "scdk_sym.assembly_modes(model, theta, backend='compiled'): the number of real solutions "
-    "when the set is certified complete (homotopy with a trace-tested start system, every "
-    "solution proven by a Krawczyk test); -1 where it is not certified or the search failed"
+    "the number of real solutions of the certified set of scdk_sym.assembly_modes(model, theta, "
+    "backend='compiled'), each point's set from its grid neighbour's complete root set by a "
+    "parameter homotopy where that set is known (scdk_sym.solvers.homotopy_modes."
+    "modes_from_neighbour), else from the start system; certified complete: every path "
+    "regular, the root count of distinct roots, every real solution proven by a Krawczyk "
+    "test; -1 where it is not certified or the search failed"
 )
 
 

@@ -28,7 +28,7 @@ homotopy attempts, Newton steps).
 from __future__ import annotations
 
 import functools
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import casadi as ca
@@ -84,6 +84,25 @@ REGULAR_COND = 1e10
 #: Smallest distance between two roots counted against the root bound, relative to
 #: ``1 + max |z|``: distinct roots.
 DISTINCT = 1e-6
+#: Gamma of the homotopy from a neighbour's root set (:func:`modes_from_neighbour`): a fixed
+#: non-real one, so the arc between two real parameter points runs through complex ones and
+#: misses the real discriminant between them (where two real roots meet).
+NEIGHBOUR_GAMMA = complex(np.exp(2j * np.pi * 0.2137))
+
+
+@dataclass(frozen=True)
+class ModeSeed:
+    """The complete set of complex roots of a model's algebraic form at one parameter point:
+    what the homotopy of a neighbouring point starts from.
+
+    Attributes:
+        p: (n_params,) complex parameters of the form (``form.params(theta)``).
+        roots: (R, n) complex roots, R the start system's root count, pairwise distinct and
+            every one the regular end of its path.
+    """
+
+    p: np.ndarray
+    roots: np.ndarray
 
 
 def _complex_map(form, p: np.ndarray, name: str, entries):
@@ -474,10 +493,72 @@ def homotopy_modes(
         InputError: bad ``theta0`` or backend.
         AlgebraicFormError: a joint type with no algebraic form.
     """
+    theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
+    modes, _, _ = _homotopy_modes(
+        model, theta0, None, seed=seed, progress=progress, backend=backend,
+        max_loops=max_loops, cache=cache, rebuild=rebuild, certified_only=certified_only,
+    )  # fmt: skip
+    return modes
+
+
+def modes_from_neighbour(
+    model: Model, theta0: ArrayLike, neighbour: ModeSeed | None, *, backend: str = "compiled"
+) -> tuple[AssemblyModes, ModeSeed | None, bool]:
+    """The certified assembly modes at ``theta0`` from a neighbouring point's complete root
+    set: one step of a mode map.
+
+    The neighbour's R roots (R the start system's root count, every one regular and distinct:
+    its set is complete) are tracked to ``params(theta0)`` along an arc through complex
+    parameters (:data:`NEIGHBOUR_GAMMA`). When every path ends regular and the R ends are
+    pairwise distinct, they are all the isolated roots at ``theta0`` (R bounds their number),
+    and the rest is :func:`homotopy_modes`' chain (real ends polished on the model's rows,
+    each proven by a Krawczyk test). Otherwise (or without a neighbour) the homotopy runs from
+    the start system, as :func:`homotopy_modes` does.
+
+    Args:
+        model: the model.
+        theta0: (k,) actuated joint values [rad or model length unit].
+        neighbour: the complete root set of a neighbouring point, or None.
+        backend: as for :func:`homotopy_modes`.
+
+    Returns:
+        ``(modes, seed, continued)``: the :class:`~scdk_sym.results.AssemblyModes` at
+        ``theta0``; its complete root set for the next point (None when the ends are not R
+        distinct regular roots); whether the neighbour's set was used.
+    """
+    theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
+    return _homotopy_modes(model, theta0, neighbour, backend=backend)
+
+
+def _complete_set(res, root_count: int) -> bool:
+    """Every path ended regular, at ``root_count`` pairwise distinct finite roots."""
+    z = res.endpoints
+    if len(z) != root_count or not (res.status == "success").all() or not np.isfinite(z).all():
+        return False
+    if root_count < 2:
+        return True
+    scale = 1.0 + np.abs(z).max(axis=1)
+    d = np.abs(z[:, None] - z[None]).max(axis=2) / np.minimum(scale[:, None], scale[None])
+    np.fill_diagonal(d, np.inf)
+    return bool(d.min() >= DISTINCT)
+
+
+def _homotopy_modes(
+    model: Model,
+    theta0: np.ndarray,
+    neighbour: ModeSeed | None,
+    *,
+    seed: int = 0,
+    progress: bool = False,
+    backend: str = "auto",
+    max_loops: int = MAX_LOOPS,
+    cache: bool = True,
+    rebuild: bool = False,
+    certified_only: bool = False,
+) -> tuple[AssemblyModes, ModeSeed | None, bool]:
     from ..algebraic import algebraic_form, solve_homotopy
     from ..algebraic.scaled import scaled_form
 
-    theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
     form = scaled_form(algebraic_form(model, resolve(backend, "modes")))
     start = model_start_system(
         form, seed, progress=progress, max_loops=max_loops, cache=cache, rebuild=rebuild
@@ -489,15 +570,26 @@ def homotopy_modes(
         )
         reasons.append(f"start system not proven complete: {why} (rebuild=True recomputes it)")
         if certified_only:
-            return AssemblyModes(
+            note = f"not certified: {reasons[0]}; its paths not tracked (certified_only)"
+            skipped = AssemblyModes(
                 solutions=(),
                 certified=False,
                 root_count=int(start.root_count),
-                report=f"not certified: {reasons[0]}; its paths not tracked (certified_only)",
+                report=note,
                 certificates=(),
                 method="homotopy",
             )
-    res = solve_homotopy(form, start, form.params(theta0), seed=seed, real_tol=REAL_TOL)
+            return skipped, None, False
+    p0 = form.params(theta0)
+    res, continued = None, False
+    if neighbour is not None and start.trace_passed:
+        near = replace(start, p=neighbour.p, b=np.zeros_like(start.b), solutions=neighbour.roots)
+        res = solve_homotopy(form, near, p0, seed=seed, real_tol=REAL_TOL, attempts=1,
+                             gamma=NEIGHBOUR_GAMMA)  # fmt: skip
+        continued = _complete_set(res, start.root_count)
+    if not continued:
+        res = solve_homotopy(form, start, p0, seed=seed, real_tol=REAL_TOL)
+    assert res is not None
     half_turns = _path_reasons(form, res, theta0, reasons)
     cfgs, spurious = _real_modes(model, form, res, theta0, reasons)
     certs = _certificates(model, cfgs, theta0, reasons)
@@ -519,7 +611,7 @@ def homotopy_modes(
             f"; {half_turns} path(s) ended on roots of the form that close a weld with a half "
             "turn (tr R_a^T R_b = -1 on all of them): no closures"
         )
-    return AssemblyModes(
+    modes = AssemblyModes(
         solutions=tuple(cfgs),
         certified=certified,
         root_count=int(start.root_count),
@@ -527,6 +619,8 @@ def homotopy_modes(
         certificates=certs,
         method="homotopy",
     )
+    complete = start.trace_passed and _complete_set(res, start.root_count)
+    return modes, (ModeSeed(p0, res.endpoints) if complete else None), continued
 
 
 def _path_reasons(form, res, theta0: np.ndarray, reasons: list[str]) -> int:
