@@ -48,8 +48,9 @@ def _atlas_args(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--modes",
         action="store_true",
-        help="also count the real assembly modes at each point (slow: a certified homotopy "
-        "at every point; default: off)",
+        help="also count the certified real assembly modes at each point (each point's set "
+        "from its grid neighbour's by a parameter homotopy; about 2 ms a point on a 3-RPR, "
+        "against microseconds for the solve; default: off)",
     )
     p.add_argument("--from-x", metavar=FROM_X_METAVAR, help=FROM_X_HELP)
     p.add_argument("--chunk", type=int, default=4096, metavar="N", help="points per chunk")

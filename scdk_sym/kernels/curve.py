@@ -6,8 +6,8 @@ field ``nu = [adj(J_p) j_s; det J_p]``), the Newton correction at fixed ``theta`
 (:func:`newton_correction`), the RK4 step in ``s`` (:func:`rk4_in_s`), the closure as one
 Function (:func:`closure_function`) and the linear solve of one matrix pattern
 (:func:`linear_solver`). The CVODES field (:mod:`scdk_sym.kernels.functions`), the curve
-follower's kernels (:mod:`scdk_sym.follower.kernels`), the atlas sweep and the generated C
-are built from them.
+follower's kernels (:mod:`scdk_sym.follower.kernels`) and the generated C (tracker, solves
+and the atlas sweep) are built from them.
 """
 
 from __future__ import annotations
@@ -166,7 +166,6 @@ def rk4_in_s(
     theta1: ca.SX,
     dtheta: ca.SX,
     steps: int,
-    stage_jp: list | None = None,
     inline: bool = True,
     closure: ca.Function | None = None,
 ) -> ca.SX:
@@ -181,9 +180,6 @@ def rk4_in_s(
         theta1: (k,) actuated values at ``s = 0`` [rad or model length unit].
         dtheta: (k,) direction of the line.
         steps: number of equal RK4 steps from ``s0`` to ``s1``.
-        stage_jp: if given, ``J_p`` (m, m) at each stage is appended to it, in evaluation
-            order (the expression the slope is solved with, so a check of its determinant
-            costs no second evaluation).
         inline: False to evaluate ``dy/ds`` by calls of one Function (compact generated C).
         closure: with ``inline`` False, the :func:`closure_function` ``dy/ds`` calls
             (default: a new one).
@@ -197,15 +193,12 @@ def rk4_in_s(
     else:
         _, Jp, Js = (closure or closure_function(sym))(sym.y, a + s * d, sym.c)
     f = ca.Function(
-        "scdk_dyds", [sym.y, s, a, d, sym.c], [ca.solve(Jp, Js @ d), Jp], function_options(inline)
+        "scdk_dyds", [sym.y, s, a, d, sym.c], [ca.solve(Jp, Js @ d)], function_options(inline)
     )
     c = sym.c
 
     def dyds(y, s_):
-        slope, jp = f(y, s_, theta1, dtheta, c)
-        if stage_jp is not None:
-            stage_jp.append(jp)
-        return slope
+        return f(y, s_, theta1, dtheta, c)
 
     h = (s1 - s0) / steps
     yk, sk = y0, s0
