@@ -7,11 +7,12 @@ values each). Prints, measured in the same run (BLAS pinned to one thread):
 * the baseline: ``sc.assembly_modes(model, theta, backend="compiled")`` (the parameter
   homotopy from the start system, the Krawczyk certificates) at ``--baseline`` seeded points
   of the grid;
-* the mode walk alone (``scdk_sym.atlases.chunk.solve_chunk(..., modes=True)`` over the whole
-  grid as one chunk: each point's certified set from its grid neighbour's complete root set),
-  its rate and the ratio to the baseline, and how many sets came from a neighbour;
+* the mode walk alone (``scdk_sym.atlases.chunk.mode_counts`` over the whole grid as one
+  chunk: each point's certified set from its grid neighbour's complete root set), its rate
+  and the ratio to the baseline, and how many sets came from a neighbour;
 * ``sc.atlas(..., modes=True)`` in this process and on ``--workers`` local worker processes
-  (points per busy worker-second);
+  (points per busy worker-second; the convergent solves included: a point the C sweep
+  leaves, past a fold of its straight path or unreachable, costs a full ``sc.solve``);
 * the check: the walk's counts against the baseline's at its points.
 
     OMP_NUM_THREADS=1 python benchmarks/mode_map_3rpr.py [--n 40] [--baseline 200]
@@ -34,7 +35,7 @@ from distributed import Client, LocalCluster  # noqa: E402
 
 import scdk_sym as sc  # noqa: E402
 from scdk_sym.atlases import make_grid  # noqa: E402
-from scdk_sym.atlases.chunk import model_source, solve_chunk  # noqa: E402
+from scdk_sym.atlases.chunk import mode_counts, model_source  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -73,14 +74,14 @@ def main() -> None:
     print(f"{'homotopy from scratch (baseline)':<34} {base:>8.0f} points/s")
 
     t = time.perf_counter()
-    walk = solve_chunk(model, home, thetas, modes=True, offset=0, shape=grid.shape)
+    n_modes, continued = mode_counts(model, thetas, 0, grid.shape)
     dt = time.perf_counter() - t
     rate = grid.size / dt
-    same = bool(np.array_equal(walk.n_modes[pick], base_n))
+    same = bool(np.array_equal(n_modes[pick], base_n))
+    counts = dict(zip(*(a.tolist() for a in np.unique(n_modes, return_counts=True)), strict=True))
     print(f"{'mode walk (one chunk)':<34} {rate:>8.0f} points/s ({rate / base:.2f}x baseline; "
-          f"{walk.modes_continued} of {grid.size} sets from a neighbour; counts "
-          f"{dict(zip(*np.unique(walk.n_modes, return_counts=True), strict=True))}; equal to "
-          f"the baseline at its {len(pick)} points: {same})")  # fmt: skip
+          f"{continued} of {grid.size} sets from a neighbour; counts {counts}; equal to the "
+          f"baseline at its {len(pick)} points: {same})")  # fmt: skip
 
     with tempfile.TemporaryDirectory() as tmp:
         run = sc.atlas(model, spec, Path(tmp) / "local.zarr", start=home, modes=True,

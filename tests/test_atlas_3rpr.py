@@ -155,7 +155,9 @@ def test_a_chunk_of_mode_sets_walked_from_neighbours_equals_the_polynomial():
     """A 12 x 12 slice in chunks of 48 (4 grid lines, the second and later chunks starting
     mid-grid): each point's certified set comes from its grid neighbour's complete root set
     wherever that is known (all but one point of each chunk here), and every count equals
-    the real roots of the polynomial, across the singular curves of the slice."""
+    the real roots of the polynomial, across the singular curves of the slice. The points
+    with no real solution are PathErrors without a solve: the statuses and solutions equal
+    those of the chunks solved without modes (each of those points through sc.solve)."""
     from scdk_sym.atlases import chunk, make_grid
 
     ex = load_example()
@@ -163,17 +165,24 @@ def test_a_chunk_of_mode_sets_walked_from_neighbours_equals_the_polynomial():
     n = 12
     grid = make_grid(model, ex.grid(n), model.home.theta)
     thetas = grid.thetas(0, grid.size)
-    counts, continued = [], 0
+    with_modes, without, continued = [], [], 0
     for a in range(0, grid.size, 48):
-        part = chunk.solve_chunk(model, model.home, thetas[a : a + 48], modes=True, offset=a,
-                                 shape=grid.shape)  # fmt: skip
-        counts.append(part.n_modes)
+        rows = thetas[a : a + 48]
+        part = chunk.solve_chunk(model, model.home, rows, modes=True, offset=a, shape=grid.shape)
+        with_modes.append(part)
+        without.append(chunk.solve_chunk(model, model.home, rows, offset=a, shape=grid.shape))
         continued += part.modes_continued
-    counts = np.concatenate(counts)
+    counts = np.concatenate([p.n_modes for p in with_modes])
     ref = reference_counts(ex, thetas)
     assert len(set(ref.tolist())) >= 3  # the slice crosses singular curves
     np.testing.assert_array_equal(counts, ref)
     assert continued == grid.size - grid.size // 48
+    status = np.concatenate([p.status for p in with_modes])
+    assert np.sum(counts == 0) > 0 and np.all(status[counts == 0] == 1)  # PathError
+    np.testing.assert_array_equal(status, np.concatenate([p.status for p in without]))
+    np.testing.assert_array_equal(
+        np.concatenate([p.x for p in with_modes]), np.concatenate([p.x for p in without])
+    )
 
 
 def test_each_grid_point_follows_the_neighbour_one_step_back_on_its_last_nonzero_axis():

@@ -123,7 +123,8 @@ def solve_chunk(
         model: the model.
         start: the assembled start Configuration (non-singular).
         thetas: (N, k) actuated values: points ``offset`` to ``offset + N - 1`` of a grid.
-        modes: also count the real assembly modes at each point (:func:`scdk_sym.assembly_modes`).
+        modes: also count the real assembly modes at each point (:func:`mode_counts`); a point
+            with none, certified, is a PathError without a solve (no path can reach it).
         offset: flat (C-order) index of the first row in the grid.
         shape: the grid's shape (default ``(N,)``: a list of readings, each row continued from
             the row before it).
@@ -154,6 +155,13 @@ def solve_chunk(
         todo = np.flatnonzero(finite & ~ok)
     else:
         todo = np.flatnonzero(finite)
+    n_modes = np.full(N, -1, dtype=np.int16)
+    continued = 0
+    if modes:
+        n_modes, continued = mode_counts(model, thetas, offset, (N,) if shape is None else shape)
+        # no real solution, certified: no path reaches theta (sc.solve's PathError)
+        status[todo[n_modes[todo] == 0]] = PATH
+        todo = todo[n_modes[todo] != 0]
     for i in todo:
         check()  # a stop between points: the chunk is not written, a rerun redoes it
         try:
@@ -176,10 +184,6 @@ def solve_chunk(
             det[i] = _det_local(model, r.y, r.theta)
             status[i] = SINGULAR if r.status == "singular" else SOLVED
     check()  # an interrupt some library reported as a failed solve is not a failed point
-    n_modes = np.full(N, -1, dtype=np.int16)
-    continued = 0
-    if modes:
-        n_modes, continued = _mode_counts(model, thetas, offset, (N,) if shape is None else shape)
     return ChunkResult(x, det, status, n_modes, swept, continued)
 
 
@@ -211,12 +215,24 @@ def predecessors(offset: int, count: int, shape: tuple[int, ...]) -> np.ndarray:
     return pred
 
 
-def _mode_counts(model, thetas: np.ndarray, offset: int, shape) -> tuple[np.ndarray, int]:
-    """Certified real-mode counts of a chunk (-1 where not certified), each point's set from
-    its grid neighbour's complete root set where that is known
+def mode_counts(
+    model, thetas: np.ndarray, offset: int, shape: tuple[int, ...]
+) -> tuple[np.ndarray, int]:
+    """Certified real-mode counts of a chunk, each point's set from its grid neighbour's
+    complete root set where that is known
     (:func:`scdk_sym.solvers.homotopy_modes.modes_from_neighbour`; models of independent
-    blocks: :func:`scdk_sym.assembly_modes` at each point); also how many came from a
-    neighbour."""
+    blocks: :func:`scdk_sym.assembly_modes` at each point).
+
+    Args:
+        model: the model.
+        thetas: (N, k) points ``offset`` to ``offset + N - 1`` of the grid.
+        offset: flat index of the first one.
+        shape: the grid's shape (``(N,)`` for a list of readings).
+
+    Returns:
+        ``(n_modes, continued)``: (N,) int16 counts (-1 where not certified) and how many
+        sets came from a neighbour.
+    """
     from ..solvers.block_modes import split
     from ..solvers.homotopy_modes import ModeSeed, modes_from_neighbour
     from ..solvers.modes import assembly_modes
