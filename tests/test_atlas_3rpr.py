@@ -204,3 +204,29 @@ def test_each_grid_point_follows_the_neighbour_one_step_back_on_its_last_nonzero
                 index[axes[-1]] -= 1
                 want = int(np.ravel_multi_index(index, shape)) - offset
                 assert got[i] == (want if want >= 0 else -1), (offset, count, i)
+
+
+def test_mode_sets_from_neighbours_along_a_line_are_the_polynomial_poses():
+    """Along a line of 30 readings of the example's slice that crosses singular curves, each
+    certified set tracked from the previous reading's complete root set holds exactly the
+    real poses of the polynomial (to 1e-8), and says it came from the neighbour."""
+    from scdk_sym.solvers.homotopy_modes import modes_from_neighbour
+
+    ex = load_example()
+    model = ex.build_model()
+    C = ex.platform_points()
+    (lo2, hi2), (lo3, hi3) = ex.LEG2, ex.LEG3
+    line = [np.array([ex.RHO1, lo2 + u * (hi2 - lo2), hi3 - u * (hi3 - lo3)])
+            for u in np.linspace(0.05, 0.95, 30)]  # fmt: skip
+    seed, counts = None, set()
+    for i, theta in enumerate(line):
+        modes, seed, used = modes_from_neighbour(model, theta, seed)
+        assert modes.certified and used == (i > 0)
+        if used:
+            assert "neighbouring point" in modes.report
+        ref = rpr_reference(ex.BASE, C, theta)
+        assert len(modes) == len(ref)
+        for pose in ref:
+            assert min(pose_distance(cfg.x, pose) for cfg in modes) <= POSE_TOL
+        counts.add(len(ref))
+    assert len(counts) >= 2  # the line crosses a singular curve

@@ -595,10 +595,16 @@ def _homotopy_modes(
     certs = _certificates(model, cfgs, theta0, reasons)
     certified = not reasons
     if certified:
+        source = (
+            f"tracked from a neighbouring point's complete set to {start.root_count} distinct "
+            "regular ends"
+            if continued
+            else f"start system complete: {start.certificate}"
+        )
         report = (
             f"certified complete: {len(cfgs)} real of {start.root_count} complex solutions "
-            f"(start system complete: {start.certificate}); each real one proven "
-            "unique in its Krawczyk box, boxes pairwise disjoint"
+            f"({source}); each real one proven unique in its Krawczyk box, boxes pairwise "
+            "disjoint"
         )
         if spurious:
             report += (
