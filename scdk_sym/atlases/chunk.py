@@ -27,6 +27,9 @@ STATUS = {
     4: "singular: solved, theta on the singular surface (J_p singular)",
 }
 SOLVED, PATH, VERIFICATION, SOLVE, SINGULAR = 0, 1, 2, 3, 4
+#: Points per call into the C sweep (interrupts are checked between calls, and each call's
+#: first point is solved from the start).
+SWEEP_CALL = 1024
 #: A swept solution is kept if a lower bound of sigma_min / sigma_max of its J_p exceeds this;
 #: sc.solve calls a solution singular below 1e-6.
 COND_MARGIN = 1e-5
@@ -142,19 +145,21 @@ def solve_chunk(
     status = np.full(N, SOLVE, dtype=np.int8)
     finite = np.all(np.isfinite(thetas), axis=1)
     swept = 0
-    if N:
-        y1, c = model.chart.to_local(start.y)
+    ok = np.zeros(N, dtype=bool)
+    y1, c = model.chart.to_local(start.y)
+    for a in range(0, N, SWEEP_CALL):
+        b = min(a + SWEEP_CALL, N)
         out = _tracker(model).sweep(
-            y1, c, start.theta, thetas, offset, (N,) if shape is None else shape, COND_MARGIN
-        )
-        ok = (out.codes >= 0) & (out.residual <= model.tolerance) & finite
-        x[ok] = out.x[ok]
-        det[ok] = out.det[ok]
-        status[ok] = SOLVED
-        swept = int(np.sum(ok))
-        todo = np.flatnonzero(finite & ~ok)
-    else:
-        todo = np.flatnonzero(finite)
+            y1, c, start.theta, thetas[a:b], offset + a, (N,) if shape is None else shape,
+            COND_MARGIN,
+        )  # fmt: skip
+        ok[a:b] = (out.codes >= 0) & (out.residual <= model.tolerance) & finite[a:b]
+        x[a:b][ok[a:b]] = out.x[ok[a:b]]
+        det[a:b][ok[a:b]] = out.det[ok[a:b]]
+        check()  # a stop between calls into C
+    status[ok] = SOLVED
+    swept = int(np.sum(ok))
+    todo = np.flatnonzero(finite & ~ok)
     n_modes = np.full(N, -1, dtype=np.int16)
     continued = 0
     if modes:
