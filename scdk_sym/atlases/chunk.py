@@ -140,6 +140,7 @@ def solve_chunk(
 
     thetas = np.ascontiguousarray(thetas, dtype=float)
     N, n = len(thetas), len(model.workspace)
+    grid_shape = (N,) if shape is None else tuple(shape)
     x = np.full((N, n), np.nan)
     det = np.full(N, np.nan)
     status = np.full(N, SOLVE, dtype=np.int8)
@@ -150,9 +151,8 @@ def solve_chunk(
     for a in range(0, N, SWEEP_CALL):
         b = min(a + SWEEP_CALL, N)
         out = _tracker(model).sweep(
-            y1, c, start.theta, thetas[a:b], offset + a, (N,) if shape is None else shape,
-            COND_MARGIN,
-        )  # fmt: skip
+            y1, c, start.theta, thetas[a:b], offset + a, grid_shape, COND_MARGIN
+        )
         ok[a:b] = (out.codes >= 0) & (out.residual <= model.tolerance) & finite[a:b]
         x[a:b][ok[a:b]] = out.x[ok[a:b]]
         det[a:b][ok[a:b]] = out.det[ok[a:b]]
@@ -163,7 +163,7 @@ def solve_chunk(
     n_modes = np.full(N, -1, dtype=np.int16)
     continued = 0
     if modes:
-        n_modes, continued = mode_counts(model, thetas, offset, (N,) if shape is None else shape)
+        n_modes, continued = mode_counts(model, thetas, offset, grid_shape)
         # no real solution, certified: no path reaches theta (sc.solve's PathError)
         status[todo[n_modes[todo] == 0]] = PATH
         todo = todo[n_modes[todo] != 0]
@@ -244,7 +244,7 @@ def mode_counts(
 
     N = len(thetas)
     n_modes = np.full(N, -1, dtype=np.int16)
-    pred = predecessors(offset, N, tuple(shape))
+    pred = predecessors(offset, N, shape)
     last_use = np.full(N, -1)
     last_use[pred[pred >= 0]] = np.flatnonzero(pred >= 0)  # rows ascend: the last one stays
     walk = split(model) is None
