@@ -76,6 +76,11 @@ PLACING_BLOCK = Key(
     "placing_block", "index of the block that alone places the reported frame", "the model only"
 )
 
+#: Rods between ball joints and the model with each one a distance row
+#: (:func:`scdk_sym.robot.rods.rod_reduction`).
+ROD_REDUCTION = Key(
+    "rod_reduction", "rods between balls and the model with them as distances", "the model only"
+)
 #: Every declared key, by name.
 KEYS: dict[str, Key] = {
     k.name: k
@@ -93,6 +98,7 @@ KEYS: dict[str, Key] = {
         PINOCCHIO_MODEL,
         PLACING_BLOCK,
         CLOSURE_FUNCTION,
+        ROD_REDUCTION,
     )
 }
 

@@ -1192,8 +1192,7 @@ def _template(message: str) -> str:
     return text[:140]
 
 
-#: Time given to building a model's assembly-mode start system before a fuzz [s]
-#: (digit_like's 12-unknown ankle block does not finish: its solves go without).
+#: Time given to building a model's assembly-mode start system before a fuzz [s].
 MODES_WARM_UP = 180.0
 
 

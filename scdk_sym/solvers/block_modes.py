@@ -25,6 +25,7 @@ from ..errors import VerificationError
 from ..results import AssemblyModes, Configuration
 from ..robot import Model
 from ..robot.blocks import BLOCK_MIN_UNKNOWNS, Block, triangular_blocks, triangular_models
+from ..robot.rods import rod_reduction
 
 
 @dataclass(frozen=True)
@@ -215,7 +216,7 @@ def _assemblies(model, theta0, blocks, grouped, kept) -> Sequence[Configuration]
     )  # fmt: skip
 
 
-def _report(blocks, found, kept, total: int, certified: bool, failed: int) -> str:
+def _report(blocks, found, kept, total: int, certified: bool, failed: int, rods: int) -> str:
     """What :func:`block_modes` says about its set."""
     sizes = [len(b.unknowns) for b in blocks]
     counts = ", ".join(
@@ -230,6 +231,10 @@ def _report(blocks, found, kept, total: int, certified: bool, failed: int) -> st
         return (
             f"certified complete per block ({len(blocks)} blocks of {sizes} unknowns, "
             f"{len(found)} block solves: {counts}); {total} assemblies{product}, each verified"
+        ) + (
+            f"; {rods} rod(s) between ball joints solved as distances (each assembly once)"
+            if rods
+            else ""
         )
     why = [f"block {blocks.index(b.block)}: {b.modes.report}" for b in found
            if not b.modes.certified]  # fmt: skip
@@ -270,7 +275,8 @@ def block_modes(
     kept, failed = _verified(model, theta0, parts)
     solutions = _assemblies(model, theta0, blocks, grouped, kept)
     certified = all(b.modes.certified for b in found) and failed == 0
-    report = _report(blocks, found, kept, len(solutions), certified, failed)
+    rods = sum(len(r) for r, reduced in map(rod_reduction, subs) if reduced is not None)
+    report = _report(blocks, found, kept, len(solutions), certified, failed, rods)
     return AssemblyModes(
         solutions=solutions,
         certified=certified,

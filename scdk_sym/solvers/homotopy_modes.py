@@ -44,6 +44,8 @@ from ..model.rotations import rot_exp
 from ..products import START_SYSTEM
 from ..results import AssemblyModes, Configuration
 from ..robot import Model, as_vector
+from ..robot.rods import rod_reduction
+from .rod_modes import lifted_modes
 
 #: Largest relative imaginary part of a real endpoint (as ``solve_homotopy`` selects them).
 REAL_TOL = 1e-8
@@ -559,6 +561,17 @@ def _homotopy_modes(
     from ..algebraic import algebraic_form, solve_homotopy
     from ..algebraic.scaled import scaled_form
 
+    rods, reduced = rod_reduction(model)
+    if reduced is not None:  # rods between balls: the distance model's modes, lifted
+        found, seed_out, continued = _homotopy_modes(
+            reduced, theta0, neighbour, seed=seed, progress=progress, backend=backend,
+            max_loops=max_loops, cache=cache, rebuild=rebuild, certified_only=certified_only,
+        )  # fmt: skip
+        modes = lifted_modes(
+            model, rods, reduced, found, theta0,
+            lambda cfgs, reasons: _certificates(model, cfgs, theta0, reasons),
+        )  # fmt: skip
+        return modes, seed_out, continued
     form = scaled_form(algebraic_form(model, resolve(backend, "modes")))
     start = model_start_system(
         form, seed, progress=progress, max_loops=max_loops, cache=cache, rebuild=rebuild

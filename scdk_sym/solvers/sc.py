@@ -628,6 +628,7 @@ def _across_by_modes(
     a singular configuration, not necessarily the nearest).
     """
     from ..follower.singular import nearest_across, nearest_singular, singular_from
+    from ..robot.rods import rod_reduction, seat
     from .modes import assembly_modes
 
     try:
@@ -643,11 +644,16 @@ def _across_by_modes(
         return None
     conv = convergent()
     anchor = start if fold is None else fold
+    candidates = [cfg.y for cfg in sols]
+    rods, _ = rod_reduction(model)
+    if rods:  # one configuration per assembly: its balls' angles as the anchor's continue
+        seated = [seat(model, rods, y, theta0, anchor.y) for y in candidates]
+        candidates = [y if s is None else s for y, s in zip(candidates, seated, strict=True)]
     best = nearest_across(
         model,
         anchor.y,
         theta0,
-        [(cfg.y, []) for cfg in sols],
+        [(y, []) for y in candidates],
         det_sign(model, start),
         any_sign=fold is not None and fold.kind != "fold",
         exclude=None if conv is None else conv.configuration,
