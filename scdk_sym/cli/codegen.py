@@ -46,6 +46,13 @@ def _codegen_args(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="write the sources only (default: also compile a shared library with $CC or gcc)",
     )
+    p.add_argument(
+        "--stages",
+        action="store_true",
+        help="one tracker per block of the block-triangular decomposition (a leg's knee, then "
+        "its ankle: model.stages), in DIR/stage<i> with prefix <prefix>_s<i>; a stage's "
+        "actuators are the model's it involves, then the earlier stages' unknowns it reads",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the text")
 
 
@@ -56,27 +63,51 @@ def _codegen_args(p: argparse.ArgumentParser) -> None:
     "scdk codegen models/planar_hexa --out planar_hexa_c",
 )
 def _codegen(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
     from ..codegen.generate import compile_library, generate
     from ..kernels.compile import compiler_command
 
     if not args.no_shared:
         compiler_command()  # a missing compiler ends the command before any work
     model = load(args)
-    src = generate(model, args.out, args.prefix)
-    library = None
-    if not args.no_shared:
-        library = compile_library(src, src.directory / f"lib{src.prefix}_tracker.so")
-    files = [src.kernels_c, src.kernels_h, src.tracker_c, src.tracker_h, src.lu_h]
+    parts = model.stages if args.stages else (model,)
+    staged = len(parts) > 1
+    written = []
+    for i, part in enumerate(parts):
+        out = Path(args.out) / f"stage{i}" if staged else args.out
+        if staged:
+            Path(args.out).mkdir(exist_ok=True)
+        src = generate(part, out, f"{args.prefix}_s{i}" if staged else args.prefix)
+        library = None
+        if not args.no_shared:
+            library = compile_library(src, src.directory / f"lib{src.prefix}_tracker.so")
+        files = [src.kernels_c, src.kernels_h, src.tracker_c, src.tracker_h, src.lu_h]
+        written.append((part, src, files, library))
     if args.json:
-        dump({"files": [str(f) for f in files], "library": str(library) if library else None})
+        entries = [
+            {"files": [str(f) for f in files], "library": str(library) if library else None,
+             "unknowns": list(part.unknowns), "actuated": list(part.actuated)}
+            for part, _src, files, library in written
+        ]  # fmt: skip
+        dump({"stages": entries} if staged else entries[0])
         return 0
     print(f"model {label(model)}: y = ({', '.join(model.unknowns)}), {theta_line(model)}")
-    for f in files:
-        print(f"wrote {f}")
-    if library:
-        print(f"wrote {library}")
-    print(
-        f"compile: gcc -std=c99 -O2 -Wall {src.kernels_c.name} {src.tracker_c.name} "
-        f"your_program.c -lm   (include {src.tracker_h.name})"
-    )
+    if args.stages and not staged:
+        print("the model does not split into stages: one tracker")
+    for i, (part, src, files, library) in enumerate(written):
+        if staged:
+            print(f"stage {i}: y = ({', '.join(part.unknowns)}), "
+                  f"theta = ({', '.join(part.actuated)})")  # fmt: skip
+        for f in files:
+            print(f"wrote {f}")
+        if library:
+            print(f"wrote {library}")
+        print(
+            f"compile: gcc -std=c99 -O2 -Wall {src.kernels_c.name} {src.tracker_c.name} "
+            f"your_program.c -lm   (include {src.tracker_h.name})"
+        )
+    if staged:
+        print("track the stages in order: a stage's theta is the model's actuators it names, "
+              "then the unknowns it names from the stages before it")  # fmt: skip
     return 0
