@@ -15,7 +15,12 @@ from factories import shipped
 
 import scdk_sym as sc
 from scdk_sym.algebraic import algebraic_form
-from scdk_sym.algebraic.rootbound import isotropic_rows, mixed_volume, root_bound
+from scdk_sym.algebraic.rootbound import (
+    isotropic_rows,
+    mixed_volume,
+    multihomogeneous_bezout,
+    root_bound,
+)
 
 
 def volume(points: np.ndarray) -> float:
@@ -74,7 +79,7 @@ def test_block_triangular_system_factorises():
     """x^3 = a; y^2 + x y + x^5 = b: 3 values of x, then 2 of y each."""
     A1 = np.array([[3, 0]])
     A2 = np.array([[0, 2], [1, 1], [5, 0]])
-    vol, sizes, vols, _ = mixed_volume([A1, A2], seed=0)
+    vol, sizes, vols, *_ = mixed_volume([A1, A2], seed=0)
     assert vol == 6 == mixed_volume_by_volumes([A1, A2])
     assert sizes == [1, 1] and vols == [3, 2]
 
@@ -126,3 +131,66 @@ def test_a_support_whose_hull_is_out_of_reach_is_refused_at_once():
     with pytest.raises(HomotopyError, match="792 points in 7 dimensions"):
         mixed_volume([big] + [dense(7, 1)] * 6, seed=0)
     assert time.process_time() - t < 1.0
+
+
+def multidense(degrees: list[int], sizes: list[int]) -> np.ndarray:
+    """Every monomial of degree at most ``degrees[j]`` in each group of ``sizes[j]`` variables."""
+    parts = [dense(n, d) for n, d in zip(sizes, degrees, strict=True)]
+    return np.array([np.concatenate(c) for c in itertools.product(*parts)])
+
+
+def expanded_coefficient(D: np.ndarray, sizes: list[int]) -> int:
+    """The coefficient of prod a_j^(n_j) in prod_i sum_j D_ij a_j, by expanding the product."""
+    poly = {tuple(0 for _ in sizes): 1}
+    for row in D:
+        nxt: dict[tuple[int, ...], int] = {}
+        for e, c in poly.items():
+            for j, d in enumerate(row):
+                f = e[:j] + (e[j] + 1,) + e[j + 1 :]
+                nxt[f] = nxt.get(f, 0) + c * int(d)
+        poly = nxt
+    return poly.get(tuple(sizes), 0)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_multihomogeneous_bezout_is_the_coefficient_of_the_expanded_product(seed):
+    rng = np.random.default_rng(seed)
+    sizes = [2, 1, 2]
+    n = sum(sizes)
+    groups = [[0, 1], [2], [3, 4]]
+    D = rng.integers(0, 3, size=(n, len(sizes)))
+    supports = [multidense(list(row), sizes) for row in D]
+    assert multihomogeneous_bezout(supports, groups) == expanded_coefficient(D, sizes)
+
+
+def test_multihomogeneous_bezout_of_dense_bilinear_rows_is_their_mixed_volume():
+    """Four rows of bidegree (1, 1) in two pairs of variables: C(4, 2) = 6 roots (the
+    2-homogeneous Bezout number, which the mixed volume of dense supports equals), where the
+    total degree counts 16."""
+    supports = [multidense([1, 1], [2, 2])] * 4
+    assert multihomogeneous_bezout(supports, [[0, 1], [2, 3]]) == 6
+    assert multihomogeneous_bezout(supports, [[0, 1, 2, 3]]) == 16
+    assert mixed_volume(supports, seed=0)[0] == 6
+
+
+def test_a_block_out_of_reach_is_bounded_by_bezout():
+    """The support whose hull is out of reach, given the variables' names: its block is
+    bounded by the least Bezout number (the total degree 5 x 1^6) at once."""
+    import time
+
+    big = dense(7, 5)
+    t = time.process_time()
+    names = [f"v{i}.x" for i in range(7)]
+    bound, sizes, vols, _, bezout = mixed_volume([big] + [dense(7, 1)] * 6, seed=0, names=names)
+    assert (bound, sizes, vols, bezout) == (5, [7], [5], [0])
+    assert time.process_time() - t < 1.0
+
+
+def test_a_spent_budget_leaves_a_bezout_bound_no_smaller_than_the_roots():
+    """The seed robot with no time for its mixed volume: the bound falls back to Bezout, is
+    said so, and still bounds its 6 assembly modes (its BKK bound)."""
+    form = algebraic_form(shipped("planar_hexa"))
+    _, p = form.random_point(np.random.default_rng(0))
+    rb = root_bound(form, p, budget=0.0)
+    assert rb.bezout and "Bezout" in rb.kind
+    assert rb.bound >= root_bound(form, p).bound == 6

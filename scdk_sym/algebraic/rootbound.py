@@ -30,6 +30,13 @@ as two general conics), so the form is first rewritten, keeping its roots one to
    Mizutani, Takeda and Kojima 2007), one linear-programming feasibility test per partial
    cell. Two independent liftings must give the same number.
 
+Where a block's mixed volume is out of reach (its budget spent, or a support whose lower hull
+is too large), that block is bounded by a multihomogeneous Bezout number instead
+(:func:`multihomogeneous_bezout`: each row multiplied by the monomial that makes its exponents
+non-negative, which keeps its roots in the torus; the least over a few partitions of the
+block's variables), a weaker bound that always finishes. ``RootBound.bezout`` names those
+blocks.
+
 Coefficients below :data:`ZERO_COEFFICIENT` times a row's largest are taken as exact zeros
 (the rounding residue of a cancellation such as ``c1 c2 - s1 s2`` in ``u1 / u2``).
 """
@@ -76,6 +83,8 @@ class RootBound:
         variables: names of the rewritten system's variables.
         cells: fine mixed cells enumerated (first lifting).
         seconds: wall-clock time of the computation [s].
+        bezout: indices of the blocks bounded by a multihomogeneous Bezout number (their
+            mixed volume out of reach); empty when ``bound`` is the BKK bound.
     """
 
     bound: int
@@ -84,6 +93,14 @@ class RootBound:
     variables: tuple[str, ...]
     cells: int
     seconds: float
+    bezout: tuple[int, ...] = ()
+
+    @property
+    def kind(self) -> str:
+        """``"BKK root bound"`` or, with a block bounded by Bezout, what bounds it."""
+        if not self.bezout:
+            return "BKK root bound"
+        return f"root bound (multihomogeneous Bezout on block(s) {list(self.bezout)})"
 
 
 # ---------------------------------------------------------------------------- polynomials
@@ -467,37 +484,101 @@ def _block_mixed_volume(supports: list[np.ndarray], rng, deadline: float) -> tup
     return volume, cells
 
 
+#: Most states (partial degree counts) of the multihomogeneous Bezout count of one partition.
+BEZOUT_MAX_STATES = 5_000
+
+
+def multihomogeneous_bezout(supports: list[np.ndarray], groups: list[list[int]]) -> int | None:
+    """The multihomogeneous Bezout number of ``n`` rows for a partition of the variables.
+
+    Each row is first multiplied by the monomial that makes its exponents non-negative (its
+    roots with no zero coordinate are kept), then the number is the coefficient of
+    ``prod_j a_j^(n_j)`` in ``prod_i sum_j d_ij a_j``, ``d_ij`` the row's degree in group
+    ``j`` of ``n_j`` variables: an upper bound on the isolated roots in ``C^n``, whatever the
+    coefficients.
+
+    Args:
+        supports: ``n`` integer arrays (m_i, n) of exponents (negative allowed).
+        groups: a partition of ``range(n)``.
+
+    Returns:
+        The number, or ``None`` when the count would pass :data:`BEZOUT_MAX_STATES` states.
+    """
+    sizes = [len(g) for g in groups]
+    if math.prod(s + 1 for s in sizes) > BEZOUT_MAX_STATES:
+        return None
+    degrees = []
+    for P in supports:
+        Q = P - P.min(axis=0)
+        degrees.append([int(Q[:, g].sum(axis=1).max()) for g in groups])
+    states: dict[tuple[int, ...], int] = {tuple(0 for _ in groups): 1}
+    for d in degrees:  # distribute the rows over the groups, one row at a time
+        nxt: dict[tuple[int, ...], int] = {}
+        for used, count in states.items():
+            for j, dj in enumerate(d):
+                if dj and used[j] < sizes[j]:
+                    key = used[:j] + (used[j] + 1,) + used[j + 1 :]
+                    nxt[key] = nxt.get(key, 0) + count * dj
+        states = nxt
+    return states.get(tuple(sizes), 0)
+
+
+def _bezout_bound(supports: list[np.ndarray], names: list[str]) -> int:
+    """The least multihomogeneous Bezout number over three partitions of a block's variables:
+    one group (the total degree), one group per joint (variables named ``joint.*``), one per
+    variable."""
+    n = len(supports)
+    by_joint: dict[str, list[int]] = {}
+    for i, name in enumerate(names):
+        by_joint.setdefault(name.rsplit(".", 1)[0], []).append(i)
+    partitions = [[list(range(n))], list(by_joint.values()), [[i] for i in range(n)]]
+    found = [multihomogeneous_bezout(supports, g) for g in partitions]
+    return min(b for b in found if b is not None)
+
+
 def mixed_volume(
-    supports: list[np.ndarray], seed: int = 0, budget: float = BUDGET
-) -> tuple[int, list[int], list[int], int]:
+    supports: list[np.ndarray],
+    seed: int = 0,
+    budget: float = BUDGET,
+    names: list[str] | None = None,
+) -> tuple[int, list[int], list[int], int, list[int]]:
     """The mixed volume of the convex hulls of ``supports`` and the origin.
 
     Args:
         supports: ``n`` integer arrays (m_i, n) of exponents (negative allowed).
         seed: seed of the random liftings.
         budget: budget [s of CPU time].
+        names: the variables' names: with them, a block whose mixed volume is out of reach
+            (budget, hull size) is bounded by :func:`_bezout_bound` instead.
 
     Returns:
-        ``(volume, block sizes, block volumes, cells)``.
+        ``(bound, block sizes, block bounds, cells, blocks bounded by Bezout)``.
 
     Raises:
-        HomotopyError: two liftings disagree, or the budget ran out.
+        HomotopyError: two liftings disagree, or (without ``names``) the budget ran out.
     """
     deadline = time.process_time() + budget
     pts = [_with_origin(np.asarray(P, dtype=int).reshape(-1, len(supports))) for P in supports]
     blocks = _blocks(pts)
     if blocks is None:
-        return 0, [], [], 0
+        return 0, [], [], 0, []
     sizes: list[int] = []
     vols: list[int] = []
+    bezout: list[int] = []
     cells = 0
     total = 1
     for rows, cols in blocks:
         sub = [_with_origin(pts[r][:, cols]) for r in rows]
         results = []
-        for k in range(2):
-            rng = np.random.default_rng([seed, k, len(sizes)])
-            results.append(_block_mixed_volume(sub, rng, deadline))
+        try:
+            for k in range(2):
+                rng = np.random.default_rng([seed, k, len(sizes)])
+                results.append(_block_mixed_volume(sub, rng, deadline))
+        except HomotopyError:
+            if names is None:
+                raise
+            bezout.append(len(sizes))
+            results = [(_bezout_bound(sub, [names[c] for c in cols]), 0)] * 2
         if results[0][0] != results[1][0]:
             raise HomotopyError(
                 f"mixed volume of a block of {len(rows)} variables: two liftings give "
@@ -507,7 +588,7 @@ def mixed_volume(
         vols.append(results[0][0])
         cells += results[0][1]
         total *= results[0][0]
-    return total, sizes, vols, cells
+    return total, sizes, vols, cells, bezout
 
 
 def root_bound(form, p: np.ndarray, seed: int = 0, budget: float = BUDGET) -> RootBound:
@@ -533,7 +614,7 @@ def root_bound(form, p: np.ndarray, seed: int = 0, budget: float = BUDGET) -> Ro
     for i, label in enumerate(labels):
         groups.setdefault(label.rsplit(".", 1)[0], []).append(i)
     supports = _sparse_supports(polys, list(groups.values()), SPARSIFY_SUBSETS, rng)
-    volume, sizes, vols, cells = mixed_volume(supports, seed, budget)
+    volume, sizes, vols, cells, bezout = mixed_volume(supports, seed, budget, list(variables))
     return RootBound(
         bound=volume,
         blocks=tuple(sizes),
@@ -541,4 +622,5 @@ def root_bound(form, p: np.ndarray, seed: int = 0, budget: float = BUDGET) -> Ro
         variables=variables,
         cells=cells,
         seconds=time.perf_counter() - t0,
+        bezout=tuple(bezout),
     )

@@ -206,7 +206,10 @@ def form_root_bound(form, p: np.ndarray, seed: int = 0):
         return None, str(exc)
 
 
-def complete_by_bound(form, solutions: np.ndarray, p: np.ndarray, b: np.ndarray, bound: int):
+def complete_by_bound(
+    form, solutions: np.ndarray, p: np.ndarray, b: np.ndarray, bound: int,
+    kind: str = "BKK root bound",
+):  # fmt: skip
     """Whether ``solutions`` are all the isolated roots of ``G(z, p) + b = 0``, by count.
 
     They are when they are roots (two Newton steps converge), regular (scaled condition
@@ -220,6 +223,7 @@ def complete_by_bound(form, solutions: np.ndarray, p: np.ndarray, b: np.ndarray,
         p: (n_params,) complex parameters.
         b: (n,) complex offsets.
         bound: the upper bound on the isolated roots.
+        kind: what the bound is (for the note).
 
     Returns:
         ``(complete, note)``: the verdict and one line saying why.
@@ -242,7 +246,7 @@ def complete_by_bound(form, solutions: np.ndarray, p: np.ndarray, b: np.ndarray,
     np.fill_diagonal(d, np.inf)
     if count > 1 and d.min() < DISTINCT:
         return False, f"two roots lie {d.min():.1e} apart (< {DISTINCT:.0e})"
-    return True, f"{count} distinct regular roots = BKK root bound"
+    return True, f"{count} distinct regular roots = {kind}"
 
 
 def model_start_system(
@@ -322,7 +326,7 @@ def _compute_start_system(form, seed: int, max_loops: int, progress: bool):
 
     def test(sols: np.ndarray, p: np.ndarray, b: np.ndarray) -> float:
         if bound is not None and np.array_equal(p, p_star):
-            ok, verdict["note"] = complete_by_bound(form, sols, p, b, bound.bound)
+            ok, verdict["note"] = complete_by_bound(form, sols, p, b, bound.bound, bound.kind)
             if ok:
                 verdict["certificate"] = verdict["note"]
                 return 0.0
@@ -351,7 +355,7 @@ def _compute_start_system(form, seed: int, max_loops: int, progress: bool):
     if not start.trace_passed:
         reason += (
             f"; root bound: {verdict['note']}" if bound is not None and verdict["note"]
-            else f"; BKK root bound {bound.bound}" if bound is not None
+            else f"; {bound.kind} {bound.bound}" if bound is not None
             else f"; no root bound ({bound_note})"
         )  # fmt: skip
     start = replace(
