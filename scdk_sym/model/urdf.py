@@ -123,6 +123,23 @@ class Tree:
                 return j
         return None
 
+    def path(self, link: str) -> list[Joint]:
+        """The joints from the root to ``link``, root first."""
+        out = []
+        j = self.parent_joint(link)
+        while j is not None:
+            out.append(j)
+            j = self.parent_joint(j.parent)
+        return out[::-1]
+
+    def subtree(self, link: str) -> set[str]:
+        """``link`` and every link it carries."""
+        out = {link}
+        for j in self.joints:  # parents before children
+            if j.parent in out:
+                out.add(j.child)
+        return out
+
 
 def _check_structure(text: str, path: str | None) -> None:
     """Refuse text that is not a URDF document before yourdfpy reads it: empty, not XML, not a

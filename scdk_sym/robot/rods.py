@@ -22,7 +22,7 @@ import numpy as np
 
 from ..kernels.fastcall import model_calls
 from ..model.spec import Closure
-from ..model.urdf import Joint, Tree
+from ..model.urdf import Joint
 from ..products import ROD_REDUCTION
 from .model import Model
 
@@ -55,17 +55,6 @@ class Rod:
     length: float
 
 
-def _path(tree: Tree, link: str) -> list[Joint]:
-    """The joints from the root to ``link``, root first."""
-    out = []
-    while link != tree.root:
-        j = tree.parent_joint(link)
-        assert j is not None
-        out.append(j)
-        link = j.parent
-    return out[::-1]
-
-
 def _ball(
     side: list[Joint], axes: dict[str, np.ndarray], scale: float, spins: set[str]
 ) -> list[Joint] | None:
@@ -92,14 +81,6 @@ def _ball(
     return run
 
 
-def _subtree(tree: Tree, link: str) -> set[str]:
-    out = {link}
-    for j in tree.joints:  # parents before children
-        if j.parent in out:
-            out.add(j.child)
-    return out
-
-
 def find_rods(model: Model) -> tuple[Rod, ...]:
     """The rods between balls of ``model``: 6d closures whose two loop sides each end in a
     ball whose joints are unknowns or locked, nothing else (no other closure frame, no
@@ -112,15 +93,15 @@ def find_rods(model: Model) -> tuple[Rod, ...]:
             axes[j.name] = home[j.child][:3, :3] @ np.asarray(j.axis, dtype=float)
     free = set(model.unknowns) | set(model.locked)
     frames = {c.frame_a for c in model.closures} | {c.frame_b for c in model.closures}
+    spins = set(model.spins)
     rods = []
     for ci, c in enumerate(model.closures):
         if c.type != "6d":
             continue
-        pa, pb = _path(tree, c.frame_a), _path(tree, c.frame_b)
+        pa, pb = tree.path(c.frame_a), tree.path(c.frame_b)
         common = 0
         while common < min(len(pa), len(pb)) and pa[common].name == pb[common].name:
             common += 1
-        spins = set(model.spins)
         ball_a = _ball(pa[common:], axes, model.length_scale, spins)
         ball_b = _ball(pb[common:], axes, model.length_scale, spins)
         if ball_a is None or ball_b is None:
@@ -129,7 +110,7 @@ def find_rods(model: Model) -> tuple[Rod, ...]:
         joints = [j for b in balls for j in b]
         if any(set(j.coordinates) - free for j in joints):
             continue
-        carried = _subtree(tree, balls[0][0].child) | _subtree(tree, balls[1][0].child)
+        carried = tree.subtree(balls[0][0].child) | tree.subtree(balls[1][0].child)
         if (frames - {c.frame_a, c.frame_b}) & carried or model.frame in carried:
             continue
         centres = (balls[0][0].child, balls[1][0].child)
