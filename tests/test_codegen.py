@@ -385,7 +385,13 @@ def test_cli_writes_a_tracker_per_stage_that_chained_track_as_the_model(tmp_path
     directory = ROOT / "tests" / "fixtures" / "gepetto" / "digit_like"
     assert main(["codegen", str(directory), "--out", str(tmp_path), "--prefix", "dg",
                  "--stages", "--json"]) == 0  # fmt: skip
-    stages = json.loads(capsys.readouterr().out)["stages"]
+    import jsonschema
+
+    from scdk_sym.schema import command_schema
+
+    out = json.loads(capsys.readouterr().out)
+    jsonschema.Draft202012Validator(command_schema("codegen")).validate(out)
+    stages = out["stages"]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         m = sc.load_model(directory)

@@ -86,10 +86,12 @@ def _codegen(args: argparse.Namespace) -> int:
         written.append((part, src, files, library))
     if args.json:
         entries = [
-            {"files": [str(f) for f in files], "library": str(library) if library else None,
-             "unknowns": list(part.unknowns), "actuated": list(part.actuated)}
-            for part, _src, files, library in written
-        ]  # fmt: skip
+            {"files": [str(f) for f in files], "library": str(library) if library else None}
+            for _part, _src, files, library in written
+        ]
+        if staged:
+            for entry, (part, *_rest) in zip(entries, written, strict=True):
+                entry.update(unknowns=list(part.unknowns), actuated=list(part.actuated))
         dump({"stages": entries} if staged else entries[0])
         return 0
     print(f"model {label(model)}: y = ({', '.join(model.unknowns)}), {theta_line(model)}")
