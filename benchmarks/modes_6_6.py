@@ -13,23 +13,34 @@ For Dietmaier's 40-mode platform and ``--platforms`` random general 6-6 platform
   (``time.process_time``: on a shared machine the wall time also counts the waits);
 * the curve search (method "curves", compiled kernels) on the same legs: median time, count;
 * the baseline: random-start Levenberg-Marquardt (tests/stewart.py, ``--lm-starts``
-  starts), median time and count.
+  starts), median time and count;
+* with ``--fksgp DIR`` (a checkout of the published all-solution numpy solver fkSGP, MIT, not
+  shipped here): its general 6-6 solver on the same legs in the same run, median time of
+  ``--repeat`` calls, its real set against the certified one, and the ratio of the certified
+  query's median to it per platform (the summary gives the worst platform's ratio).
 
-    python benchmarks/modes_6_6.py [--platforms 2] [--repeat 5] [--lm-starts 3000]
+BLAS is pinned to one thread (both sides), unless the environment says otherwise.
+
+    python benchmarks/modes_6_6.py [--platforms 2] [--repeat 5] [--lm-starts 3000] [--fksgp DIR]
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import importlib
 import os
 import sys
 import time
+import types
 from pathlib import Path
 
-import numpy as np
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import scdk_sym as sc
+import numpy as np  # noqa: E402
+
+import scdk_sym as sc  # noqa: E402
 from scdk_sym.algebraic import algebraic_form, certify_configurations, solve_homotopy
 from scdk_sym.algebraic import homotopy as homotopy_module
 from scdk_sym.algebraic.scaled import scaled_form
@@ -70,6 +81,30 @@ def median_time(fn, repeat: int, label: str = ""):
     return float(np.median(times)), out
 
 
+def load_fksgp(checkout: Path):
+    """fkSGP's general 6-6 solver ``solver66(X, x, L2, realOnly)`` from a checkout (its
+    ``python/`` package is imported without running its ``__init__``)."""
+    folder = Path(checkout) / "python"
+    if not (folder / "solver66.py").is_file():
+        raise SystemExit(f"--fksgp {checkout}: no python/solver66.py there (a fkSGP checkout?)")
+    package = types.ModuleType("fksgp_checkout")
+    package.__path__ = [str(folder)]
+    sys.modules["fksgp_checkout"] = package
+    return importlib.import_module("fksgp_checkout.solver66").solver66
+
+
+def fksgp_poses(solver66, A, B, legs):
+    """All postures by fkSGP, as (position, rotation) of the platform frame in the base frame,
+    and the real ones among them (imaginary parts below 1e-8)."""
+    Rt, _ = solver66(A - A[0], B - B[0], np.asarray(legs) ** 2, 0)
+    poses = []
+    for T in Rt:
+        if np.abs(T.imag).max() <= 1e-8:
+            R = T[:, :3].real
+            poses.append((A[0] + T[:, 3].real - R @ B[0], R))
+    return len(Rt), poses
+
+
 @contextlib.contextmanager
 def numpy_tracker():
     """Queries inside track their paths with the numpy tracker (the C one is skipped)."""
@@ -86,7 +121,10 @@ def main() -> None:
     parser.add_argument("--platforms", type=int, default=2, help="random platforms")
     parser.add_argument("--repeat", type=int, default=5, help="runs per median")
     parser.add_argument("--lm-starts", type=int, default=3000, help="LM random starts")
+    parser.add_argument("--fksgp", type=Path, help="a checkout of fkSGP: same-run baseline")
     args = parser.parse_args()
+    solver66 = load_fksgp(args.fksgp) if args.fksgp else None
+    np.random.seed(0)  # noqa: NPY002  (fkSGP draws its frame rotations from the global generator)
     platforms = {"Dietmaier 1998": (DIETMAIER_BASE, DIETMAIER_PLATFORM, DIETMAIER_LENGTHS)}
     for seed in range(1, args.platforms + 1):
         platforms[f"random #{seed}"] = random_platform(seed)
@@ -148,7 +186,20 @@ def main() -> None:
             f"  LM        {len(ref):>3} real: {1e3 * t_lm:8.1f} ms "
             f"({args.lm_starts} starts, median of 3)"
         )
-        summary.append((sols.root_count == 40, sols.certified, match, t_query, t_query_py, t_lm))
+        ratio = np.nan
+        if solver66 is not None:
+            t_fk, (n_fk, fk_real) = median_time(
+                lambda a=A, b=B, lg=legs: fksgp_poses(solver66, a, b, lg), args.repeat
+            )
+            ratio = t_query / t_fk
+            print(
+                f"  fkSGP     {len(fk_real):>3} real of {n_fk}, = certified set "
+                f"{same_set(list(sols), fk_real, 1e-5)}: {1e3 * t_fk:8.1f} ms (median of "
+                f"{args.repeat}); certified query / fkSGP {ratio:.2f}"
+            )
+        summary.append(
+            (sols.root_count == 40, sols.certified, match, t_query, t_query_py, t_lm, ratio)
+        )
     n = len(summary)
     print(
         f"{n} platforms: root count 40 in {sum(s[0] for s in summary)}, certified in "
@@ -157,6 +208,12 @@ def main() -> None:
         f"{1e3 * float(np.median([s[4] for s in summary])):.1f} ms (numpy tracker), LM "
         f"{1e3 * float(np.median([s[5] for s in summary])):.1f} ms"
     )
+    if solver66 is not None:
+        ratios = [s[6] for s in summary]
+        print(
+            f"certified query / fkSGP (same run, medians): worst platform {max(ratios):.2f}, "
+            f"median {float(np.median(ratios)):.2f}"
+        )
     print("load average (1, 5, 15 min): {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
 
 
