@@ -27,6 +27,7 @@ from scdk_sym.algebraic.scaled import scaled_form
 from scdk_sym.algebraic.tracker import TrackerOptions, track
 from scdk_sym.errors import InputError
 from scdk_sym.kernels.compile import LU_HEADER, run_compiler
+from scdk_sym.kernels.lanes import lane_source
 from scdk_sym.model.chart import rot_exp, rot_log
 from scdk_sym.products import START_SYSTEM
 from scdk_sym.solvers import homotopy_modes as hm
@@ -68,13 +69,19 @@ def dietmaier():
     return model, form, start
 
 
-def test_sources_compile_with_every_warning_as_error(tmp_path):
+def test_sources_compile_with_every_warning_as_error(dietmaier, tmp_path):
+    _, form, _ = dietmaier
     src = source_dir()
-    for stem in ("ptrack", "ikrawczyk"):  # both include the package's one LU (scdk_lu.h)
-        flags = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", f"-I{LU_HEADER.parent}"]
-        run_compiler([*flags, "-c", src / f"{stem}.c", "-o", tmp_path / f"{stem}.o"])
+    flags = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", f"-I{LU_HEADER.parent}"]
+    # both include the package's one LU (scdk_lu.h); the tracker with a generated evaluation
+    run_compiler([*flags, "-c", src / "ikrawczyk.c", "-o", tmp_path / "ikrawczyk.o"])
+    (tmp_path / "scdk_eval.c").write_text(lane_source(form.form.G_pairs, "scdk_eval"))
+    sizes = [f"-DSCDK_N={form.n}", f"-DSCDK_K={form.n_params}", "-DSCDK_LANES=4",
+             '-DSCDK_EVAL_FILE="scdk_eval.c"', f"-I{tmp_path}"]  # fmt: skip
+    run_compiler([*flags, *sizes, "-c", src / "ptrack.c", "-o", tmp_path / "ptrack.o"])
+    for stem in ("ikrawczyk", "ptrack"):
         assert (tmp_path / f"{stem}.o").stat().st_size > 0
-    assert tracker_library().exists()
+    assert tracker_library(form.form).exists()
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

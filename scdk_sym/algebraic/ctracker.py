@@ -3,18 +3,19 @@ model's algebraic form.
 
 ``c/ptrack.c`` tracks every path of a :class:`~scdk_sym.algebraic.homotopy.ParameterHomotopy`
 in one call, with the predictor, corrector and step rules of the numpy tracker (which stays
-the reference) and the real-pair evaluation of ``G`` generated as C by CasADi
-(:func:`~scdk_sym.algebraic.pairs.complexify`). Both libraries are compiled once and cached
-on disk (:mod:`scdk_sym.kernels.compile`); the evaluation library is the one the
-``"compiled"`` algebraic form loads, and the tracker calls its generated function through a
-pointer. Only straight segments in ``t`` are tracked here; the endgame's circles stay in
-numpy.
+the reference). :data:`LANES` paths advance in lock step, one per lane of a vector of
+doubles: the real-pair evaluation of ``G`` (:func:`~scdk_sym.algebraic.pairs.complexify`) is
+written for lane vectors (:func:`~scdk_sym.kernels.lanes.lane_source`) and compiled into the
+tracker with the system's sizes, so one library per system, compiled once and cached on disk
+under the hash of everything it is built from. Only straight segments in ``t`` are tracked
+here; the endgame's circles stay in numpy.
 """
 
 from __future__ import annotations
 
 import ctypes
 import hashlib
+import tempfile
 from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
@@ -32,8 +33,9 @@ TRACKERS = ("auto", "c", "python")
 TRACKER_CFLAGS = (
     "-std=c99", "-O3", "-fcx-limited-range", "-shared", "-fPIC", "-Wall", "-Wextra", "-Werror",
 )  # fmt: skip
-_EVAL_NAME = "algebraic_G"
-_ERRORS = {1: "out of memory", 2: "the generated evaluation failed", 3: "bad sizes"}
+#: Paths tracked in lock step, one per lane of a GCC vector of doubles.
+LANES = 4
+_ERRORS = {1: "out of memory", 3: "bad sizes"}
 
 
 class _Options(ctypes.Structure):
@@ -85,13 +87,53 @@ def source_library(stem: str, flags: tuple[str, ...]) -> Path:
     return cached_file(target, build, "compiled library")
 
 
-def tracker_library() -> Path:
-    """The compiled tracker library (cached under the hash of its sources, flags and compiler).
+def simd_flags() -> tuple[str, ...]:
+    """``-mavx2`` where the processor has AVX2 (Linux ``/proc/cpuinfo``), else nothing: the
+    lanes then run on the baseline instruction set. No ``-mfma``: without contracted
+    multiply-adds each lane rounds as the scalar evaluation does."""
+    try:
+        info = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return ()
+    flags = next((ln.split(":", 1)[1].split() for ln in info.splitlines()
+                  if ln.startswith("flags")), [])  # fmt: skip
+    return ("-mavx2",) if "avx2" in flags else ()
+
+
+def tracker_library(form) -> Path:
+    """The compiled tracker of an :class:`~scdk_sym.algebraic.form.AlgebraicForm` (cached under the hash of the tracker's
+    sources, the generated lane evaluation, the sizes, flags and compiler).
 
     Raises:
-        BuildError: no C compiler, or the compilation failed.
+        BuildError: no C compiler, the compilation failed, or ``G`` uses an operation with no
+            lane evaluation.
     """
-    return source_library("ptrack", TRACKER_CFLAGS)
+    from ..kernels.cache import cache_dir, cached_file
+    from ..kernels.compile import LU_HEADER, compiler_tag, run_compiler
+    from ..kernels.lanes import lane_source
+
+    src = source_dir()
+    evaluation = lane_source(form.G_pairs, "scdk_eval")
+    main = (
+        f"#define SCDK_N {form.n}\n#define SCDK_K {form.n_params}\n#define SCDK_LANES {LANES}\n"
+        '#define SCDK_EVAL_FILE "scdk_eval.c"\n#include "ptrack.c"\n'
+    )
+    flags = (*TRACKER_CFLAGS, *simd_flags())
+    h = hashlib.sha256()
+    for path in (src / "ptrack.h", src / "ptrack.c", LU_HEADER):
+        h.update(path.read_bytes())
+    for text in (evaluation, main, " ".join(flags), compiler_tag()):
+        h.update(text.encode() + b"\0")
+    target = cache_dir() / f"ptrack_{h.hexdigest()[:20]}.so"
+
+    def build(path: Path) -> None:
+        with tempfile.TemporaryDirectory() as tmp:
+            (Path(tmp) / "scdk_eval.c").write_text(evaluation)
+            (Path(tmp) / "main.c").write_text(main)
+            run_compiler([*flags, f"-I{src}", f"-I{LU_HEADER.parent}", f"-I{tmp}",
+                          str(Path(tmp) / "main.c"), "-o", str(path), "-lm"])  # fmt: skip
+
+    return cached_file(target, build, "compiled library")
 
 
 def _form_and_weights(system) -> tuple[object, np.ndarray] | None:
@@ -117,26 +159,14 @@ class CTracker:
     """
 
     def __init__(self, form) -> None:
-        from ..kernels.compile import cached_library
-        from .pairs import complexify
-
         self.n, self.k = form.n, form.n_params
-        ev = ctypes.CDLL(str(cached_library([complexify(form.G_real, _EVAL_NAME)], _EVAL_NAME)))
-        work = getattr(ev, f"{_EVAL_NAME}_work")
-        sizes = [ctypes.c_longlong() for _ in range(4)]
-        work.argtypes = [ctypes.POINTER(ctypes.c_longlong)] * 4
-        if work(*(ctypes.byref(s) for s in sizes)):
-            raise BuildError(f"{_EVAL_NAME}_work failed in the generated library; clear the cache")
-        self._sz_iw, self._sz_w = sizes[2].value, sizes[3].value
-        self._eval_lib = ev  # kept alive: the tracker calls into it
-        self._eval = ctypes.cast(getattr(ev, _EVAL_NAME), ctypes.c_void_p)
-        lib = ctypes.CDLL(str(tracker_library()))
+        lib = ctypes.CDLL(str(tracker_library(form)))
         f = lib.scdk_ptrack
         dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
         cdbl = np.ctypeslib.ndpointer(dtype=np.complex128, flags="C_CONTIGUOUS")
         i64 = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
         I = ctypes.c_int64  # noqa: E741
-        f.argtypes = [ctypes.c_void_p, I, I, I, I, dbl, cdbl, cdbl, cdbl, cdbl, cdbl, I, i64,
+        f.argtypes = [I, I, dbl, cdbl, cdbl, cdbl, cdbl, cdbl, I, i64,
                       cdbl, dbl, dbl, dbl, ctypes.POINTER(_Options), i64, i64, i64]  # fmt: skip
         f.restype = ctypes.c_int
         self._lib, self._track = lib, f
@@ -184,7 +214,7 @@ class CTracker:
         opt = _Options(o.h0, o.h_min, o.h_max, o.eta, o.trust, o.theta, o.tol, o.floor,
                        o.noise, int(o.max_steps), o.max_norm)  # fmt: skip
         rc = self._track(
-            self._eval, self._sz_iw, self._sz_w, self.n, self.k,
+            self.n, self.k,
             cd(weights, dtype=np.float64), cd(homotopy.p_from, dtype=np.complex128),
             cd(homotopy.dp, dtype=np.complex128), cd(homotopy.b_from, dtype=np.complex128),
             cd(homotopy.db, dtype=np.complex128), cd(homotopy.gamma, dtype=np.complex128),

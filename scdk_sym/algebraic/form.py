@@ -112,6 +112,8 @@ class AlgebraicForm:
         G_real: SX Function ``(z[n], p[n_params]) -> G[n]``, real coefficients.
         G_complex: Function ``(zr[n], zi[n], pr[k], pi[k]) -> (Gr[n], Gi[n], Jz_r[n,n],
             Jz_i[n,n], Jp_r[n,k], Jp_i[n,k])`` of one point (SX, or the compiled external).
+        G_pairs: the SX Function ``G_complex`` is (or is compiled from): its algorithm, which
+            the C path tracker compiles for lane vectors.
     """
 
     model: Model = field(repr=False)
@@ -122,6 +124,7 @@ class AlgebraicForm:
     rows: PolynomialRows = field(repr=False)
     G_real: ca.Function = field(repr=False)
     G_complex: ca.Function = field(repr=False)
+    G_pairs: ca.Function = field(repr=False)
     _maps: dict[int, Buffered] = field(default_factory=dict, repr=False, compare=False)
 
     # ------------------------------------------------------------------ protocol
@@ -356,12 +359,12 @@ class AlgebraicForm:
 def _build(model: Model, backend: str) -> AlgebraicForm:
     rows = polynomial_rows(model)
     G_real = ca.Function("G_real", [rows.z, rows.p], [rows.G], ["z", "p"], ["G"])
-    G_complex = complexify(G_real, "algebraic_G")
+    G_pairs = G_complex = complexify(G_real, "algebraic_G")
     if backend == "compiled":
         from ..kernels.compile import cached_library
 
-        path = cached_library([G_complex], "algebraic_G")
-        G_complex = ca.external(G_complex.name(), str(path))
+        path = cached_library([G_pairs], "algebraic_G")
+        G_complex = ca.external(G_pairs.name(), str(path))
     return AlgebraicForm(
         model=model,
         backend=backend,
@@ -371,6 +374,7 @@ def _build(model: Model, backend: str) -> AlgebraicForm:
         rows=rows,
         G_real=G_real,
         G_complex=G_complex,
+        G_pairs=G_pairs,
     )
 
 

@@ -9,111 +9,146 @@
  *              also gives the velocity at the new point;
  *   step control: accepted, h = min(h clip((eta / nu1)^(1/5), 0.25, 2), h_max), the factor at
  *              most 1 right after a rejected step; rejected, h / 2.
- * Linear systems: the package's LU with partial pivoting (scdk_lu.h: pivot of largest
- * |re| + |im|, as LAPACK); an exactly zero pivot gives NaN solutions, which reject the step.
+ *
+ * Lanes: SCDK_LANES paths advance in lock step, one per lane of a GCC vector type, so that
+ * each evaluation of G (generated for lane vectors: scdk_sym/kernels/lanes.py) and each
+ * elimination serves all of them; every step of every path makes the same five evaluations,
+ * so the lanes never wait on each other. Each lane keeps its own step size, time and
+ * counters; a lane whose path stops takes the next path. Lane by lane the arithmetic is that
+ * of one path alone.
+ * Linear systems: the package's LU with partial pivoting (scdk_lu.h, its lane form: pivot of
+ * largest |re| + |im|, as LAPACK); an exactly zero pivot gives NaN solutions, which reject
+ * the step.
+ *
+ * Compiled once per system: SCDK_N (unknowns), SCDK_K (parameters), SCDK_LANES and
+ * SCDK_EVAL_FILE (the generated evaluation, defining scdk_eval) are defined by the includer.
  */
 #include "ptrack.h"
-#include "scdk_lu.h"
 
 #include <complex.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
+#if !defined(SCDK_N) || !defined(SCDK_K) || !defined(SCDK_LANES) || !defined(SCDK_EVAL_FILE)
+#error "define SCDK_N, SCDK_K, SCDK_LANES and SCDK_EVAL_FILE before compiling ptrack.c"
+#endif
+
+#include "scdk_lu.h"
+
+#define N SCDK_N
+#define K SCDK_K
+#define L SCDK_LANES
+#define RS (N + 2) /* row stride of the augmented matrix [H_z B], B of one or two columns */
+
+typedef scdk_vd vd;
+typedef scdk_vl vl;
 typedef double complex cplx;
+#define SCDK_SPLAT(x) ((vd){0} + (x))
+
+/* defines static void scdk_eval(const vd *const *arg, vd *const *res):
+ * (zr[N], zi[N], pr[K], pi[K]) -> (Gr[N], Gi[N], Jz_r[N x N], Jz_i, Jp_r[N x K], Jp_i),
+ * matrices column-major */
+#include SCDK_EVAL_FILE
+
+/* N complex values per lane */
+typedef struct {
+    vd re[N], im[N];
+} cvec;
 
 typedef struct {
-    scdk_eval_fn eval;
-    int64_t n, k;
-    const double *weights;
-    const cplx *p_from, *dp, *b_from, *db, *gamma;
-    /* evaluation buffers (real pairs) */
-    const double *arg[4];
-    double *res[6];
-    double *in, *out, *work;
-    long long *iw;
-    /* homotopy values at the last evaluation: H (n), Ht (n); H_z is written straight into
-     * the first n columns of the augmented matrix of the next solve */
-    cplx *H, *Ht;
-    /* linear algebra */
-    cplx *rhs;
-    double *ar, *ai; /* augmented matrix [H_z B] of the solve, n x (n + nrhs), row-major */
-    int *piv;        /* its pivots */
-} context;
+    /* data of the path in each lane */
+    vd pfr[K], pfi[K], dpr[K], dpi[K], bfr[N], bfi[N], dbr[N], dbi[N], gr, gi;
+    /* evaluation buffers */
+    vd pr[K], pi[K];
+    vd G[2 * N], J[2 * N * N], P[2 * N * K];
+    /* H and H_t at the last evaluation; H_z goes straight into the augmented matrix */
+    cvec H, Ht;
+    vd ar[N * RS], ai[N * RS];
+    /* path states */
+    cvec z, v, k2, k3, k4, zt, zp, d1, z1, x0, x1;
+} lanes;
 
-static double abs2(cplx a) { return creal(a) * creal(a) + cimag(a) * cimag(a); }
-
-
-/* H, H_t of datum d at (z, t) into c->H, c->Ht, and H_z into the augmented matrix of a solve
- * with nrhs right-hand sides (see solve); returns 0 or SCDK_EVAL_FAILED. */
-static int homotopy(context *c, const cplx *z, double t, int64_t d, int64_t nrhs) {
-    const int64_t n = c->n, k = c->k;
-    const cplx g = c->gamma[d];
-    const cplx den = 1.0 + (g - 1.0) * t;
-    const cplx s = g * t / den;
-    const cplx ds = g / (den * den);
-    const cplx *dp = c->dp + d * k, *pf = c->p_from + d * k;
-    const cplx *db = c->db + d * n, *bf = c->b_from + d * n;
-    double *zr = c->in, *zi = zr + n, *pr = zi + n, *pi = pr + k;
-    for (int64_t i = 0; i < n; ++i) {
-        zr[i] = creal(z[i]);
-        zi[i] = cimag(z[i]);
+/* H, H_t of every lane at (z, t) into c->H, c->Ht, H_z into the augmented matrix. */
+static void homotopy(lanes *c, const double *weights, const cvec *z, const double *t) {
+    vd sr, si, dsr, dsi;
+    for (int l = 0; l < L; ++l) {
+        const cplx g = c->gr[l] + I * c->gi[l];
+        const cplx den = 1.0 + (g - 1.0) * t[l];
+        const cplx s = g * t[l] / den;
+        const cplx ds = g / (den * den);
+        sr[l] = creal(s);
+        si[l] = cimag(s);
+        dsr[l] = creal(ds);
+        dsi[l] = cimag(ds);
     }
-    for (int64_t i = 0; i < k; ++i) {
-        const cplx p = pf[i] + s * dp[i];
-        pr[i] = creal(p);
-        pi[i] = cimag(p);
+    for (int i = 0; i < K; ++i) {
+        c->pr[i] = c->pfr[i] + (sr * c->dpr[i] - si * c->dpi[i]);
+        c->pi[i] = c->pfi[i] + (sr * c->dpi[i] + si * c->dpr[i]);
     }
-    if (c->eval(c->arg, c->res, c->iw, c->work, 0)) return SCDK_EVAL_FAILED;
-    const double *Gr = c->res[0], *Gi = c->res[1], *Jr = c->res[2], *Ji = c->res[3];
-    const double *Pr = c->res[4], *Pi = c->res[5];
-    for (int64_t i = 0; i < n; ++i) {
-        const double w = c->weights[i];
-        c->H[i] = w * (Gr[i] + I * Gi[i]) + bf[i] + s * db[i];
-        cplx acc = 0.0;
-        for (int64_t j = 0; j < k; ++j) acc += (Pr[j * n + i] + I * Pi[j * n + i]) * dp[j];
-        c->Ht[i] = (w * acc + db[i]) * ds;
-    }
-    const int64_t W = n + nrhs;
-    for (int64_t i = 0; i < n; ++i) {
-        const double w = c->weights[i];
-        double *ar = c->ar + i * W, *ai = c->ai + i * W;
-        for (int64_t j = 0; j < n; ++j) {
-            ar[j] = w * Jr[j * n + i];
-            ai[j] = w * Ji[j * n + i];
+    const vd *arg[4] = {z->re, z->im, c->pr, c->pi};
+    vd *res[6] = {c->G, c->G + N, c->J, c->J + N * N, c->P, c->P + N * K};
+    scdk_eval(arg, res);
+    const vd *Gr = res[0], *Gi = res[1], *Jr = res[2], *Ji = res[3], *Pr = res[4], *Pi = res[5];
+    for (int i = 0; i < N; ++i) {
+        const double w = weights[i];
+        c->H.re[i] = (w * Gr[i] + c->bfr[i]) + (sr * c->dbr[i] - si * c->dbi[i]);
+        c->H.im[i] = (w * Gi[i] + c->bfi[i]) + (sr * c->dbi[i] + si * c->dbr[i]);
+        vd accr = SCDK_SPLAT(0.0), acci = SCDK_SPLAT(0.0);
+        for (int j = 0; j < K; ++j) {
+            accr += Pr[j * N + i] * c->dpr[j] - Pi[j * N + i] * c->dpi[j];
+            acci += Pr[j * N + i] * c->dpi[j] + Pi[j * N + i] * c->dpr[j];
         }
-    }
-    return 0;
-}
-
-/* Solve Hz X = B for nrhs (1 or 2) right-hand sides B (n x nrhs column-major, in rhs; X
- * replaces it), Hz as the last homotopy call with the same nrhs left it: the package's LU with
- * partial pivoting (scdk_lu.h) on the augmented matrix [Hz B], row-major with separate real
- * and imaginary parts (contiguous rows), B's columns solved in place. */
-static void solve(context *c, int64_t nrhs) {
-    const int n = (int)c->n, W = n + (int)nrhs;
-    double *ar = c->ar, *ai = c->ai;
-    if (!scdk_lu_factor(ar, ai, n, W, 1, c->piv)) { /* exactly singular (or NaN): no solution */
-        for (int64_t i = 0; i < c->n * nrhs; ++i) c->rhs[i] = NAN;
-        return;
-    }
-    for (int r = 0; r < (int)nrhs; ++r) {
-        cplx *x = c->rhs + r * n;
-        double *br = ar + n + r, *bi = ai + n + r;
-        for (int i = 0; i < n; ++i) {
-            br[i * W] = creal(x[i]);
-            bi[i * W] = cimag(x[i]);
+        const vd tr = w * accr + c->dbr[i], ti = w * acci + c->dbi[i];
+        c->Ht.re[i] = tr * dsr - ti * dsi;
+        c->Ht.im[i] = tr * dsi + ti * dsr;
+        for (int j = 0; j < N; ++j) {
+            c->ar[i * RS + j] = w * Jr[j * N + i];
+            c->ai[i * RS + j] = w * Ji[j * N + i];
         }
-        scdk_lu_solve(ar, ai, n, W, 1, c->piv, br, bi, W, 0);
-        for (int i = 0; i < n; ++i) x[i] = br[i * W] + I * bi[i * W];
     }
 }
 
-/* max|dz| / (1 + max|z|); NaN becomes infinity. */
-static double rel_norm(const cplx *dz, const cplx *z, int64_t n) {
+/* Solve H_z X = [a b] (b optional) with the last evaluation's H_z; X into xa (and xb). */
+static void solve(lanes *c, const cvec *a, const cvec *b, cvec *xa, cvec *xb) {
+    for (int i = 0; i < N; ++i) {
+        c->ar[i * RS + N] = a->re[i];
+        c->ai[i * RS + N] = a->im[i];
+        if (b) {
+            c->ar[i * RS + N + 1] = b->re[i];
+            c->ai[i * RS + N + 1] = b->im[i];
+        }
+    }
+    scdk_lu_solve_lanes(c->ar, c->ai, N, b ? 2 : 1, RS);
+    for (int i = 0; i < N; ++i) {
+        xa->re[i] = c->ar[i * RS + N];
+        xa->im[i] = c->ai[i * RS + N];
+        if (b) {
+            xb->re[i] = c->ar[i * RS + N + 1];
+            xb->im[i] = c->ai[i * RS + N + 1];
+        }
+    }
+}
+
+/* Velocity -H_z^{-1} H_t of every lane at (z, t) into v. */
+static void velocity(lanes *c, const double *weights, const cvec *z, const double *t, cvec *v) {
+    homotopy(c, weights, z, t);
+    solve(c, &c->Ht, NULL, v, NULL);
+    for (int i = 0; i < N; ++i) {
+        v->re[i] = -v->re[i];
+        v->im[i] = -v->im[i];
+    }
+}
+
+/* lane mask of the finite values of x */
+#define FINITE(x) ((x) - (x) == 0.0)
+
+/* lane l of a: max|dz| / (1 + max|z|); NaN becomes infinity. */
+static double rel_norm(const cvec *dz, const cvec *z, int l) {
     double a = 0.0, b = 0.0;
-    for (int64_t i = 0; i < n; ++i) {
-        const double u = abs2(dz[i]), v = abs2(z[i]);
+    for (int i = 0; i < N; ++i) {
+        const double u = dz->re[i][l] * dz->re[i][l] + dz->im[i][l] * dz->im[i][l];
+        const double v = z->re[i][l] * z->re[i][l] + z->im[i][l] * z->im[i][l];
         if (isnan(u) || isnan(v)) return INFINITY;
         if (u > a) a = u;
         if (v > b) b = v;
@@ -122,158 +157,211 @@ static double rel_norm(const cplx *dz, const cplx *z, int64_t n) {
     return isfinite(r) ? r : INFINITY;
 }
 
-static int all_finite(const cplx *z, int64_t n) {
-    for (int64_t i = 0; i < n; ++i)
-        if (!isfinite(creal(z[i])) || !isfinite(cimag(z[i]))) return 0;
+static int all_finite(const cvec *z, int l) {
+    for (int i = 0; i < N; ++i)
+        if (!isfinite(z->re[i][l]) || !isfinite(z->im[i][l])) return 0;
     return 1;
-}
-
-/* Velocity -H_z^{-1} H_t at (z, t) into v. */
-static int velocity(context *c, const cplx *z, double t, int64_t d, cplx *v) {
-    const int64_t n = c->n;
-    if (homotopy(c, z, t, d, 1)) return SCDK_EVAL_FAILED;
-    memcpy(c->rhs, c->Ht, (size_t)n * sizeof(cplx));
-    solve(c, 1);
-    for (int64_t i = 0; i < n; ++i) v[i] = -c->rhs[i];
-    return 0;
 }
 
 static double clip(double x, double lo, double hi) { return x < lo ? lo : (x > hi ? hi : x); }
 
-/* Track one path; z, v: its point and velocity (updated). */
-static int track_path(context *c, const scdk_options *o, int64_t d, cplx *z, double *tau_io,
-                      double tau1, double *h_io, int64_t *status, int64_t *steps,
-                      int64_t *accepted, cplx *buf) {
-    const int64_t n = c->n;
-    cplx *v = buf, *k2 = v + n, *k3 = k2 + n, *k4 = k3 + n, *zt = k4 + n, *zp = zt + n;
-    cplx *d1 = zp + n, *z1 = d1 + n;
-    double tau = *tau_io, h = *h_io;
-    int64_t st = tau >= tau1 ? SCDK_DONE : SCDK_RUNNING, nsteps = 0, nacc = 0;
-    int rejected = 0; /* the last step was rejected */
-    if (velocity(c, z, tau, d, v)) return SCDK_EVAL_FAILED;
-    for (int64_t it = 0; it < o->max_steps && st == SCDK_RUNNING; ++it) {
-        const double remaining = tau1 - tau;
-        double hh = h < remaining ? h : remaining;
-        if (remaining - hh < 1e-3 * hh) hh = remaining; /* no sliver before the end */
-        /* RK4 predictor */
-        for (int64_t i = 0; i < n; ++i) zt[i] = z[i] + 0.5 * hh * v[i];
-        if (velocity(c, zt, tau + 0.5 * hh, d, k2)) return SCDK_EVAL_FAILED;
-        for (int64_t i = 0; i < n; ++i) zt[i] = z[i] + 0.5 * hh * k2[i];
-        if (velocity(c, zt, tau + 0.5 * hh, d, k3)) return SCDK_EVAL_FAILED;
-        for (int64_t i = 0; i < n; ++i) zt[i] = z[i] + hh * k3[i];
-        if (velocity(c, zt, tau + hh, d, k4)) return SCDK_EVAL_FAILED;
-        for (int64_t i = 0; i < n; ++i) {
-            const cplx p = z[i] + (hh / 6.0) * (v[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-            zp[i] = (isfinite(creal(p)) && isfinite(cimag(p))) ? p : z[i];
-        }
-        /* Newton corrector: two iterations; the second also gives the new velocity */
-        const double t_new = tau + hh;
-        if (homotopy(c, zp, t_new, d, 1)) return SCDK_EVAL_FAILED;
-        memcpy(c->rhs, c->H, (size_t)n * sizeof(cplx));
-        solve(c, 1);
-        for (int64_t i = 0; i < n; ++i) {
-            d1[i] = c->rhs[i];
-            const int fin = isfinite(creal(d1[i])) && isfinite(cimag(d1[i]));
-            z1[i] = zp[i] - (fin ? d1[i] : 0.0);
-        }
-        if (homotopy(c, z1, t_new, d, 2)) return SCDK_EVAL_FAILED;
-        memcpy(c->rhs, c->H, (size_t)n * sizeof(cplx));
-        memcpy(c->rhs + n, c->Ht, (size_t)n * sizeof(cplx));
-        solve(c, 2);
-        const cplx *X0 = c->rhs, *X1 = c->rhs + n;
-        const double nu1 = rel_norm(d1, zp, n), nu2 = rel_norm(X0, z1, n);
-        for (int64_t i = 0; i < n; ++i) zt[i] = z1[i] - X0[i]; /* corrected point */
-        const int converged = nu1 <= o->trust && nu2 <= o->theta * nu1 + o->floor && nu2 <= o->tol;
-        const int at_noise = (nu1 > nu2 ? nu1 : nu2) <= o->noise;
-        const int ok = all_finite(zt, n) && all_finite(X1, n) && (converged || at_noise);
-        ++nsteps;
-        nacc += ok;
-        const double factor = clip(pow(o->eta / (nu1 > 1e-300 ? nu1 : 1e-300), 0.2), 0.25,
-                                   rejected ? 1.0 : 2.0);
-        rejected = !ok;
-        if (ok) {
-            h = hh * factor < o->h_max ? hh * factor : o->h_max;
-            for (int64_t i = 0; i < n; ++i) {
-                z[i] = zt[i];
-                v[i] = -X1[i];
-            }
-            tau = t_new;
-        } else {
-            h = 0.5 * hh;
-        }
-        double big = 0.0;
-        for (int64_t i = 0; i < n; ++i) {
-            const double a = abs2(z[i]);
-            if (a > big) big = a;
-        }
-        if (ok && t_new >= tau1)
-            st = SCDK_DONE;
-        else if (big > o->max_norm * o->max_norm)
-            st = SCDK_DIVERGED;
-        else if (h < o->h_min)
-            st = SCDK_UNDERFLOW;
+/* Lane l of the lanes' path data := datum d; its point := z (interleaved complex). */
+static void load(lanes *c, int l, int64_t d, const double *p_from, const double *dp,
+                 const double *b_from, const double *db, const double *gamma, const double *z) {
+    for (int i = 0; i < K; ++i) {
+        c->pfr[i][l] = p_from[2 * (d * K + i)];
+        c->pfi[i][l] = p_from[2 * (d * K + i) + 1];
+        c->dpr[i][l] = dp[2 * (d * K + i)];
+        c->dpi[i][l] = dp[2 * (d * K + i) + 1];
     }
-    *status = st == SCDK_RUNNING ? SCDK_STEP_LIMIT : st;
-    *tau_io = tau;
-    *h_io = h;
-    *steps = nsteps;
-    *accepted = nacc;
-    return 0;
+    for (int i = 0; i < N; ++i) {
+        c->bfr[i][l] = b_from[2 * (d * N + i)];
+        c->bfi[i][l] = b_from[2 * (d * N + i) + 1];
+        c->dbr[i][l] = db[2 * (d * N + i)];
+        c->dbi[i][l] = db[2 * (d * N + i) + 1];
+        c->z.re[i][l] = z[2 * i];
+        c->z.im[i][l] = z[2 * i + 1];
+    }
+    c->gr[l] = gamma[2 * d];
+    c->gi[l] = gamma[2 * d + 1];
 }
 
-int scdk_ptrack(scdk_eval_fn eval, int64_t sz_iw, int64_t sz_w, int64_t n, int64_t k,
-                const double *weights, const double *p_from, const double *dp,
-                const double *b_from, const double *db, const double *gamma, int64_t M,
-                const int64_t *idx, double *z, double *tau, const double *tau1, double *h,
-                const scdk_options *opt, int64_t *status, int64_t *steps, int64_t *accepted) {
-    if (n <= 0 || k < 0 || M < 0 || sz_iw < 0 || sz_w < 0) return SCDK_BAD_SIZE;
-    context c;
-    c.eval = eval;
-    c.n = n;
-    c.k = k;
-    c.weights = weights;
-    c.p_from = (const cplx *)p_from;
-    c.dp = (const cplx *)dp;
-    c.b_from = (const cplx *)b_from;
-    c.db = (const cplx *)db;
-    c.gamma = (const cplx *)gamma;
-    const size_t nin = (size_t)(2 * n + 2 * k), nout = (size_t)(2 * n + 2 * n * n + 2 * n * k);
-    c.in = malloc((nin + nout + (size_t)sz_w + 1) * sizeof(double));
-    c.iw = malloc(((size_t)sz_iw + 1) * sizeof(long long));
-    cplx *cbuf = malloc((size_t)(2 * n + 2 * n + 8 * n + n * (n + 2)) * sizeof(cplx));
-    c.piv = malloc((size_t)n * sizeof(int));
-    if (!c.in || !c.iw || !cbuf || !c.piv) {
-        free(c.in);
-        free(c.iw);
-        free(cbuf);
-        free(c.piv);
-        return SCDK_NO_MEMORY;
+/* One step of every lane (see the file's comment); hh: each lane's step (0 in idle lanes);
+ * the corrected point in c->zt, the new velocity in -c->x1, the update norms in nu1, nu2. */
+static void step(lanes *c, const double *weights, const double *tau, const double *hh,
+                 double *nu1, double *nu2) {
+    vd h, half;
+    double t[L];
+    for (int l = 0; l < L; ++l) {
+        h[l] = hh[l];
+        half[l] = 0.5 * hh[l];
+        t[l] = tau[l] + 0.5 * hh[l];
     }
-    c.out = c.in + nin;
-    c.work = c.out + nout;
-    c.arg[0] = c.in;
-    c.arg[1] = c.in + n;
-    c.arg[2] = c.in + 2 * n;
-    c.arg[3] = c.in + 2 * n + k;
-    c.res[0] = c.out;
-    c.res[1] = c.out + n;
-    c.res[2] = c.out + 2 * n;
-    c.res[3] = c.res[2] + n * n;
-    c.res[4] = c.res[3] + n * n;
-    c.res[5] = c.res[4] + n * k;
-    c.H = cbuf;
-    c.Ht = c.H + n;
-    c.rhs = c.Ht + n;
-    cplx *path = c.rhs + 2 * n;
-    c.ar = (double *)(path + 8 * n);
-    c.ai = c.ar + n * (n + 2);
-    int rc = SCDK_OK;
-    for (int64_t j = 0; j < M && rc == SCDK_OK; ++j)
-        rc = track_path(&c, opt, idx[j], (cplx *)z + j * n, tau + j, tau1[j], h + j, status + j,
-                        steps + j, accepted + j, path);
-    free(c.in);
-    free(c.iw);
-    free(cbuf);
-    free(c.piv);
-    return rc;
+    for (int i = 0; i < N; ++i) {
+        c->zt.re[i] = c->z.re[i] + half * c->v.re[i];
+        c->zt.im[i] = c->z.im[i] + half * c->v.im[i];
+    }
+    velocity(c, weights, &c->zt, t, &c->k2);
+    for (int i = 0; i < N; ++i) {
+        c->zt.re[i] = c->z.re[i] + half * c->k2.re[i];
+        c->zt.im[i] = c->z.im[i] + half * c->k2.im[i];
+    }
+    velocity(c, weights, &c->zt, t, &c->k3);
+    for (int l = 0; l < L; ++l) t[l] = tau[l] + hh[l];
+    for (int i = 0; i < N; ++i) {
+        c->zt.re[i] = c->z.re[i] + h * c->k3.re[i];
+        c->zt.im[i] = c->z.im[i] + h * c->k3.im[i];
+    }
+    velocity(c, weights, &c->zt, t, &c->k4);
+    const vd sixth = h / 6.0;
+    for (int i = 0; i < N; ++i) {
+        const vd pr = c->z.re[i] + sixth * (((c->v.re[i] + 2.0 * c->k2.re[i]) +
+                                             2.0 * c->k3.re[i]) + c->k4.re[i]);
+        const vd pi = c->z.im[i] + sixth * (((c->v.im[i] + 2.0 * c->k2.im[i]) +
+                                             2.0 * c->k3.im[i]) + c->k4.im[i]);
+        const vl fin = FINITE(pr) & FINITE(pi);
+        c->zp.re[i] = SCDK_SELECT(fin, pr, c->z.re[i]);
+        c->zp.im[i] = SCDK_SELECT(fin, pi, c->z.im[i]);
+    }
+    /* Newton corrector: two iterations; the second also gives the new velocity */
+    homotopy(c, weights, &c->zp, t);
+    solve(c, &c->H, NULL, &c->d1, NULL);
+    for (int i = 0; i < N; ++i) {
+        const vl fin = FINITE(c->d1.re[i]) & FINITE(c->d1.im[i]);
+        c->z1.re[i] = c->zp.re[i] - SCDK_SELECT(fin, c->d1.re[i], SCDK_SPLAT(0.0));
+        c->z1.im[i] = c->zp.im[i] - SCDK_SELECT(fin, c->d1.im[i], SCDK_SPLAT(0.0));
+    }
+    homotopy(c, weights, &c->z1, t);
+    solve(c, &c->H, &c->Ht, &c->x0, &c->x1);
+    for (int i = 0; i < N; ++i) {
+        c->zt.re[i] = c->z1.re[i] - c->x0.re[i];
+        c->zt.im[i] = c->z1.im[i] - c->x0.im[i];
+    }
+    for (int l = 0; l < L; ++l) {
+        nu1[l] = rel_norm(&c->d1, &c->zp, l);
+        nu2[l] = rel_norm(&c->x0, &c->z1, l);
+    }
+}
+
+/* The per-path state of a lane. */
+typedef struct {
+    int64_t j;  /* the path in the lane, -1: idle */
+    int fresh;  /* its velocity is still to be computed */
+    int rejected;
+    double tau, tau1, h;
+    int64_t steps, accepted, status;
+} lane_state;
+
+static void store(const lanes *c, int l, double *z) {
+    for (int i = 0; i < N; ++i) {
+        z[2 * i] = c->z.re[i][l];
+        z[2 * i + 1] = c->z.im[i][l];
+    }
+}
+
+/* Accept or reject the step of lane l (see the file's comment); 1 when its path stopped. */
+static int advance(lanes *c, lane_state *s, const scdk_options *o, double hh, double nu1,
+                   double nu2, int l) {
+    const double t_new = s->tau + hh;
+    const int converged = nu1 <= o->trust && nu2 <= o->theta * nu1 + o->floor && nu2 <= o->tol;
+    const int at_noise = (nu1 > nu2 ? nu1 : nu2) <= o->noise;
+    const int ok = all_finite(&c->zt, l) && all_finite(&c->x1, l) && (converged || at_noise);
+    ++s->steps;
+    s->accepted += ok;
+    const double factor = clip(pow(o->eta / (nu1 > 1e-300 ? nu1 : 1e-300), 0.2), 0.25,
+                               s->rejected ? 1.0 : 2.0);
+    s->rejected = !ok;
+    if (ok) {
+        s->h = hh * factor < o->h_max ? hh * factor : o->h_max;
+        for (int i = 0; i < N; ++i) {
+            c->z.re[i][l] = c->zt.re[i][l];
+            c->z.im[i][l] = c->zt.im[i][l];
+            c->v.re[i][l] = -c->x1.re[i][l];
+            c->v.im[i][l] = -c->x1.im[i][l];
+        }
+        s->tau = t_new;
+    } else {
+        s->h = 0.5 * hh;
+    }
+    double big = 0.0;
+    for (int i = 0; i < N; ++i) {
+        const double a = c->z.re[i][l] * c->z.re[i][l] + c->z.im[i][l] * c->z.im[i][l];
+        if (a > big) big = a;
+    }
+    if (ok && t_new >= s->tau1)
+        s->status = SCDK_DONE;
+    else if (big > o->max_norm * o->max_norm)
+        s->status = SCDK_DIVERGED;
+    else if (s->h < o->h_min)
+        s->status = SCDK_UNDERFLOW;
+    else if (s->steps >= o->max_steps)
+        s->status = SCDK_STEP_LIMIT;
+    return s->status != SCDK_RUNNING;
+}
+
+int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_from,
+                const double *dp, const double *b_from, const double *db, const double *gamma,
+                int64_t M, const int64_t *idx, double *z, double *tau, const double *tau1,
+                double *h, const scdk_options *opt, int64_t *status, int64_t *steps,
+                int64_t *accepted) {
+    if (n != N || k != K || M < 0) return SCDK_BAD_SIZE;
+    char *raw = malloc(sizeof(lanes) + 64); /* the lanes 64-byte aligned */
+    if (!raw) return SCDK_NO_MEMORY;
+    lanes *c = (lanes *)(raw + (64 - (uintptr_t)raw % 64) % 64);
+    memset(c, 0, sizeof(lanes));
+    lane_state s[L];
+    int64_t next = 0;
+    for (int l = 0; l < L; ++l) s[l].j = -1;
+    for (;;) {
+        int active = 0, fresh = 0;
+        for (int l = 0; l < L; ++l) {
+            while (s[l].j < 0 && next < M) {
+                const int64_t j = next++;
+                steps[j] = accepted[j] = 0;
+                if (tau[j] >= tau1[j] || opt->max_steps <= 0) {
+                    status[j] = tau[j] >= tau1[j] ? SCDK_DONE : SCDK_STEP_LIMIT;
+                    continue;
+                }
+                load(c, l, idx[j], p_from, dp, b_from, db, gamma, z + 2 * N * j);
+                s[l] = (lane_state){j, 1, 0, tau[j], tau1[j], h[j], 0, 0, SCDK_RUNNING};
+            }
+            active += s[l].j >= 0;
+            fresh += s[l].j >= 0 && s[l].fresh;
+        }
+        if (!active) break;
+        double t[L], hh[L], nu1[L], nu2[L];
+        for (int l = 0; l < L; ++l) t[l] = s[l].tau;
+        if (fresh) { /* the velocity at the start of the paths just loaded */
+            velocity(c, weights, &c->z, t, &c->zt);
+            for (int l = 0; l < L; ++l) {
+                if (s[l].j < 0 || !s[l].fresh) continue;
+                s[l].fresh = 0;
+                for (int i = 0; i < N; ++i) {
+                    c->v.re[i][l] = c->zt.re[i][l];
+                    c->v.im[i][l] = c->zt.im[i][l];
+                }
+            }
+        }
+        for (int l = 0; l < L; ++l) {
+            hh[l] = 0.0;
+            if (s[l].j < 0) continue;
+            const double remaining = s[l].tau1 - s[l].tau;
+            hh[l] = s[l].h < remaining ? s[l].h : remaining;
+            if (remaining - hh[l] < 1e-3 * hh[l]) hh[l] = remaining; /* no sliver before the end */
+        }
+        step(c, weights, t, hh, nu1, nu2);
+        for (int l = 0; l < L; ++l) {
+            if (s[l].j < 0 || !advance(c, &s[l], opt, hh[l], nu1[l], nu2[l], l)) continue;
+            const int64_t j = s[l].j;
+            store(c, l, z + 2 * N * j);
+            tau[j] = s[l].tau;
+            h[j] = s[l].h;
+            status[j] = s[l].status;
+            steps[j] = s[l].steps;
+            accepted[j] = s[l].accepted;
+            s[l].j = -1;
+        }
+    }
+    free(raw);
+    return SCDK_OK;
 }

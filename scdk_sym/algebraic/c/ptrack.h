@@ -3,10 +3,9 @@
  * The homotopy of path j (datum d = idx[j]) is
  *   H(z, t) = W G(z, p(s)) + b(s),  p(s) = p_from[d] + s dp[d],  b(s) = b_from[d] + s db[d],
  *   s(t) = gamma[d] t / (1 + (gamma[d] - 1) t),
- * with t real (the path variable), W the row weights and G a square polynomial system given as
- * a CasADi-generated function of real pairs
- *   (zr[n], zi[n], pr[k], pi[k]) -> (Gr[n], Gi[n], Jz_r[n x n], Jz_i, Jp_r[n x k], Jp_i)
- * (matrices column-major). The step rules are those of scdk_sym/algebraic/tracker.py.
+ * with t real (the path variable), W the row weights and G a square polynomial system, its
+ * evaluation on real pairs generated for lane vectors and compiled in (ptrack.c). The step
+ * rules are those of scdk_sym/algebraic/tracker.py.
  */
 #ifndef SCDK_PTRACK_H
 #define SCDK_PTRACK_H
@@ -21,10 +20,7 @@ extern "C" {
 enum { SCDK_RUNNING = 0, SCDK_DONE = 1, SCDK_DIVERGED = 2, SCDK_UNDERFLOW = 3, SCDK_STEP_LIMIT = 4 };
 
 /* Return codes of scdk_ptrack. */
-enum { SCDK_OK = 0, SCDK_NO_MEMORY = 1, SCDK_EVAL_FAILED = 2, SCDK_BAD_SIZE = 3 };
-
-/* A CasADi-generated evaluation function (casadi_int = long long, casadi_real = double). */
-typedef int (*scdk_eval_fn)(const double **arg, double **res, long long *iw, double *w, int mem);
+enum { SCDK_OK = 0, SCDK_NO_MEMORY = 1, SCDK_BAD_SIZE = 3 };
 
 /* Step control (see TrackerOptions in tracker.py). */
 typedef struct {
@@ -38,13 +34,13 @@ typedef struct {
  * Complex arrays are interleaved (re, im) doubles, row-major: p_from, dp (D x k), b_from,
  * db (D x n), gamma (D), z (M x n, start points in, end points out). h: initial steps in,
  * last steps out. Outputs per path: tau (in: start, out: reached), status, steps (attempts),
- * accepted. sz_iw, sz_w: work sizes of eval (from its _work function).
+ * accepted. n, k: the sizes the library was compiled for (checked).
  * Returns SCDK_OK or an error code (the outputs are then undefined). */
-int scdk_ptrack(scdk_eval_fn eval, int64_t sz_iw, int64_t sz_w, int64_t n, int64_t k,
-                const double *weights, const double *p_from, const double *dp,
-                const double *b_from, const double *db, const double *gamma, int64_t M,
-                const int64_t *idx, double *z, double *tau, const double *tau1, double *h,
-                const scdk_options *opt, int64_t *status, int64_t *steps, int64_t *accepted);
+int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_from,
+                const double *dp, const double *b_from, const double *db, const double *gamma,
+                int64_t M, const int64_t *idx, double *z, double *tau, const double *tau1,
+                double *h, const scdk_options *opt, int64_t *status, int64_t *steps,
+                int64_t *accepted);
 
 #ifdef __cplusplus
 }

@@ -191,4 +191,91 @@ SCDK_LU_FN void scdk_lu_solve(const double *ar, const double *ai, int n, int rs,
 #undef SCDK_DIVIDE
 }
 
+#ifdef SCDK_LANES
+/* Lanes: SCDK_LANES independent complex systems at once, one per lane of a GCC vector type
+ * (scdk_vd), each eliminated with exactly the pivots and operations of scdk_lu_factor and
+ * scdk_lu_solve above (the right-hand sides carried along the elimination: the same values
+ * as swapping and substituting after it). */
+typedef double scdk_vd __attribute__((vector_size(8 * SCDK_LANES)));
+typedef long long scdk_vl __attribute__((vector_size(8 * SCDK_LANES)));
+
+/* m ? a : b lane by lane, m a lane mask (all bits set or clear, as vector comparisons give) */
+#define SCDK_SELECT(m, a, b) ((scdk_vd)(((scdk_vl)(a) & (m)) | ((scdk_vl)(b) & ~(m))))
+/* |x| lane by lane (the sign bit cleared) */
+#define SCDK_VABS(x) ((scdk_vd)((scdk_vl)(x) & ((scdk_vl){0} + 0x7fffffffffffffffLL)))
+
+/* Solve A X = B lane by lane: A the complex n x n matrix in the first n columns of the row-major
+ * (ar, ai) with row stride rs, B its nrhs columns after them (X replaces B; A is overwritten by
+ * its factors). A lane with a zero or NaN pivot gets NaN solutions. */
+SCDK_LU_FN void scdk_lu_solve_lanes(scdk_vd *ar, scdk_vd *ai, int n, int nrhs, int rs) {
+    const int w = n + nrhs;
+    scdk_vl good = (scdk_vl){0} - 1;
+    int i, j, k;
+    SCDK_UNROLL
+    for (k = 0; k < n; ++k) {
+        scdk_vd best = SCDK_VABS(ar[k * rs + k]) + SCDK_VABS(ai[k * rs + k]);
+        scdk_vl p = (scdk_vl){0} + k;
+        SCDK_UNROLL
+        for (i = k + 1; i < n; ++i) {
+            const scdk_vd v = SCDK_VABS(ar[i * rs + k]) + SCDK_VABS(ai[i * rs + k]);
+            const scdk_vl m = v > best;
+            best = SCDK_SELECT(m, v, best);
+            p = (p & ~m) | (((scdk_vl){0} + i) & m);
+        }
+        good &= best > 0.0;
+        SCDK_UNROLL
+        for (i = k + 1; i < n; ++i) { /* swap rows k and i in the lanes pivoting on row i */
+            const scdk_vl m = p == i;
+            int any = 0;
+            for (j = 0; j < SCDK_LANES; ++j) any |= m[j] != 0;
+            if (!any) continue;
+            for (j = 0; j < w; ++j) {
+                scdk_vd t = ar[k * rs + j];
+                ar[k * rs + j] = SCDK_SELECT(m, ar[i * rs + j], t);
+                ar[i * rs + j] = SCDK_SELECT(m, t, ar[i * rs + j]);
+                t = ai[k * rs + j];
+                ai[k * rs + j] = SCDK_SELECT(m, ai[i * rs + j], t);
+                ai[i * rs + j] = SCDK_SELECT(m, t, ai[i * rs + j]);
+            }
+        }
+        const scdk_vd d = ar[k * rs + k] * ar[k * rs + k] + ai[k * rs + k] * ai[k * rs + k];
+        const scdk_vd rr = ar[k * rs + k] / d, ri = -ai[k * rs + k] / d;
+        SCDK_UNROLL
+        for (i = k + 1; i < n; ++i) {
+            const scdk_vd xr = ar[i * rs + k], xi = ai[i * rs + k];
+            const scdk_vd lr = xr * rr - xi * ri, li = xr * ri + xi * rr;
+            ar[i * rs + k] = lr;
+            ai[i * rs + k] = li;
+            SCDK_UNROLL
+            for (j = k + 1; j < w; ++j) {
+                const scdk_vd ur = ar[k * rs + j], ui = ai[k * rs + j];
+                ar[i * rs + j] -= lr * ur - li * ui;
+                ai[i * rs + j] -= lr * ui + li * ur;
+            }
+        }
+    }
+    for (int r = n; r < w; ++r) { /* back substitution, column by column */
+        SCDK_UNROLL
+        for (k = n - 1; k >= 0; --k) {
+            scdk_vd br = ar[k * rs + r], bi = ai[k * rs + r];
+            SCDK_UNROLL
+            for (j = k + 1; j < n; ++j) {
+                const scdk_vd ur = ar[k * rs + j], ui = ai[k * rs + j];
+                const scdk_vd xr = ar[j * rs + r], xi = ai[j * rs + r];
+                br -= ur * xr - ui * xi;
+                bi -= ur * xi + ui * xr;
+            }
+            const scdk_vd d = ar[k * rs + k] * ar[k * rs + k] + ai[k * rs + k] * ai[k * rs + k];
+            const scdk_vd rr = ar[k * rs + k] / d, ri = -ai[k * rs + k] / d;
+            ar[k * rs + r] = br * rr - bi * ri;
+            ai[k * rs + r] = br * ri + bi * rr;
+        }
+        for (k = 0; k < n; ++k) {
+            ar[k * rs + r] = SCDK_SELECT(good, ar[k * rs + r], (scdk_vd){0} + NAN);
+            ai[k * rs + r] = SCDK_SELECT(good, ai[k * rs + r], (scdk_vd){0} + NAN);
+        }
+    }
+}
+#endif /* SCDK_LANES */
+
 #endif /* SCDK_LU_H */

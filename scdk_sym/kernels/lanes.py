@@ -1,0 +1,110 @@
+"""C source of a CasADi SX Function evaluated on lane vectors: several points at once.
+
+CasADi generates C for one point (``casadi_real`` scalars). The C path tracker
+(``scdk_sym/algebraic/c/ptrack.c``) advances a few paths in lock step, one per lane of a GCC
+vector type (``vd``: ``SCDK_LANES`` doubles), so that every arithmetic instruction of the
+evaluation serves all lanes. :func:`lane_source` writes the Function's algorithm, instruction
+by instruction in CasADi's own order, as a static C function on ``vd`` values: each lane gets
+exactly the arithmetic of the scalar evaluation (the same operations in the same order, so
+the same rounding when the compiler contracts no multiply-add).
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+
+from ..errors import BuildError
+
+_BINARY = {ca.OP_ADD: "+", ca.OP_SUB: "-", ca.OP_MUL: "*", ca.OP_DIV: "/"}
+#: Unary operations as C expressions of ``x`` (a ``vd``).
+_UNARY = {
+    ca.OP_ASSIGN: "{x}",
+    ca.OP_NEG: "(-{x})",
+    ca.OP_SQ: "({x}*{x})",
+    ca.OP_TWICE: "({x}+{x})",
+    ca.OP_INV: "(SCDK_SPLAT(1.0)/{x})",
+}
+#: Transcendental operations, applied lane by lane with the C library's function.
+_LIBM = {ca.OP_SIN: "sin", ca.OP_COS: "cos", ca.OP_SINH: "sinh", ca.OP_COSH: "cosh"}
+
+
+def lane_source(f: ca.Function, name: str) -> str:
+    """C source of ``static void name(const vd *const *arg, vd *const *res)``.
+
+    ``arg[i]`` holds input ``i``'s nonzeros and ``res[i]`` receives output ``i``'s, each a
+    ``vd`` (one value per lane); outputs are written densely (a structural zero is written
+    as 0). The source expects ``vd`` and ``SCDK_SPLAT`` (a ``vd`` with one value in every
+    lane) and ``SCDK_LANES`` to be defined, and ``math.h`` included.
+
+    Args:
+        f: an SX Function with dense inputs.
+        name: the C function's name.
+
+    Returns:
+        The C source.
+
+    Raises:
+        BuildError: ``f`` uses an operation other than ``+ - * /``, negation, square,
+            reciprocal, sin, cos, sinh and cosh (the operations of a complexified algebraic
+            form).
+    """
+    if not f.is_a("SXFunction"):
+        raise BuildError(f"lane evaluation needs an SX Function, got {f.class_name()} {f.name()!r}")
+    for i in range(f.n_in()):
+        if not f.sparsity_in(i).is_dense():
+            raise BuildError(f"input {i} of {f.name()!r} is sparse; lane evaluation needs dense")
+    body: list[str] = []
+    used: set[int] = set()
+    for k in range(f.n_instructions()):
+        op = f.instruction_id(k)
+        args = f.instruction_input(k)
+        out = f.instruction_output(k)
+        if op == ca.OP_OUTPUT:
+            body.append(f"  res[{out[0]}][{_dense_index(f, out[0], out[1])}] = w{args[0]};")
+            continue
+        r = out[0]
+        used.add(r)
+        if op == ca.OP_INPUT:
+            expr = f"arg[{args[0]}][{args[1]}]"
+        elif op == ca.OP_CONST:
+            expr = f"SCDK_SPLAT({float(f.instruction_constant(k))!r})"
+        elif op in _BINARY:
+            expr = f"(w{args[0]}{_BINARY[op]}w{args[1]})"
+        elif op in _UNARY:
+            expr = _UNARY[op].format(x=f"w{args[0]}")
+        elif op in _LIBM:
+            fn = _LIBM[op]
+            body.append(f"  for (int l_ = 0; l_ < SCDK_LANES; ++l_) w{r}[l_] = {fn}(w{args[0]}[l_]);")
+            continue
+        else:
+            raise BuildError(
+                f"CasADi operation {op} in {f.name()!r} has no lane evaluation; lane "
+                "evaluation covers + - * /, negation, square, reciprocal, sin, cos, sinh, cosh"
+            )
+        body.append(f"  w{r} = {expr};")
+    zeros = []
+    for i in range(f.n_out()):
+        sp = f.sparsity_out(i)
+        if not sp.is_dense():
+            zeros.append(
+                f"  for (int i_ = 0; i_ < {sp.numel()}; ++i_) res[{i}][i_] = SCDK_SPLAT(0.0);"
+            )
+    decl = [f"  vd {', '.join(f'w{r}' for r in sorted(used)[j:j + 12])};"
+            for j in range(0, len(used), 12)]  # fmt: skip
+    return "\n".join(
+        [
+            f"/* {f.name()} on lane vectors (generated from its CasADi algorithm) */",
+            f"static void {name}(const vd *const *arg, vd *const *res) {{",
+            *decl,
+            *zeros,
+            *body,
+            "}",
+            "",
+        ]
+    )
+
+
+def _dense_index(f: ca.Function, i: int, nz: int) -> int:
+    """Column-major dense index of nonzero ``nz`` of output ``i``."""
+    sp = f.sparsity_out(i)
+    return int(sp.row()[nz] + sp.size1() * sp.get_col()[nz])
