@@ -54,7 +54,7 @@ def lane_eval(f: ca.Function, tmp_path, points: list[list[np.ndarray]]) -> list[
             sout.ctypes.data_as(q), len(sout))  # fmt: skip
     outs, start = [], np.r_[0, np.cumsum(sout)]
     for lane in range(LANES):
-        outs.append([y[start[i]:start[i + 1], lane] for i in range(f.n_out())])
+        outs.append([y[start[i] : start[i + 1], lane] for i in range(f.n_out())])
     return outs
 
 

@@ -101,8 +101,9 @@ def simd_flags() -> tuple[str, ...]:
 
 
 def tracker_library(form) -> Path:
-    """The compiled tracker of an :class:`~scdk_sym.algebraic.form.AlgebraicForm` (cached under the hash of the tracker's
-    sources, the generated lane evaluation, the sizes, flags and compiler).
+    """The compiled tracker of an :class:`~scdk_sym.algebraic.form.AlgebraicForm` (cached
+    under the hash of the tracker's sources, the generated lane evaluation, the sizes, flags
+    and compiler).
 
     Raises:
         BuildError: no C compiler, the compilation failed, or ``G`` uses an operation with no

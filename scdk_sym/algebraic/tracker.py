@@ -69,7 +69,6 @@ class TrackerOptions:
     noise: float = 1e-7
     max_steps: int = 2000
     max_norm: float = 1e8
-    predictor: str = "rk4"
 
 
 @dataclass(frozen=True)
@@ -143,23 +142,6 @@ def _velocity(homotopy, tmap, z, tau, idx):
     return -solve_batched(Hz, Ht * dt[:, None])
 
 
-def _rk4(homotopy, tmap, za, k1, ta, hh, ia):
-    k2 = _velocity(homotopy, tmap, za + 0.5 * hh[:, None] * k1, ta + 0.5 * hh, ia)
-    k3 = _velocity(homotopy, tmap, za + 0.5 * hh[:, None] * k2, ta + 0.5 * hh, ia)
-    k4 = _velocity(homotopy, tmap, za + hh[:, None] * k3, ta + hh, ia)
-    return za + (hh / 6.0)[:, None] * (k1 + 2 * k2 + 2 * k3 + k4)
-
-
-def _hermite(z0, v0, t0, z1, v1, t1, hh):
-    d = (t1 - t0)[:, None]
-    s = 1.0 + hh[:, None] / d
-    h00 = 2 * s**3 - 3 * s**2 + 1
-    h10 = s**3 - 2 * s**2 + s
-    h01 = -2 * s**3 + 3 * s**2
-    h11 = s**3 - s**2
-    return h00 * z0 + h10 * d * v0 + h01 * z1 + h11 * d * v1
-
-
 def track(
     homotopy: Homotopy,
     tmap: TimeMap,
@@ -197,8 +179,6 @@ def track(
     steps = np.zeros(M, dtype=int)
     accepted = np.zeros(M, dtype=int)
     rejected = np.zeros(M, dtype=bool)  # the last step was rejected
-    has_prev = np.zeros(M, dtype=bool)
-    zprev = np.zeros_like(z); vprev = np.zeros_like(z); tprev = np.zeros(M)
     v = _velocity(homotopy, tmap, z, tau, idx) if M else z.copy()
     for _ in range(o.max_steps):
         act = np.flatnonzero(status == RUNNING)
@@ -210,17 +190,10 @@ def track(
         hh = np.where(remaining - hh < 1e-3 * hh, remaining, hh)  # no sliver before the end
         # RK4 predictor (k1 is the velocity kept from the previous corrector)
         k1 = v[act]
-        if o.predictor == "hermite":
-            hist = has_prev[act]
-            zp = np.empty_like(za)
-            rk = np.flatnonzero(~hist)
-            if rk.size:
-                zp[rk] = _rk4(homotopy, tmap, za[rk], k1[rk], ta[rk], hh[rk], ia[rk])
-            he = np.flatnonzero(hist)
-            if he.size:
-                zp[he] = _hermite(zprev[act][he], vprev[act][he], tprev[act][he], za[he], k1[he], ta[he], hh[he])
-        else:
-            zp = _rk4(homotopy, tmap, za, k1, ta, hh, ia)
+        k2 = _velocity(homotopy, tmap, za + 0.5 * hh[:, None] * k1, ta + 0.5 * hh, ia)
+        k3 = _velocity(homotopy, tmap, za + 0.5 * hh[:, None] * k2, ta + 0.5 * hh, ia)
+        k4 = _velocity(homotopy, tmap, za + hh[:, None] * k3, ta + hh, ia)
+        zp = za + (hh / 6.0)[:, None] * (k1 + 2 * k2 + 2 * k3 + k4)
         zp = np.where(np.isfinite(zp), zp, za)
         # Newton corrector: two iterations; the second solve also gives the new velocity
         t_new, dt_new = tmap(ta + hh, ia)
@@ -236,16 +209,11 @@ def track(
         ok = np.isfinite(zc).all(axis=1) & np.isfinite(v_new).all(axis=1) & (converged | at_noise)
         steps[act] += 1
         accepted[act] += ok
-        expo = 0.25 if o.predictor == "hermite" else 0.2
-        factor = np.clip((o.eta / np.maximum(nu1, 1e-300)) ** expo, 0.25, 2.0)
+        factor = np.clip((o.eta / np.maximum(nu1, 1e-300)) ** 0.2, 0.25, 2.0)
         factor = np.where(rejected[act], np.minimum(factor, 1.0), factor)
         rejected[act] = ~ok
         h_new = np.where(ok, np.minimum(hh * factor, o.h_max), 0.5 * hh)
         h[act] = h_new
-        has_prev[act] = has_prev[act] | ok
-        zprev[act] = np.where(ok[:, None], za, zprev[act])
-        vprev[act] = np.where(ok[:, None], k1, vprev[act])
-        tprev[act] = np.where(ok, ta, tprev[act])
         z[act] = np.where(ok[:, None], zc, za)
         v[act] = np.where(ok[:, None], v_new, k1)
         tau[act] = np.where(ok, ta + hh, ta)

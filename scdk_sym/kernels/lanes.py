@@ -73,8 +73,8 @@ def lane_source(f: ca.Function, name: str) -> str:
         elif op in _UNARY:
             expr = _UNARY[op].format(x=f"w{args[0]}")
         elif op in _LIBM:
-            fn = _LIBM[op]
-            body.append(f"  for (int l_ = 0; l_ < SCDK_LANES; ++l_) w{r}[l_] = {fn}(w{args[0]}[l_]);")
+            lane = f"w{r}[l_] = {_LIBM[op]}(w{args[0]}[l_]);"
+            body.append(f"  for (int l_ = 0; l_ < SCDK_LANES; ++l_) {lane}")
             continue
         else:
             raise BuildError(
