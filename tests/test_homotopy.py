@@ -425,3 +425,18 @@ def test_dedup_keeps_the_first_of_each_cluster():
     expected = np.vstack([expected[np.lexsort(expected.T[::-1])], x[-1:]])  # NaN sorts last
     assert out.shape == (len(firsts) + 1, 4)
     np.testing.assert_array_equal(out, expected)
+
+
+@pytest.mark.parametrize("block", [1, 3, 256])
+def test_dedup_matches_only_rows_it_kept(block):
+    """A chain a ~ b ~ c with a and c apart: b goes (it matches a, kept), c stays (its only
+    match, b, was dropped), whatever the block size of the distance computation."""
+    tol = 1e-6
+    a = np.array([0.0, 1.0])
+    b = a + [0.8 * tol * (1 + 1.0), 0.0]  # within tol of a, relative to a's scale
+    c = b + [0.8 * tol * (1 + 1.0), 0.0]  # within tol of b, 1.6 tol from a
+    far = np.array([5.0, -2.0])
+    x = np.vstack([a, far, b, c, far * (1 + 1e-9)])
+    out = dedup(x, tol, block=block)
+    expected = np.vstack([a, c, far])
+    np.testing.assert_array_equal(out, expected[np.lexsort(expected.T[::-1])])

@@ -264,22 +264,29 @@ def real_endpoints(
     return dedup(x.real, dedup_tol)
 
 
-def dedup(x: np.ndarray, tol: float) -> np.ndarray:
-    """Distinct rows of x (M, n), relative distance ``tol``; sorted lexicographically."""
+def dedup(x: np.ndarray, tol: float, block: int = 256) -> np.ndarray:
+    """Distinct rows of x (M, n), relative distance ``tol``; sorted lexicographically.
+
+    A row is kept unless it lies within ``tol`` of a row kept before it, the distance relative
+    to the kept row (``max|row - k| / (1 + max|k|)``); NaN distances never match. The
+    distances are computed ``block`` rows at a time.
+    """
     x = np.asarray(x)
-    # a row is kept unless it lies within tol of a row kept before it, the distance relative
-    # to the kept row (rel_norm(row - k, k)); NaN distances never match
-    scale = 1.0 + np.abs(x).max(axis=1) if x.size else np.zeros(len(x))
-    kept: list[int] = []
-    for i in range(len(x)):
-        if kept:
-            with np.errstate(invalid="ignore"):
-                d = np.abs(x[i] - x[kept]).max(axis=1) / scale[kept]
-            if (d <= tol).any():
-                continue
-        kept.append(i)
-    if not kept:
+    if not len(x):
         return np.zeros((0, x.shape[1]), dtype=x.dtype)
+    scale = 1.0 + np.abs(x).max(axis=1)
+    close = np.zeros((len(x), len(x)), dtype=bool)
+    with np.errstate(invalid="ignore"):
+        for a in range(0, len(x), block):
+            d = np.abs(x[a : a + block, None] - x[None, : a + block]).max(axis=2)
+            close[a : a + block, : a + block] = d / scale[None, : a + block] <= tol
+    np.fill_diagonal(close, False)
+    kept = list(range(len(x)))
+    if np.tril(close).any():  # the rule in order: an earlier match only counts if kept
+        rows, kept = close.tolist(), []
+        for i, row in enumerate(rows):
+            if not any(row[j] for j in kept):
+                kept.append(i)
     out = x[kept]
     return out[np.lexsort(out.real.T[::-1])]
 
