@@ -158,3 +158,26 @@ def test_tracker_choice_errors(dietmaier):
     with pytest.raises(InputError, match="algebraic form"):
         c_tracker(Quadrics(3, 0), "c")
     assert c_tracker(Quadrics(3, 0), "auto") is None
+
+
+def test_c_newton_equals_the_numpy_newton(dietmaier):
+    """Newton's method in C (lanes; 37 points: a short last group) against tracker.newton:
+    the same iterates, update norms and Jacobians, to rounding."""
+    from scdk_sym.algebraic.tracker import newton
+
+    _, form, start = dietmaier
+    rng = np.random.default_rng(3)
+    p0 = form.params(query_lengths(3))
+    hom = ParameterHomotopy(form, start.p[None], p0[None], start.b[None], np.zeros((1, 8)), [1])
+    z0 = start.solutions[:37] * (
+        1 + 1e-5 * (rng.normal(size=(37, 8)) + 1j * rng.normal(size=(37, 8)))
+    )
+    idx, t = np.zeros(37, dtype=int), np.zeros(37)
+    zc, nuc, hzc = c_tracker(form, "c").newton(hom, z0, t, idx, 3)
+    zp, nup = newton(hom, z0, t + 0j, idx, 3)
+    _, hzp, _ = hom(zp, t + 0j, idx)
+    scale = 1.0 + np.abs(zp).max(axis=1)
+    assert (np.abs(zc - zp).max(axis=1) / scale).max() <= 1e-13
+    assert nup[:, 0].min() > 1e-7  # the points did move
+    np.testing.assert_allclose(nuc, nup, rtol=1e-6, atol=1e-15)
+    np.testing.assert_allclose(hzc, hzp, rtol=1e-12, atol=1e-12 * np.abs(hzp).max())

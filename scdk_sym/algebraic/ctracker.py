@@ -16,7 +16,6 @@ from __future__ import annotations
 import ctypes
 import hashlib
 import tempfile
-from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
 
@@ -170,7 +169,63 @@ class CTracker:
         f.argtypes = [I, I, dbl, cdbl, cdbl, cdbl, cdbl, cdbl, I, i64,
                       cdbl, dbl, dbl, dbl, ctypes.POINTER(_Options), i64, i64, i64]  # fmt: skip
         f.restype = ctypes.c_int
-        self._lib, self._track = lib, f
+        g = lib.scdk_pnewton
+        g.argtypes = [I, I, dbl, cdbl, cdbl, cdbl, cdbl, cdbl, I, i64,
+                      cdbl, dbl, I, dbl, ctypes.c_void_p]  # fmt: skip
+        g.restype = ctypes.c_int
+        self._lib, self._track, self._newton = lib, f, g
+
+    def _data(self, homotopy, weights: np.ndarray) -> tuple:
+        """The homotopy's per-datum arrays as the C functions take them."""
+        cd = np.ascontiguousarray
+        return (
+            cd(weights, dtype=np.float64), cd(homotopy.p_from, dtype=np.complex128),
+            cd(homotopy.dp, dtype=np.complex128), cd(homotopy.b_from, dtype=np.complex128),
+            cd(homotopy.db, dtype=np.complex128), cd(homotopy.gamma, dtype=np.complex128),
+        )  # fmt: skip
+
+    def newton(
+        self,
+        homotopy,
+        z: np.ndarray,
+        t: np.ndarray,
+        idx: np.ndarray,
+        iterations: int,
+        weights: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Newton's method on ``H(., t) = 0`` in C, as :func:`~scdk_sym.algebraic.tracker.newton`.
+
+        Args:
+            homotopy: as :meth:`track`'s.
+            z: (M, n) complex points.
+            t: (M,) real times.
+            idx: (M,) int, each point's datum in the homotopy.
+            iterations: Newton steps.
+            weights: (n,) row weights of the system.
+
+        Returns:
+            ``z`` (M, n) after the steps, ``nu`` (M, iterations) the relative norm of each
+            update, and ``H_z`` (M, n, n) at the final points.
+
+        Raises:
+            HomotopyError: the C function reported a failure.
+        """
+        M = len(z)
+        z = np.array(z, dtype=np.complex128, order="C").reshape(M, self.n)
+        nu = np.zeros((M, iterations))
+        hz = np.zeros((M, self.n, self.n), dtype=np.complex128)
+        rc = self._newton(
+            self.n, self.k, *self._data(homotopy, weights), M,
+            np.ascontiguousarray(idx, dtype=np.int64), z,
+            np.ascontiguousarray(np.broadcast_to(t, (M,)), dtype=np.float64), iterations, nu,
+            hz.ctypes.data,
+        )  # fmt: skip
+        if rc:
+            raise HomotopyError(
+                f"C Newton failed ({_ERRORS.get(rc, rc)}) on {M} points of an "
+                f"{self.n}-unknown system; rerun with tracker='python'"
+            )
+        return z, nu, hz
 
     def track(
         self,
@@ -211,15 +266,10 @@ class CTracker:
         h = np.full(M, o.h0) if h0 is None else np.array(h0, dtype=np.float64)
         ix = np.ascontiguousarray(idx, dtype=np.int64)
         status, steps, accepted = (np.zeros(M, dtype=np.int64) for _ in range(3))
-        cd = np.ascontiguousarray
         opt = _Options(o.h0, o.h_min, o.h_max, o.eta, o.trust, o.theta, o.tol, o.floor,
                        o.noise, int(o.max_steps), o.max_norm)  # fmt: skip
         rc = self._track(
-            self.n, self.k,
-            cd(weights, dtype=np.float64), cd(homotopy.p_from, dtype=np.complex128),
-            cd(homotopy.dp, dtype=np.complex128), cd(homotopy.b_from, dtype=np.complex128),
-            cd(homotopy.db, dtype=np.complex128), cd(homotopy.gamma, dtype=np.complex128),
-            M, ix, z, tau, t1, h, ctypes.byref(opt), status, steps, accepted,
+            self.n, self.k, *self._data(homotopy, weights), M, ix, z, tau, t1, h, ctypes.byref(opt), status, steps, accepted,
         )  # fmt: skip
         if rc:
             raise HomotopyError(
@@ -229,8 +279,25 @@ class CTracker:
         return TrackOutcome(z=z, tau=tau, status=status, steps=steps, accepted=accepted, h=h)
 
 
-def c_tracker(system, tracker: str = "auto") -> Callable[..., TrackOutcome] | None:
-    """The C tracking function of a system, or ``None`` for the numpy tracker.
+class BoundTracker:
+    """The C tracker of one system (its row weights bound): call it to track, as
+    :func:`~scdk_sym.algebraic.tracker.track` with the identity time map; :meth:`newton`
+    refines points."""
+
+    def __init__(self, tracker: CTracker, weights: np.ndarray) -> None:
+        self._tracker, self._weights = tracker, weights
+
+    def __call__(self, homotopy, z0, idx, tau0, tau1, options=None, h0=None) -> TrackOutcome:
+        """``CTracker.track`` with the system's weights."""
+        return self._tracker.track(homotopy, z0, idx, tau0, tau1, self._weights, options, h0)
+
+    def newton(self, homotopy, z, t, idx, iterations: int):
+        """``CTracker.newton`` with the system's weights: ``(z, nu, H_z)``."""
+        return self._tracker.newton(homotopy, z, t, idx, iterations, self._weights)
+
+
+def c_tracker(system, tracker: str = "auto") -> BoundTracker | None:
+    """The C tracker of a system, or ``None`` for the numpy tracker.
 
     Args:
         system: a polynomial system; the C tracker needs an algebraic form (scaled or not).
@@ -238,7 +305,8 @@ def c_tracker(system, tracker: str = "auto") -> Callable[..., TrackOutcome] | No
             ``"c"`` (C, or an error) or ``"python"`` (``None``).
 
     Returns:
-        ``track(homotopy, z0, idx, tau0, tau1, options, h0) -> TrackOutcome`` or ``None``.
+        A :class:`BoundTracker` (``track(homotopy, z0, idx, tau0, tau1, options, h0) ->
+        TrackOutcome`` when called) or ``None``.
 
     Raises:
         InputError: an unknown ``tracker``, or ``"c"`` for a system that is no form.
@@ -264,8 +332,4 @@ def c_tracker(system, tracker: str = "auto") -> Callable[..., TrackOutcome] | No
         if tracker == "c":
             raise
         return None
-
-    def run(homotopy, z0, idx, tau0, tau1, options=None, h0=None) -> TrackOutcome:
-        return ct.track(homotopy, z0, idx, tau0, tau1, weights, options, h0)
-
-    return run
+    return BoundTracker(ct, weights)

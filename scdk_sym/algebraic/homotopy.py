@@ -95,11 +95,15 @@ def scaled_cond(J: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(c), c, np.inf)
 
 
-def _regular(system, homotopy, z, idx, cond_max) -> tuple[np.ndarray, np.ndarray]:
-    """Newton-refine endpoints at t = 1; regular where it converges and J is well conditioned."""
-    t1 = np.ones(len(z), dtype=complex)
-    z, nu = newton(homotopy, z, t1, idx, 2)
-    _, Hz, _ = homotopy(z, t1, idx)
+def _regular(system, homotopy, z, idx, cond_max, ctrack=None) -> tuple[np.ndarray, np.ndarray]:
+    """Newton-refine endpoints at t = 1; regular where it converges and J is well conditioned
+    (the Newton steps in C with the C tracker ``ctrack``, else in numpy)."""
+    if ctrack is not None:
+        z, nu, Hz = ctrack.newton(homotopy, z, np.ones(len(z)), idx, 2)
+    else:
+        t1 = np.ones(len(z), dtype=complex)
+        z, nu = newton(homotopy, z, t1, idx, 2)
+        _, Hz, _ = homotopy(z, t1, idx)
     ok = np.isfinite(z).all(axis=1) & (nu[:, -1] <= 1e-10) & (scaled_cond(Hz) <= cond_max)
     return z, ok
 
@@ -163,7 +167,9 @@ def track_parameter_homotopy(
         second = segment(first.z[ok1], idx[ok1], first.tau[ok1], np.ones(ok1.size), first.h[ok1])
         steps[ok1] += second.steps
         arrived = second.status == DONE
-        zr, reg = _regular(system, homotopy, second.z[arrived], idx[ok1][arrived], cond_max)
+        zr, reg = _regular(
+            system, homotopy, second.z[arrived], idx[ok1][arrived], cond_max, ctrack
+        )
         good = ok1[arrived][reg]
         out[good], status[good], winding[good] = zr[reg], "success", 1
         rest = np.setdiff1d(ok1, good)
@@ -174,7 +180,7 @@ def track_parameter_homotopy(
             status[rest[eg.verdict == EG_INFINITY]] = "at_infinity"
             winding[rest] = eg.winding
     else:
-        zr, reg = _regular(system, homotopy, first.z[ok1], idx[ok1], cond_max)
+        zr, reg = _regular(system, homotopy, first.z[ok1], idx[ok1], cond_max, ctrack)
         good = ok1[reg]
         out[good], status[good], winding[good] = zr[reg], "success", 1
     # a regular solution ends exactly one path: two paths at one regular endpoint (of the same

@@ -365,3 +365,47 @@ int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_fro
     free(raw);
     return SCDK_OK;
 }
+
+int scdk_pnewton(int64_t n, int64_t k, const double *weights, const double *p_from,
+                 const double *dp, const double *b_from, const double *db, const double *gamma,
+                 int64_t M, const int64_t *idx, double *z, const double *t, int64_t iterations,
+                 double *nu, double *hz) {
+    if (n != N || k != K || M < 0 || iterations < 0) return SCDK_BAD_SIZE;
+    char *raw = malloc(sizeof(lanes) + 64);
+    if (!raw) return SCDK_NO_MEMORY;
+    lanes *c = (lanes *)(raw + (64 - (uintptr_t)raw % 64) % 64);
+    memset(c, 0, sizeof(lanes));
+    for (int64_t j0 = 0; j0 < M; j0 += L) {
+        int64_t path[L];
+        double tl[L];
+        for (int l = 0; l < L; ++l) { /* a short last group repeats its last path */
+            path[l] = j0 + l < M ? j0 + l : M - 1;
+            tl[l] = t[path[l]];
+            load(c, l, idx[path[l]], p_from, dp, b_from, db, gamma, z + 2 * N * path[l]);
+        }
+        for (int64_t it = 0; it < iterations; ++it) {
+            homotopy(c, weights, &c->z, tl);
+            solve(c, &c->H, NULL, &c->d1, NULL);
+            for (int l = 0; l < L && j0 + l < M; ++l)
+                nu[path[l] * iterations + it] = rel_norm(&c->d1, &c->z, l);
+            for (int i = 0; i < N; ++i) {
+                const vl fin = FINITE(c->d1.re[i]) & FINITE(c->d1.im[i]);
+                c->z.re[i] -= SCDK_SELECT(fin, c->d1.re[i], SCDK_SPLAT(0.0));
+                c->z.im[i] -= SCDK_SELECT(fin, c->d1.im[i], SCDK_SPLAT(0.0));
+            }
+        }
+        if (hz) homotopy(c, weights, &c->z, tl);
+        for (int l = 0; l < L && j0 + l < M; ++l) {
+            store(c, l, z + 2 * N * path[l]);
+            if (!hz) continue;
+            double *out = hz + 2 * N * N * path[l];
+            for (int i = 0; i < N; ++i)
+                for (int j = 0; j < N; ++j) {
+                    out[2 * (i * N + j)] = c->ar[i * RS + j][l];
+                    out[2 * (i * N + j) + 1] = c->ai[i * RS + j][l];
+                }
+        }
+    }
+    free(raw);
+    return SCDK_OK;
+}

@@ -42,6 +42,16 @@ int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_fro
                 double *h, const scdk_options *opt, int64_t *status, int64_t *steps,
                 int64_t *accepted);
 
+/* Newton's method on H(., t) = 0 for M points, as newton() in tracker.py: `iterations` steps
+ * z <- z - H_z^{-1} H (non-finite components of an update left out), nu (M x iterations): the
+ * norm of each update relative to 1 + max|z| before it. t (M): each point's real time. hz:
+ * NULL, or (M x n x n, row-major complex) H_z at the final points. Other arguments as
+ * scdk_ptrack's. Returns SCDK_OK or an error code. */
+int scdk_pnewton(int64_t n, int64_t k, const double *weights, const double *p_from,
+                 const double *dp, const double *b_from, const double *db, const double *gamma,
+                 int64_t M, const int64_t *idx, double *z, const double *t, int64_t iterations,
+                 double *nu, double *hz);
+
 #ifdef __cplusplus
 }
 #endif
