@@ -269,7 +269,8 @@ class CTracker:
         opt = _Options(o.h0, o.h_min, o.h_max, o.eta, o.trust, o.theta, o.tol, o.floor,
                        o.noise, int(o.max_steps), o.max_norm)  # fmt: skip
         rc = self._track(
-            self.n, self.k, *self._data(homotopy, weights), M, ix, z, tau, t1, h, ctypes.byref(opt), status, steps, accepted,
+            self.n, self.k, *self._data(homotopy, weights), M, ix, z, tau, t1, h,
+            ctypes.byref(opt), status, steps, accepted,
         )  # fmt: skip
         if rc:
             raise HomotopyError(
