@@ -167,9 +167,7 @@ def track_parameter_homotopy(
         second = segment(first.z[ok1], idx[ok1], first.tau[ok1], np.ones(ok1.size), first.h[ok1])
         steps[ok1] += second.steps
         arrived = second.status == DONE
-        zr, reg = _regular(
-            system, homotopy, second.z[arrived], idx[ok1][arrived], cond_max, ctrack
-        )
+        zr, reg = _regular(system, homotopy, second.z[arrived], idx[ok1][arrived], cond_max, ctrack)
         good = ok1[arrived][reg]
         out[good], status[good], winding[good] = zr[reg], "success", 1
         rest = np.setdiff1d(ok1, good)
