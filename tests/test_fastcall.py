@@ -70,3 +70,38 @@ def test_model_and_follower_calls_match_the_plain_kernels():
     y_plain, res_plain = kern.polish(y, theta, c)
     np.testing.assert_array_equal(y_new, np.array(y_plain))
     assert res == float(res_plain)
+
+
+@pytest.mark.parametrize("name", ["stewart_gough", "planar_3rpr"])
+def test_mapped_calls_equal_single_calls_and_configurations_equal_configuration(name):
+    """Kernels mapped over 7 points: each column bit for bit a single call's; a batch of
+    configurations equals ``configuration`` point by point (to rounding: the chart maps of
+    a stack)."""
+    model = shipped(name)
+    rng = np.random.default_rng(11)
+    y0, c0 = model.chart.to_local(model.home.y)
+    ys = y0 + 0.05 * rng.normal(size=(7, model.m))
+    cs = np.tile(c0, (7, 1))
+    theta = model.home.theta
+    calls = model_calls(model)
+    G = calls.mapped("g", 7)(ys.T, theta, cs.T)
+    T, x = calls.mapped("pose", 7)(ys.T, theta, cs.T)
+    Jp = calls.mapped("jac", 7)(ys.T, theta, cs.T)[0]
+    for i in range(7):
+        np.testing.assert_array_equal(G[:, i], calls.g(ys[i], theta, cs[i]).ravel())
+        T1, x1 = calls.pose(ys[i], theta, cs[i])
+        np.testing.assert_array_equal(T[:, 4 * i : 4 * i + 4], T1)
+        np.testing.assert_array_equal(x[:, i], x1.ravel())
+        np.testing.assert_array_equal(Jp[:, model.m * i : model.m * (i + 1)],
+                                      calls.jac(ys[i], theta, cs[i])[0])  # fmt: skip
+    many = model.configurations(ys, theta, cs)
+    assert len(many) == 7
+    for cfg, y, c in zip(many, ys, cs, strict=True):
+        one = model.configuration(y, theta, c)
+        np.testing.assert_allclose(cfg.y, one.y, rtol=0, atol=1e-14)
+        np.testing.assert_array_equal(cfg.x, one.x)
+        np.testing.assert_array_equal(cfg.platform_pose, one.platform_pose)
+        assert cfg.residual == one.residual > 0  # off the closure manifold: rows not zero
+        assert cfg.joints.keys() == one.joints.keys()
+        assert max(abs(cfg.joints[j] - one.joints[j]) for j in one.joints) <= 1e-14
+    assert model.configurations(np.zeros((0, model.m)), theta, np.zeros((0, c0.size))) == []

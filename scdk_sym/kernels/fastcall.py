@@ -10,7 +10,7 @@ like ``numpy.array(f(...))``, so it replaces a plain call without changing any v
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
@@ -120,6 +120,10 @@ class Dense:
         return out[0] if self._single else tuple(out)
 
 
+#: Mapped callers kept per model (:meth:`ModelCalls.mapped`; the oldest dropped first).
+MAPS_KEPT = 16
+
+
 @dataclass(frozen=True)
 class ModelCalls:
     """Zero-copy callers of a model's kernels (:class:`Dense` of ``model.kernels``)."""
@@ -128,6 +132,21 @@ class ModelCalls:
     check: Dense
     jac: Dense
     pose: Dense
+    _maps: dict[tuple[str, int], Dense] = field(default_factory=dict, repr=False, compare=False)
+
+    def mapped(self, name: str, count: int) -> Dense:
+        """The caller of kernel ``name`` (``"g"``, ``"check"``, ``"jac"`` or ``"pose"``) over
+        ``count`` points in one call: each input one column per point (an input given as one
+        column is repeated), each output the points' outputs side by side (``Function.map``:
+        each point's values exactly those of a single call).
+        """
+        key = (name, count)
+        f = self._maps.get(key)
+        if f is None:
+            if len(self._maps) >= MAPS_KEPT:
+                self._maps.pop(next(iter(self._maps)))
+            f = self._maps[key] = Dense(getattr(self, name).function.map(count))
+        return f
 
 
 def model_calls(model) -> ModelCalls:

@@ -54,6 +54,15 @@ class Chart:
             y[list(idx)] = rot_log(R)
         return y
 
+    def to_canonical_many(self, ys: np.ndarray, cs: np.ndarray) -> np.ndarray:
+        """:meth:`to_canonical` of several points at once: (N, m) local ``ys`` in their charts
+        (N, size) ``cs`` -> (N, m) canonical."""
+        ys = np.array(ys, dtype=float)
+        for i, idx in enumerate(self.rotations):
+            ref = np.asarray(cs)[:, 9 * i : 9 * i + 9].reshape(-1, 3, 3).transpose(0, 2, 1)
+            ys[:, list(idx)] = rot_log(ref @ cayley(ys[:, list(idx)]))
+        return ys
+
     def recentre(self, y: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Move the chart centre to the current rotation (rho becomes 0)."""
         if not self.rotations:

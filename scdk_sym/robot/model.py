@@ -836,6 +836,45 @@ class Model:
         residual = float(np.abs(calls.check(y_loc, theta, c)).max())
         return Configuration(theta, y, x.ravel(), T, self.joint_values(y, theta), residual)
 
+    def configurations(
+        self,
+        ys: np.ndarray,
+        theta: ArrayLike,
+        cs: np.ndarray,
+        residuals: np.ndarray | None = None,
+    ) -> list[Configuration]:
+        """:meth:`configuration` of several points at one ``theta``, the kernels evaluated
+        over all of them in one call.
+
+        Args:
+            ys: (N, m) unknowns in the local charts ``cs``.
+            theta: (k,) actuated joint values.
+            cs: (N, chart size) the chart of each row of ``ys``.
+            residuals: (N,) each point's :meth:`residual` when already known.
+        """
+        ys = np.asarray(ys, dtype=float).reshape(-1, self.m)
+        theta = as_vector(theta, self.k, "theta")
+        N = len(ys)
+        if not N:
+            return []
+        cs = np.asarray(cs, dtype=float).reshape(N, self.chart.size)
+        canonical = self.chart.to_canonical_many(ys, cs)
+        calls = model_calls(self)
+        T, x = calls.mapped("pose", N)(ys.T, theta, cs.T)
+        if residuals is None:
+            residuals = np.abs(calls.mapped("check", N)(ys.T, theta, cs.T)).max(axis=0)
+        return [
+            Configuration(
+                theta,
+                y,
+                x[:, i],
+                T[:, 4 * i : 4 * i + 4],
+                self.joint_values(y, theta),
+                float(residuals[i]),
+            )  # fmt: skip
+            for i, y in enumerate(canonical)
+        ]
+
     @cached_property
     def _placements(self) -> ca.Function:
         sym = self.symbolic

@@ -417,21 +417,41 @@ _FIELDS = (
 )  # fmt: skip
 
 
-def _polish(model: Model, y: np.ndarray, c: np.ndarray, theta: np.ndarray):
-    """Newton on the model's rows in the chart ``c``; returns ``(y, max |g|)``."""
-    k = model_calls(model)
+def _polish(model: Model, ys: np.ndarray, cs: np.ndarray, theta: np.ndarray):
+    """Newton on the model's rows, each point (N, m) in its chart (N, chart size), all points
+    in each kernel call; a point stops when ``max |g| <= RESIDUAL / 100``, after
+    ``NEWTON_STEPS``, or when its Jacobian is singular. Returns ``(ys, residuals)``, the
+    residual :meth:`~scdk_sym.robot.Model.residual` (``inf`` where ``g`` went non-finite)."""
+    calls = model_calls(model)
+    N = len(ys)
+    ys = np.array(ys, dtype=float).reshape(N, model.m)
+    cs = np.asarray(cs, dtype=float).reshape(N, model.chart.size)
+    if not N:
+        return ys, np.zeros(0)
+    g_all, jac_all = calls.mapped("g", N), calls.mapped("jac", N)
+    lost = np.zeros(N, dtype=bool)  # g went non-finite
+    active = np.ones(N, dtype=bool)
     for _ in range(NEWTON_STEPS):
-        g = np.array(k.g(y, theta, c)).ravel()
-        r = float(np.max(np.abs(g))) if g.size else 0.0
-        if not np.isfinite(r):
-            return y, float("inf")
-        if r <= 0.01 * RESIDUAL:
+        G = np.asarray(g_all(ys.T, theta, cs.T)).reshape(-1, N).T  # (N, rows)
+        r = np.abs(G).max(axis=1) if G.shape[1] else np.zeros(N)
+        lost |= active & ~np.isfinite(r)
+        active &= np.isfinite(r) & ~(r <= 0.01 * RESIDUAL)
+        rows = np.flatnonzero(active)
+        if not rows.size:
             break
+        J = jac_all(ys.T, theta, cs.T)[0].reshape(model.m, N, model.m).transpose(1, 0, 2)
         try:
-            y = y - np.linalg.solve(np.array(k.jac(y, theta, c)[0]), g)
-        except np.linalg.LinAlgError:
-            break
-    return y, model.residual(y, theta, c)
+            ys[rows] -= np.linalg.solve(J[rows], G[rows][..., None])[..., 0]
+        except np.linalg.LinAlgError:  # a singular one: those stop, the others step
+            for i in rows:
+                try:
+                    ys[i] -= np.linalg.solve(J[i], G[i])
+                except np.linalg.LinAlgError:
+                    active[i] = False
+    check = np.asarray(calls.mapped("check", N)(ys.T, theta, cs.T)).reshape(-1, N)
+    residuals = np.abs(check).max(axis=0)
+    residuals[lost] = np.inf
+    return ys, residuals
 
 
 def _common_chart(model: Model, ys: np.ndarray) -> np.ndarray | None:
@@ -686,20 +706,18 @@ def _real_modes(model, form, res, theta0: np.ndarray, reasons: list[str]):
     number of real roots of the form that are no closures of the model."""
     # real endpoints -> model unknowns, polished on g
     scale = max(1.0, model.length_scale)
-    polished: list[Configuration] = []
     Z = np.asarray(res.real_solutions, dtype=float)
     finite = np.isfinite(Z).all(axis=1)
     dropped, spurious = int((~finite).sum()), 0
     Y0, C = form.to_model(Z[finite], reference=model.home.y)  # (K, m), (K, chart size)
-    for y0, c in zip(Y0, C, strict=True):
-        y, r = _polish(model, y0, c, theta0)
-        if not r <= RESIDUAL:
-            if r > SPURIOUS * scale and model.residual(y0, theta0, c) > SPURIOUS * scale:
-                spurious += 1  # a root of the form that is no closure of the model
-            else:
-                dropped += 1
-            continue
-        polished.append(model.configuration(y, theta0, c))
+    Y, R = _polish(model, Y0, C, theta0)
+    good = R <= RESIDUAL
+    for y0, c, r in zip(Y0[~good], C[~good], R[~good], strict=True):
+        if r > SPURIOUS * scale and model.residual(y0, theta0, c) > SPURIOUS * scale:
+            spurious += 1  # a root of the form that is no closure of the model
+        else:
+            dropped += 1
+    polished = model.configurations(Y[good], theta0, C[good], R[good])
     # distinct endpoints of the homotopy are distinct roots; only images of one configuration
     # (polished to the same point) are merged: two real solutions next to a singular surface
     # may lie 1e-5 model sizes apart, and the Krawczyk boxes below decide (they must be
