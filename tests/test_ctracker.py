@@ -21,7 +21,11 @@ from test_modes import assert_same_stewart_poses
 import scdk_sym as sc
 from scdk_sym.algebraic import algebraic_form, homotopy, trace_test
 from scdk_sym.algebraic.ctracker import c_tracker, source_dir, tracker_library
-from scdk_sym.algebraic.homotopy import ParameterHomotopy, track_parameter_homotopy
+from scdk_sym.algebraic.homotopy import (
+    ParameterHomotopy,
+    scaled_cond,
+    track_parameter_homotopy,
+)
 from scdk_sym.algebraic.monodromy import StartSystem
 from scdk_sym.algebraic.scaled import scaled_form
 from scdk_sym.algebraic.tracker import TrackerOptions, track
@@ -141,7 +145,7 @@ def test_c_tracked_modes_equal_lm_and_stay_certified(dietmaier, seed, monkeypatc
 
     monkeypatch.setattr(homotopy, "c_tracker", counted)
     with_c = sc.assembly_modes(model, L)
-    assert calls == ["auto"] and c_tracker(form, "auto") is not None  # C did track
+    assert calls and set(calls) == {"auto"} and c_tracker(form, "auto") is not None  # C did track
     monkeypatch.setattr(homotopy, "c_tracker", lambda system, tracker="auto": None)
     with_numpy = sc.assembly_modes(model, L)
     assert with_c.certified and with_numpy.certified, (with_c.report, with_numpy.report)
@@ -173,7 +177,7 @@ def test_c_newton_equals_the_numpy_newton(dietmaier):
         1 + 1e-5 * (rng.normal(size=(37, 8)) + 1j * rng.normal(size=(37, 8)))
     )
     idx, t = np.zeros(37, dtype=int), np.zeros(37)
-    zc, nuc, hzc = c_tracker(form, "c").newton(hom, z0, t, idx, 3)
+    zc, nuc, hzc, bound = c_tracker(form, "c").newton(hom, z0, t, idx, 3)
     zp, nup = newton(hom, z0, t + 0j, idx, 3)
     _, hzp, _ = hom(zp, t + 0j, idx)
     scale = 1.0 + np.abs(zp).max(axis=1)
@@ -181,3 +185,6 @@ def test_c_newton_equals_the_numpy_newton(dietmaier):
     assert nup[:, 0].min() > 1e-7  # the points did move
     np.testing.assert_allclose(nuc, nup, rtol=1e-6, atol=1e-15)
     np.testing.assert_allclose(hzc, hzp, rtol=1e-12, atol=1e-12 * np.abs(hzp).max())
+    # the condition bound: above the SVD's condition number, within sqrt(n) * sqrt(n) of it
+    cond = scaled_cond(hzp)
+    assert np.all(bound >= cond * (1 - 1e-9)) and np.all(bound <= 8.0 * cond)

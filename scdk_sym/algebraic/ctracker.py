@@ -171,7 +171,7 @@ class CTracker:
         f.restype = ctypes.c_int
         g = lib.scdk_pnewton
         g.argtypes = [I, I, dbl, cdbl, cdbl, cdbl, cdbl, cdbl, I, i64,
-                      cdbl, dbl, I, dbl, ctypes.c_void_p]  # fmt: skip
+                      cdbl, dbl, I, dbl, ctypes.c_void_p, dbl]  # fmt: skip
         g.restype = ctypes.c_int
         self._lib, self._track, self._newton = lib, f, g
 
@@ -192,7 +192,7 @@ class CTracker:
         idx: np.ndarray,
         iterations: int,
         weights: np.ndarray,
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Newton's method on ``H(., t) = 0`` in C, as :func:`~scdk_sym.algebraic.tracker.newton`.
 
         Args:
@@ -205,7 +205,9 @@ class CTracker:
 
         Returns:
             ``z`` (M, n) after the steps, ``nu`` (M, iterations) the relative norm of each
-            update, and ``H_z`` (M, n, n) at the final points.
+            update, ``H_z`` (M, n, n) at the final points and (M,) an upper bound of each
+            one's :func:`~scdk_sym.algebraic.homotopy.scaled_cond` (``|A|_F |A^-1|_F`` of the
+            scaled matrix; ``inf`` or NaN when singular).
 
         Raises:
             HomotopyError: the C function reported a failure.
@@ -214,18 +216,19 @@ class CTracker:
         z = np.array(z, dtype=np.complex128, order="C").reshape(M, self.n)
         nu = np.zeros((M, iterations))
         hz = np.zeros((M, self.n, self.n), dtype=np.complex128)
+        cond = np.zeros(M)
         rc = self._newton(
             self.n, self.k, *self._data(homotopy, weights), M,
             np.ascontiguousarray(idx, dtype=np.int64), z,
             np.ascontiguousarray(np.broadcast_to(t, (M,)), dtype=np.float64), iterations, nu,
-            hz.ctypes.data,
+            hz.ctypes.data, cond,
         )  # fmt: skip
         if rc:
             raise HomotopyError(
                 f"C Newton failed ({_ERRORS.get(rc, rc)}) on {M} points of an "
                 f"{self.n}-unknown system; rerun with tracker='python'"
             )
-        return z, nu, hz
+        return z, nu, hz, cond
 
     def track(
         self,
@@ -293,7 +296,7 @@ class BoundTracker:
         return self._tracker.track(homotopy, z0, idx, tau0, tau1, self._weights, options, h0)
 
     def newton(self, homotopy, z, t, idx, iterations: int):
-        """``CTracker.newton`` with the system's weights: ``(z, nu, H_z)``."""
+        """``CTracker.newton`` with the system's weights: ``(z, nu, H_z, cond bound)``."""
         return self._tracker.newton(homotopy, z, t, idx, iterations, self._weights)
 
 

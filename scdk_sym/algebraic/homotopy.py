@@ -99,12 +99,18 @@ def _regular(system, homotopy, z, idx, cond_max, ctrack=None) -> tuple[np.ndarra
     """Newton-refine endpoints at t = 1; regular where it converges and J is well conditioned
     (the Newton steps in C with the C tracker ``ctrack``, else in numpy)."""
     if ctrack is not None:
-        z, nu, Hz = ctrack.newton(homotopy, z, np.ones(len(z)), idx, 2)
+        z, nu, Hz, bound = ctrack.newton(homotopy, z, np.ones(len(z)), idx, 2)
+        # the 2-norm condition number is at most the bound (Frobenius norms): the SVD only
+        # where the bound does not decide (half of cond_max: room for rounding)
+        well = bound <= 0.5 * cond_max
+        if not well.all():
+            well[~well] = scaled_cond(Hz[~well]) <= cond_max
     else:
         t1 = np.ones(len(z), dtype=complex)
         z, nu = newton(homotopy, z, t1, idx, 2)
         _, Hz, _ = homotopy(z, t1, idx)
-    ok = np.isfinite(z).all(axis=1) & (nu[:, -1] <= 1e-10) & (scaled_cond(Hz) <= cond_max)
+        well = scaled_cond(Hz) <= cond_max
+    ok = np.isfinite(z).all(axis=1) & (nu[:, -1] <= 1e-10) & well
     return z, ok
 
 
@@ -239,6 +245,7 @@ def real_endpoints(
     real_tol: float = 1e-8,
     dedup_tol: float = 1e-8,
     polish: bool = True,
+    ctrack=None,
 ) -> np.ndarray:
     """Distinct real points among endpoints, each polished by two real Newton steps.
 
@@ -249,6 +256,9 @@ def real_endpoints(
         real_tol: largest ``max|Im z| / (1 + max|z|)`` of a real endpoint.
         dedup_tol: relative distance under which two real points are one.
         polish: run the real Newton steps (not at singular endpoints).
+        ctrack: the system's C tracker (:func:`~scdk_sym.algebraic.ctracker.c_tracker`):
+            the Newton steps in C (at real points and parameters they stay real); ``None``:
+            in numpy.
 
     Returns:
         (K, n) float, sorted lexicographically.
@@ -256,7 +266,12 @@ def real_endpoints(
     z = z[np.isfinite(z).all(axis=1)]
     real = rel_norm(z.imag, z) <= real_tol
     x = z[real].real.astype(complex)
-    if len(x) and polish:
+    if len(x) and polish and ctrack is not None:
+        p = np.asarray(p0, dtype=complex)[None]
+        b = np.zeros((1, system.n), dtype=complex)
+        at_p0 = ParameterHomotopy(system, p, p, b, b, [1.0])
+        x = ctrack.newton(at_p0, x, np.zeros(len(x)), np.zeros(len(x), dtype=int), 2)[0]
+    elif len(x) and polish:
         P = np.broadcast_to(np.asarray(p0, dtype=complex), (len(x), system.n_params))
         for _ in range(2):
             G, Gz, _ = system.evaluate(x, P)
@@ -363,7 +378,8 @@ def solve_homotopy(
         )
         if not (ends.status == "failed").any():
             break
-    reg = real_endpoints(system, ends.z[ends.status == "success"], p0, real_tol)
+    ctrack = c_tracker(system, tracker)
+    reg = real_endpoints(system, ends.z[ends.status == "success"], p0, real_tol, ctrack=ctrack)
     # endgame estimates are accurate to about 1e-8 relative: looser tests for them
     sing = real_endpoints(system, ends.z[ends.status == "singular"], p0, 1e-6, 1e-6, polish=False)
     merged = dedup(np.concatenate([reg, sing]), 1e-6) if len(sing) else reg

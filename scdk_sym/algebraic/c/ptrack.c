@@ -366,10 +366,55 @@ int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_fro
     return SCDK_OK;
 }
 
+/* An upper bound of the 2-norm condition number of the matrix in lane l of the augmented
+ * matrix (H_z after the last homotopy call), rows and then columns scaled to unit max modulus
+ * (as scaled_cond in homotopy.py): |A|_F |A^-1|_F; infinity or NaN when A is singular. */
+static double cond_bound(const lanes *c, int l) {
+    double ar[N * N], ai[N * N], br[N * N], bi[N * N], scale;
+    int piv[N];
+    for (int i = 0; i < N; ++i) {
+        scale = 0.0;
+        for (int j = 0; j < N; ++j) {
+            ar[i * N + j] = c->ar[i * RS + j][l];
+            ai[i * N + j] = c->ai[i * RS + j][l];
+            const double m = hypot(ar[i * N + j], ai[i * N + j]);
+            if (m > scale) scale = m;
+        }
+        for (int j = 0; j < N; ++j) {
+            ar[i * N + j] /= scale;
+            ai[i * N + j] /= scale;
+        }
+    }
+    double fro = 0.0;
+    for (int j = 0; j < N; ++j) {
+        scale = 0.0;
+        for (int i = 0; i < N; ++i) {
+            const double m = hypot(ar[i * N + j], ai[i * N + j]);
+            if (m > scale) scale = m;
+        }
+        for (int i = 0; i < N; ++i) {
+            ar[i * N + j] /= scale;
+            ai[i * N + j] /= scale;
+            fro += ar[i * N + j] * ar[i * N + j] + ai[i * N + j] * ai[i * N + j];
+        }
+    }
+    if (!scdk_lu_factor(ar, ai, N, N, 1, piv)) return INFINITY;
+    double inv = 0.0;
+    for (int j = 0; j < N; ++j) { /* column j of A^-1 */
+        for (int i = 0; i < N; ++i) {
+            br[i] = i == j;
+            bi[i] = 0.0;
+        }
+        scdk_lu_solve(ar, ai, N, N, 1, piv, br, bi, 1, 0);
+        for (int i = 0; i < N; ++i) inv += br[i] * br[i] + bi[i] * bi[i];
+    }
+    return sqrt(fro) * sqrt(inv);
+}
+
 int scdk_pnewton(int64_t n, int64_t k, const double *weights, const double *p_from,
                  const double *dp, const double *b_from, const double *db, const double *gamma,
                  int64_t M, const int64_t *idx, double *z, const double *t, int64_t iterations,
-                 double *nu, double *hz) {
+                 double *nu, double *hz, double *cond) {
     if (n != N || k != K || M < 0 || iterations < 0) return SCDK_BAD_SIZE;
     char *raw = malloc(sizeof(lanes) + 64);
     if (!raw) return SCDK_NO_MEMORY;
@@ -394,9 +439,10 @@ int scdk_pnewton(int64_t n, int64_t k, const double *weights, const double *p_fr
                 c->z.im[i] -= SCDK_SELECT(fin, c->d1.im[i], SCDK_SPLAT(0.0));
             }
         }
-        if (hz) homotopy(c, weights, &c->z, tl);
+        if (hz || cond) homotopy(c, weights, &c->z, tl);
         for (int l = 0; l < L && j0 + l < M; ++l) {
             store(c, l, z + 2 * N * path[l]);
+            if (cond) cond[path[l]] = cond_bound(c, l);
             if (!hz) continue;
             double *out = hz + 2 * N * N * path[l];
             for (int i = 0; i < N; ++i)

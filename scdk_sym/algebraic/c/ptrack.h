@@ -45,12 +45,14 @@ int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_fro
 /* Newton's method on H(., t) = 0 for M points, as newton() in tracker.py: `iterations` steps
  * z <- z - H_z^{-1} H (non-finite components of an update left out), nu (M x iterations): the
  * norm of each update relative to 1 + max|z| before it. t (M): each point's real time. hz:
- * NULL, or (M x n x n, row-major complex) H_z at the final points. Other arguments as
- * scdk_ptrack's. Returns SCDK_OK or an error code. */
+ * NULL, or (M x n x n, row-major complex) H_z at the final points. cond: NULL, or (M) an
+ * upper bound of the 2-norm condition number of each final H_z with its rows and then its
+ * columns scaled to unit max modulus (|A|_F |A^-1|_F; infinity or NaN if singular). Other
+ * arguments as scdk_ptrack's. Returns SCDK_OK or an error code. */
 int scdk_pnewton(int64_t n, int64_t k, const double *weights, const double *p_from,
                  const double *dp, const double *b_from, const double *db, const double *gamma,
                  int64_t M, const int64_t *idx, double *z, const double *t, int64_t iterations,
-                 double *nu, double *hz);
+                 double *nu, double *hz, double *cond);
 
 #ifdef __cplusplus
 }
