@@ -361,15 +361,22 @@ def _fast(
     if arithmetic != "auto" or sq.fast is None or ctx.prec != 53 or not len(ms):
         return [None] * len(ms)
     proven, r, box = sq.fast.test(ms, bounds, tighten, TINY, MAX_CONDITION)
+    if not sq.n:
+        return [None] * len(ms)
+    # every point at once, as _result and _inward make them one by one
+    domain = np.stack([np.nextafter(ms - r, np.inf), np.nextafter(ms + r, -np.inf)], axis=2)
+    radius = np.max((box[:, :, 1] - box[:, :, 0]) / 2, axis=1)
+    radius = np.where(np.isfinite(radius), radius, np.inf)
+    r_max = np.max(r, axis=1)
     return [
-        _result(
-            True,
-            box[i],
-            ms[i],
-            f"K(X) lies in the interior of X (radius {float(np.max(r[i])):.1e}): "
-            f"exactly one zero in X",
-            1,
-            _inward(ms[i], r[i]),  # inside X = [m - r, m + r] rounded outward
+        Certificate(
+            proven=True,
+            box=box[i],
+            domain=domain[i],  # inside X = [m - r, m + r] rounded outward
+            radius=float(radius[i]),
+            reason=f"K(X) lies in the interior of X (radius {r_max[i]:.1e}): exactly one zero in X",
+            x=ms[i],
+            tries=1,
         )
         if proven[i]
         else None
@@ -519,7 +526,10 @@ def certify_all(
         raise InputError(f"xs must be (N, n) approximate zeros, got shape {xs.shape}")
     _checked(tries, tighten, arithmetic)
     sq: _Square = _SQUARES(f)
-    ms = np.array([_vector(x, sq.n, "x") for x in xs]).reshape(len(xs), sq.n)
+    if xs.shape[1] == sq.n and np.all(np.isfinite(xs)):
+        ms = np.ascontiguousarray(xs)
+    else:  # the first bad row says what is wrong
+        ms = np.array([_vector(x, sq.n, "x") for x in xs]).reshape(len(xs), sq.n)
     P, p_mid, bounds = _parameters(p, sq.n_params)
     fast = _fast(sq, ms, bounds, tighten, arithmetic)  # all points in one call
     certs = tuple(
