@@ -4,7 +4,10 @@
 Functions on intervals ``[lo, hi]`` of binary64 numbers: each operation rounds to nearest
 and moves each bound one binary64 number outward, which encloses the exact result of the
 operations IEEE 754 rounds correctly (``+ - * /``, and squares, negation, doubling,
-reciprocal and ``|.|`` built from them; the sign function is exact). The test itself is the
+reciprocal and ``|.|`` built from them; the sign function is exact); ``sin`` and ``cos`` are
+enclosed from those operations alone (reduction by an enclosure of pi/2, a Taylor polynomial
+with the bound of its rest, the extrema an interval may hold), so revolute joints' rows
+qualify. The test itself is the
 first box of :func:`scdk_sym.algebraic.certify.krawczyk` (the box built the same way from the
 Newton correction at the point, the same operator and tightening), so a point proven here is
 proven by the same theorem; a point it does not prove (or a Function with other operations,
@@ -35,7 +38,7 @@ IKRAWCZYK_CFLAGS = (
 #: CasADi opcodes -> tape codes of ``ikrawczyk.h`` (inputs, constants and outputs apart).
 _UNARY = {
     ca.OP_ASSIGN: 3, ca.OP_NEG: 4, ca.OP_SQ: 5, ca.OP_TWICE: 6, ca.OP_INV: 7, ca.OP_FABS: 8,
-    ca.OP_SIGN: 13,
+    ca.OP_SIGN: 13, ca.OP_SIN: 14, ca.OP_COS: 15,
 }  # fmt: skip
 _BINARY = {ca.OP_ADD: 9, ca.OP_SUB: 10, ca.OP_MUL: 11, ca.OP_DIV: 12}
 _CONST, _INPUT, _OUTPUT = 0, 1, 2
@@ -79,8 +82,8 @@ def tape(f: ca.Function) -> Tape | None:
 
     Returns:
         The :class:`Tape`, or ``None`` when ``f`` uses an operation the interval replay does
-        not round correctly (e.g. ``sin``, ``sqrt``, powers): such a system stays with the
-        ``arb`` replay.
+        not enclose (e.g. ``sqrt``, ``exp``, powers): such a system stays with the ``arb``
+        replay.
     """
     if f.n_in() != 2 or f.n_out() < 1:
         return None

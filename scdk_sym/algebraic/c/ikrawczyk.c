@@ -4,7 +4,9 @@
  * +, -, *, / return the exact result correctly rounded, within half a unit in the last place,
  * so the neighbouring binary64 numbers (nextafter) below and above bound the exact result.
  * Every interval operation below rounds each bound that way; negation and the choice of
- * bounds are exact. The library is compiled without contraction into fused multiply-adds
+ * bounds are exact. sin and cos are enclosed from these operations alone (a reduction by an
+ * enclosure of pi/2, a Taylor polynomial and the bound of its rest, the extrema the
+ * interval may hold), never from the C library's. The library is compiled without contraction into fused multiply-adds
  * and without value-changing optimisations (ckrawczyk.py's flags). A bound that is not
  * finite, or a divisor interval holding 0, fails the evaluation: the point is then left
  * to the ball-arithmetic test (certify.py), never proven here.
@@ -126,6 +128,74 @@ static ival idiv(ival a, ival b) {
 
 static int finite(ival a) { return isfinite(a.lo) && isfinite(a.hi); }
 
+/* sin and cos from correctly rounded operations only. pi/2 lies between the binary64 number
+ * PIO2_LO (the literal rounds to 0x3FF921FB54442D18, below pi/2) and the next one up. */
+#define PIO2_LO 1.5707963267948966
+/* largest |x| whose reduction is done (beyond: the hull [-1, 1]) */
+#define TRIG_RANGE 1048576.0
+/* Taylor terms after the first (remainder below 1e-30 for |r| <= 1) */
+#define TRIG_TERMS 12
+
+static ival pio2(void) {
+    ival r = {PIO2_LO, up(PIO2_LO)};
+    return r;
+}
+
+/* sin (odd) or cos (!odd) over the interval r, |r| <= 1: the Taylor polynomial in interval
+ * arithmetic (each coefficient from an exact integer division rounded outward) plus the
+ * Lagrange bound of the rest, at most the next term in magnitude. */
+static ival taylor(ival r, int odd) {
+    const ival r2 = isq(r);
+    ival term = odd ? r : point(1.0), sum = term;
+    for (int i = 1; i <= TRIG_TERMS; ++i) {
+        const double d = odd ? (2.0 * i) * (2.0 * i + 1) : (2.0 * i - 1) * (2.0 * i);
+        term = idiv(imul(term, r2), point(d));
+        sum = i % 2 ? isub(sum, term) : iadd(sum, term);
+    }
+    const double d = odd ? (2.0 * TRIG_TERMS + 2) * (2.0 * TRIG_TERMS + 3)
+                         : (2.0 * TRIG_TERMS + 1) * (2.0 * TRIG_TERMS + 2);
+    const ival next = idiv(imul(term, r2), point(d));
+    const double rest = up(fabs(next.lo) > fabs(next.hi) ? fabs(next.lo) : fabs(next.hi));
+    const ival bound = {-rest, rest};
+    return iadd(sum, bound);
+}
+
+/* sin(x + shift pi/2) enclosed, x binary64 (shift 0: sin, 1: cos): x = r + k pi/2 with
+ * k = round(x / (pi/2)) (any integer k is sound; this one keeps |r| <= pi/4 + tiny). */
+static ival trig_point(double x, int shift) {
+    const ival hull = {-1.0, 1.0};
+    if (!(fabs(x) < TRIG_RANGE)) return x == x ? hull : point(x);
+    const double k = nearbyint(x / PIO2_LO);
+    const ival r = isub(point(x), pmul(k, pio2()));
+    if (!(fabs(r.lo) <= 1.0 && fabs(r.hi) <= 1.0)) return hull;
+    const int q = (int)((((long long)k + shift) % 4 + 4) % 4);
+    const ival v = taylor(r, q % 2 == 0); /* q: 0 sin r, 1 cos r, 2 -sin r, 3 -cos r */
+    return q >= 2 ? ineg(v) : v;
+}
+
+/* sin (shift 0) or cos (shift 1) over the interval x: the hull of the enclosures at its ends
+ * and of the extreme value (-1)^j at every critical point (1 - shift + 2 j) pi/2 the interval
+ * may hold (the function is monotone between them); [-1, 1] for an interval 1 or more wide. */
+static ival itrig(ival x, int shift) {
+    const ival hull = {-1.0, 1.0};
+    if (!(x.hi - x.lo < 1.0 && fabs(x.lo) < TRIG_RANGE && fabs(x.hi) < TRIG_RANGE)) return hull;
+    const ival a = trig_point(x.lo, shift), b = trig_point(x.hi, shift);
+    ival r = {a.lo < b.lo ? a.lo : b.lo, a.hi > b.hi ? a.hi : b.hi};
+    const double j0 = floor(x.lo / (2 * PIO2_LO)) - 2, j1 = floor(x.hi / (2 * PIO2_LO)) + 2;
+    for (double j = j0; j <= j1; ++j) {
+        const ival c = pmul(1.0 - shift + 2.0 * j, pio2());
+        if (c.lo <= x.hi && c.hi >= x.lo) {
+            if (fmod(j, 2.0) == 0.0)
+                r.hi = 1.0;
+            else
+                r.lo = -1.0;
+        }
+    }
+    if (r.lo < -1.0) r.lo = -1.0;
+    if (r.hi > 1.0) r.hi = 1.0;
+    return r;
+}
+
 /* Replay a tape on x (n) and p (k) intervals into out (n_out); 0 on success. */
 static int replay(const scdk_tape *t, const ival *x, const ival *p, ival *w, ival *out) {
     for (int64_t i = 0; i < t->n_out; ++i) out[i] = point(0.0);
@@ -146,6 +216,8 @@ static int replay(const scdk_tape *t, const ival *x, const ival *p, ival *w, iva
             break;
         case SCDK_I_FABS: r = iabs(w[a]); break;
         case SCDK_I_SIGN: r = isign(w[a]); break;
+        case SCDK_I_SIN: r = itrig(w[a], 0); break;
+        case SCDK_I_COS: r = itrig(w[a], 1); break;
         case SCDK_I_ADD: r = iadd(w[a], w[b]); break;
         case SCDK_I_SUB: r = isub(w[a], w[b]); break;
         case SCDK_I_MUL: r = imul(w[a], w[b]); break;

@@ -3,9 +3,10 @@
  * A square system f(x, p) = 0 and its Jacobian are given as two tapes: the instruction lists
  * of CasADi SX Functions (x[n], p[k]) -> f[n] and (x[n], p[k]) -> J (n x n, row-major),
  * restricted to operations whose binary64 result is the correctly rounded exact result
- * (+, -, *, /, squares, negation, doubling, reciprocal, |.| and its sign). Every interval operation
- * rounds to nearest and then moves each bound one binary64 number outward, so each result
- * encloses the exact value over the operand intervals.
+ * (+, -, *, /, squares, negation, doubling, reciprocal, |.| and its sign) and to sin and cos,
+ * enclosed from those alone (ikrawczyk.c). Every interval operation rounds to nearest and then
+ * moves each bound one binary64 number outward, so each result encloses the exact value over
+ * the operand intervals.
  */
 #ifndef SCDK_IKRAWCZYK_H
 #define SCDK_IKRAWCZYK_H
@@ -31,7 +32,9 @@ enum {
     SCDK_I_SUB = 10,
     SCDK_I_MUL = 11,
     SCDK_I_DIV = 12,
-    SCDK_I_SIGN = 13 /* exact: -1, 0 or 1 */
+    SCDK_I_SIGN = 13, /* exact: -1, 0 or 1 */
+    SCDK_I_SIN = 14,
+    SCDK_I_COS = 15
 };
 
 /* One tape: L instructions (op, a, b, o, c), a work vector of W intervals, an output of
