@@ -8,6 +8,8 @@ system carries a factor ``x - r``), and the Arb test of :mod:`scdk_sym.algebraic
 
 from __future__ import annotations
 
+import contextlib
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -38,20 +40,31 @@ _OPS = {
 }
 
 
-def _exact_range(op, a: tuple[float, float], b: tuple[float, float]) -> tuple[arb, arb]:
-    """The exact range of ``op`` over the boxes, at 300 bits (endpoints, and 0 for sq/fabs)."""
+@contextlib.contextmanager
+def _bits_300():
+    """Arb at 300 bits inside the block."""
     old = ctx.prec
     ctx.prec = 300
     try:
-        pa = [arb(v) for v in a] + ([arb(0)] if a[0] < 0 < a[1] else [])
-        pb = [arb(v) for v in b]
-        values = [_OPS[op](x, y) for x in pa for y in pb]
-        lo, hi = values[0], values[0]
-        for v in values[1:]:
-            lo, hi = (v if v < lo else lo), (v if v > hi else hi)
-        return lo, hi
+        yield
     finally:
         ctx.prec = old
+
+
+def _hull(values: list[arb]) -> tuple[arb, arb]:
+    """The least and the greatest of some exact values."""
+    lo = hi = values[0]
+    for v in values[1:]:
+        lo, hi = (v if v < lo else lo), (v if v > hi else hi)
+    return lo, hi
+
+
+def _exact_range(op, a: tuple[float, float], b: tuple[float, float]) -> tuple[arb, arb]:
+    """The exact range of ``op`` over the boxes, at 300 bits (endpoints, and 0 for sq/fabs)."""
+    with _bits_300():
+        pa = [arb(v) for v in a] + ([arb(0)] if a[0] < 0 < a[1] else [])
+        pb = [arb(v) for v in b]
+        return _hull([_OPS[op](x, y) for x in pa for y in pb])
 
 
 @pytest.mark.parametrize("op", sorted(_OPS))
@@ -78,9 +91,7 @@ def test_each_operation_encloses_its_exact_range_within_a_few_ulps(op):
 def _exact_trig_range(fn: str, lo: float, hi: float) -> tuple[arb, arb]:
     """The exact range of sin or cos over [lo, hi] at 300 bits: the ends and every critical
     point (1 + 2 j) pi/2 (sin) or j pi (cos) inside."""
-    old = ctx.prec
-    ctx.prec = 300
-    try:
+    with _bits_300():
         f = arb.sin if fn == "sin" else arb.cos
         values = [f(arb(lo)), f(arb(hi))]
         half_pi = arb.pi() / 2
@@ -88,12 +99,7 @@ def _exact_trig_range(fn: str, lo: float, hi: float) -> tuple[arb, arb]:
             c = (1 + 2 * j) * half_pi if fn == "sin" else 2 * j * half_pi
             if arb(lo) <= c <= arb(hi):
                 values.append(arb(1 if j % 2 == 0 else -1))
-        low, high = values[0], values[0]
-        for v in values[1:]:
-            low, high = (v if v < low else low), (v if v > high else high)
-        return low, high
-    finally:
-        ctx.prec = old
+        return _hull(values)
 
 
 @pytest.mark.parametrize("fn", ["sin", "cos"])

@@ -27,6 +27,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import BuildError, InputError
+from ..symbolic.instructions import instructions
 from .ctracker import source_library
 
 #: Flags of the interval library (warnings are errors; ISO C without fused multiply-adds).
@@ -87,30 +88,27 @@ def tape(f: ca.Function) -> Tape | None:
     """
     if f.n_in() != 2 or f.n_out() < 1:
         return None
-    in_dense = [f.sparsity_in(i).find() for i in range(2)]
-    out_dense = f.sparsity_out(0).find()
     rows: list[tuple[int, int, int, int, float]] = []
     width = 0
-    for k in range(f.n_instructions()):
-        op = f.instruction_id(k)
-        ins, outs = f.instruction_input(k), f.instruction_output(k)
+    for ins in instructions(f):
+        op, a, r = ins.op, ins.args, ins.out
         if op == ca.OP_OUTPUT:
-            if outs[0] != 0:
+            if r != 0:
                 continue
-            rows.append((_OUTPUT, ins[0], 0, out_dense[outs[1]], 0.0))
-            width = max(width, ins[0] + 1)
+            rows.append((_OUTPUT, a[0], 0, ins.position, 0.0))
+            width = max(width, a[0] + 1)
             continue
         if op == ca.OP_CONST:
-            rows.append((_CONST, 0, 0, outs[0], float(f.instruction_constant(k))))
+            rows.append((_CONST, 0, 0, r, ins.constant))
         elif op == ca.OP_INPUT:
-            rows.append((_INPUT, ins[0], in_dense[ins[0]][ins[1]], outs[0], 0.0))
+            rows.append((_INPUT, a[0], ins.position, r, 0.0))
         elif op in _UNARY:
-            rows.append((_UNARY[op], ins[0], 0, outs[0], 0.0))
+            rows.append((_UNARY[op], a[0], 0, r, 0.0))
         elif op in _BINARY:
-            rows.append((_BINARY[op], ins[0], ins[1], outs[0], 0.0))
+            rows.append((_BINARY[op], a[0], a[1], r, 0.0))
         else:
             return None
-        width = max(width, outs[0] + 1)
+        width = max(width, r + 1)
     cols = list(zip(*rows, strict=True)) if rows else [(), (), (), (), ()]
     ops, ia, ib, io = (np.ascontiguousarray(col, dtype=np.int64) for col in cols[:4])
     consts = np.ascontiguousarray(cols[4], dtype=np.float64)

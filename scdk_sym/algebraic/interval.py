@@ -25,6 +25,7 @@ import casadi as ca
 from flint import arb
 
 from ..errors import InputError, IntervalError
+from ..symbolic.instructions import instructions
 
 #: Number of Functions whose translation is kept.
 CACHE_SIZE = 64
@@ -243,41 +244,35 @@ class IntervalFunction:
 
 def _translate(f: ca.Function) -> IntervalFunction:
     """Translate the instruction list of an SX Function into straight-line ``arb`` code."""
-    in_dense = [f.sparsity_in(i).find() for i in range(f.n_in())]
-    out_dense = [f.sparsity_out(i).find() for i in range(f.n_out())]
     constants: dict[float, str] = {}
     known: dict[int, float] = {}  # work slot -> constant value it holds now
     body: list[str] = []
-    for k in range(f.n_instructions()):
-        op = f.instruction_id(k)
-        ins = f.instruction_input(k)
-        outs = f.instruction_output(k)
+    for ins in instructions(f):
+        op, a, r = ins.op, ins.args, ins.out
         if op == ca.OP_OUTPUT:
-            body.append(f"o{outs[0]}[{out_dense[outs[0]][outs[1]]}] = w{ins[0]}")
+            body.append(f"o{r}[{ins.position}] = w{a[0]}")
             continue
         if op == ca.OP_CONST:
-            value = float(f.instruction_constant(k))
-            name = constants.setdefault(value, f"c{len(constants)}")
-            expr = name
+            expr = constants.setdefault(ins.constant, f"c{len(constants)}")
         elif op == ca.OP_INPUT:
-            expr = f"i{ins[0]}[{in_dense[ins[0]][ins[1]]}]"
+            expr = f"i{a[0]}[{ins.position}]"
         elif op in _UNARY:
-            expr = _UNARY[op].format(f"w{ins[0]}")
-        elif op in (ca.OP_POW, ca.OP_CONSTPOW) and ins[1] in known:
-            expr = _power_expression(f"w{ins[0]}", known[ins[1]]) or f"w{ins[0]} ** w{ins[1]}"
+            expr = _UNARY[op].format(f"w{a[0]}")
+        elif op in (ca.OP_POW, ca.OP_CONSTPOW) and a[1] in known:
+            expr = _power_expression(f"w{a[0]}", known[a[1]]) or f"w{a[0]} ** w{a[1]}"
         elif op in _BINARY:
-            expr = _BINARY[op].format(f"w{ins[0]}", f"w{ins[1]}")
+            expr = _BINARY[op].format(f"w{a[0]}", f"w{a[1]}")
         else:
             raise IntervalError(
-                f"{f.name()}: operation {_NAMES.get(op, op)!r} (instruction {k}) has no "
-                f"interval counterpart here; rewrite the expression without it (supported: "
+                f"{f.name()}: operation {_NAMES.get(op, op)!r} (instruction {ins.index}) has "
+                f"no interval counterpart here; rewrite the expression without it (supported: "
                 f"{', '.join(SUPPORTED_OPERATIONS)})",
                 operation=_NAMES.get(op, str(op)),
             )
-        known.pop(outs[0], None)
+        known.pop(r, None)
         if op == ca.OP_CONST:
-            known[outs[0]] = value
-        body.append(f"w{outs[0]} = {expr}")
+            known[r] = ins.constant
+        body.append(f"w{r} = {expr}")
     head = [f"def replay({', '.join(f'i{i}' for i in range(f.n_in()))}):"]
     if constants:
         head.append(f"    {', '.join(constants.values())}, = CONSTANTS")

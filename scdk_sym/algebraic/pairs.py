@@ -17,6 +17,7 @@ from typing import Any
 import casadi as ca
 
 from ..errors import AlgebraicFormError
+from ..symbolic.instructions import instructions
 
 
 @dataclass(frozen=True)
@@ -101,22 +102,20 @@ def replay(
     """
     outputs = [[constant(0.0)] * f.nnz_out(i) for i in range(f.n_out())]
     work: dict[int, Any] = {}
-    for k in range(f.n_instructions()):
-        op = f.instruction_id(k)
-        args = f.instruction_input(k)
-        res = f.instruction_output(k)
+    for ins in instructions(f):
+        op, args, r = ins.op, ins.args, ins.out
         if op == ca.OP_INPUT:
-            work[res[0]] = inputs[args[0]][args[1]]
+            work[r] = inputs[args[0]][args[1]]
         elif op == ca.OP_OUTPUT:
-            outputs[res[0]][res[1]] = work[args[0]]
+            outputs[r][ins.nz] = work[args[0]]
         elif op == ca.OP_CONST:
-            work[res[0]] = constant(f.instruction_constant(k))
+            work[r] = constant(ins.constant)
         elif op == ca.OP_INV:
-            work[res[0]] = constant(1.0) / work[args[0]]
+            work[r] = constant(1.0) / work[args[0]]
         elif op in _BINARY:
-            work[res[0]] = _BINARY[op](work[args[0]], work[args[1]])
+            work[r] = _BINARY[op](work[args[0]], work[args[1]])
         elif op in _UNARY:
-            work[res[0]] = _UNARY[op](work[args[0]])
+            work[r] = _UNARY[op](work[args[0]])
         else:
             raise AlgebraicFormError(
                 f"CasADi operation {op} in {f.name()!r} has no holomorphic polynomial form; "

@@ -14,6 +14,7 @@ from __future__ import annotations
 import casadi as ca
 
 from ..errors import BuildError
+from ..symbolic.instructions import instructions
 
 _BINARY = {ca.OP_ADD: "+", ca.OP_SUB: "-", ca.OP_MUL: "*", ca.OP_DIV: "/"}
 #: Unary operations as C expressions of ``x`` (a ``vd``).
@@ -55,25 +56,22 @@ def lane_source(f: ca.Function, name: str) -> str:
             raise BuildError(f"input {i} of {f.name()!r} is sparse; lane evaluation needs dense")
     body: list[str] = []
     used: set[int] = set()
-    for k in range(f.n_instructions()):
-        op = f.instruction_id(k)
-        args = f.instruction_input(k)
-        out = f.instruction_output(k)
+    for ins in instructions(f):
+        op, a, r = ins.op, ins.args, ins.out
         if op == ca.OP_OUTPUT:
-            body.append(f"  res[{out[0]}][{_dense_index(f, out[0], out[1])}] = w{args[0]};")
+            body.append(f"  res[{r}][{ins.position}] = w{a[0]};")
             continue
-        r = out[0]
         used.add(r)
         if op == ca.OP_INPUT:
-            expr = f"arg[{args[0]}][{args[1]}]"
+            expr = f"arg[{a[0]}][{ins.position}]"
         elif op == ca.OP_CONST:
-            expr = f"SCDK_SPLAT({float(f.instruction_constant(k))!r})"
+            expr = f"SCDK_SPLAT({ins.constant!r})"
         elif op in _BINARY:
-            expr = f"(w{args[0]}{_BINARY[op]}w{args[1]})"
+            expr = f"(w{a[0]}{_BINARY[op]}w{a[1]})"
         elif op in _UNARY:
-            expr = _UNARY[op].format(x=f"w{args[0]}")
+            expr = _UNARY[op].format(x=f"w{a[0]}")
         elif op in _LIBM:
-            lane = f"w{r}[l_] = {_LIBM[op]}(w{args[0]}[l_]);"
+            lane = f"w{r}[l_] = {_LIBM[op]}(w{a[0]}[l_]);"
             body.append(f"  for (int l_ = 0; l_ < SCDK_LANES; ++l_) {lane}")
             continue
         else:
@@ -102,9 +100,3 @@ def lane_source(f: ca.Function, name: str) -> str:
             "",
         ]
     )
-
-
-def _dense_index(f: ca.Function, i: int, nz: int) -> int:
-    """Column-major dense index of nonzero ``nz`` of output ``i``."""
-    sp = f.sparsity_out(i)
-    return int(sp.row()[nz] + sp.size1() * sp.get_col()[nz])
