@@ -5,7 +5,8 @@ paper's example, convergent branch), prints the median time of:
 
 - ``krawczyk`` on the closure system at the solution (replay translated once, then cached;
   the first call, which translates, is printed apart), with ``arithmetic="auto"`` (binary64
-  intervals in C for a rational system: stewart_gough's) and ``"arb"`` (Arb balls only);
+  intervals in C for rows of ``+ - * /``, sin and cos: both models') and ``"arb"`` (Arb balls
+  only);
 - its parts: the interval replay of ``g`` at the point and of ``J`` over the box;
 - the baseline in the same run: one float evaluation of ``g`` and ``J`` (CasADi, through
   preallocated buffers) and one LU solve ``J \\ g`` (numpy),

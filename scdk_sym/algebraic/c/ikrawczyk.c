@@ -133,8 +133,8 @@ static int finite(ival a) { return isfinite(a.lo) && isfinite(a.hi); }
 #define PIO2_LO 1.5707963267948966
 /* largest |x| whose reduction is done (beyond: the hull [-1, 1]) */
 #define TRIG_RANGE 1048576.0
-/* Taylor terms after the first (remainder below 1e-30 for |r| <= 1) */
-#define TRIG_TERMS 12
+/* Taylor terms after the first (the rest: below 1e-19 for |r| <= pi/4, 1e-17 for |r| <= 1) */
+#define TRIG_TERMS 8
 
 static ival pio2(void) {
     ival r = {PIO2_LO, up(PIO2_LO)};
