@@ -420,6 +420,10 @@ def _distributed(todo, args, finished, workers, scheduler) -> None:
                 client.close(timeout=CLOSE_TIMEOUT)
             if cluster is not None:
                 cluster.close(timeout=CLOSE_TIMEOUT)
+        if cluster is not None:
+            # closed as far as it closes in CLOSE_TIMEOUT (after an interrupt its killed
+            # workers may not answer): Dask's exit hook must not wait 10 s more for it
+            cluster.shutdown_on_close = False
         hidden.close()
 
 
