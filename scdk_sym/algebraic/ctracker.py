@@ -60,10 +60,19 @@ def source_dir() -> Path:
     return Path(str(resources.files("scdk_sym.algebraic") / "c"))
 
 
-def source_library(stem: str, flags: tuple[str, ...]) -> Path:
+def source_library(
+    stem: str, flags: tuple[str, ...], generated: dict[str, str] | None = None
+) -> Path:
     """A library compiled from ``c/<stem>.c`` (and ``c/<stem>.h``, and the package's LU
     factorisation :data:`~scdk_sym.kernels.compile.LU_HEADER` it may include), cached under
     the hash of its sources, flags and compiler.
+
+    Args:
+        stem: the source's name in ``c/``.
+        flags: compiler flags.
+        generated: file name -> text of generated sources, written beside each other and
+            on the include path (their texts hashed too); a ``main.c`` among them is
+            compiled instead of ``c/<stem>.c`` (it includes it).
 
     Raises:
         BuildError: no C compiler, or the compilation failed.
@@ -72,16 +81,23 @@ def source_library(stem: str, flags: tuple[str, ...]) -> Path:
     from ..kernels.compile import LU_HEADER, compiler_tag, run_compiler
 
     src = source_dir()
+    generated = generated or {}
     h = hashlib.sha256()
     for path in (src / f"{stem}.h", src / f"{stem}.c", LU_HEADER):
         h.update(path.read_bytes())
     h.update(" ".join(flags).encode())
     h.update(compiler_tag().encode())
+    for name, text in sorted(generated.items()):
+        h.update(name.encode() + b"\0" + text.encode() + b"\0")
     target = cache_dir() / f"{stem}_{h.hexdigest()[:20]}.so"
-    include = f"-I{LU_HEADER.parent}"
 
     def build(path: Path) -> None:
-        run_compiler([*flags, include, str(src / f"{stem}.c"), "-o", str(path), "-lm"])
+        with tempfile.TemporaryDirectory() as tmp:
+            for name, text in generated.items():
+                (Path(tmp) / name).write_text(text)
+            main = Path(tmp) / "main.c" if "main.c" in generated else src / f"{stem}.c"
+            run_compiler([*flags, f"-I{src}", f"-I{LU_HEADER.parent}", f"-I{tmp}", str(main),
+                          "-o", str(path), "-lm"])  # fmt: skip
 
     return cached_file(target, build, "compiled library")
 
@@ -108,32 +124,16 @@ def tracker_library(form) -> Path:
         BuildError: no C compiler, the compilation failed, or ``G`` uses an operation with no
             lane evaluation.
     """
-    from ..kernels.cache import cache_dir, cached_file
-    from ..kernels.compile import LU_HEADER, compiler_tag, run_compiler
     from ..kernels.lanes import lane_source
 
-    src = source_dir()
-    evaluation = lane_source(form.G_pairs, "scdk_eval")
     main = (
         f"#define SCDK_N {form.n}\n#define SCDK_K {form.n_params}\n#define SCDK_LANES {LANES}\n"
         '#define SCDK_EVAL_FILE "scdk_eval.c"\n#include "ptrack.c"\n'
     )
-    flags = (*TRACKER_CFLAGS, *simd_flags())
-    h = hashlib.sha256()
-    for path in (src / "ptrack.h", src / "ptrack.c", LU_HEADER):
-        h.update(path.read_bytes())
-    for text in (evaluation, main, " ".join(flags), compiler_tag()):
-        h.update(text.encode() + b"\0")
-    target = cache_dir() / f"ptrack_{h.hexdigest()[:20]}.so"
-
-    def build(path: Path) -> None:
-        with tempfile.TemporaryDirectory() as tmp:
-            (Path(tmp) / "scdk_eval.c").write_text(evaluation)
-            (Path(tmp) / "main.c").write_text(main)
-            run_compiler([*flags, f"-I{src}", f"-I{LU_HEADER.parent}", f"-I{tmp}",
-                          str(Path(tmp) / "main.c"), "-o", str(path), "-lm"])  # fmt: skip
-
-    return cached_file(target, build, "compiled library")
+    evaluation = lane_source(form.G_pairs, "scdk_eval")
+    return source_library(
+        "ptrack", (*TRACKER_CFLAGS, *simd_flags()), {"scdk_eval.c": evaluation, "main.c": main}
+    )
 
 
 def _form_and_weights(system) -> tuple[object, np.ndarray] | None:

@@ -186,6 +186,15 @@ static void load(lanes *c, int l, int64_t d, const double *p_from, const double 
     c->gi[l] = gamma[2 * d + 1];
 }
 
+/* Zeroed lanes, 64-byte aligned, inside a block *raw to free; NULL without memory. */
+static lanes *new_lanes(char **raw) {
+    *raw = malloc(sizeof(lanes) + 64);
+    if (!*raw) return NULL;
+    lanes *c = (lanes *)(*raw + (64 - (uintptr_t)*raw % 64) % 64);
+    memset(c, 0, sizeof(lanes));
+    return c;
+}
+
 /* One step of every lane (see the file's comment); hh: each lane's step (0 in idle lanes);
  * the corrected point in c->zt, the new velocity in -c->x1, the update norms in nu1, nu2. */
 static void step(lanes *c, const double *weights, const double *tau, const double *hh,
@@ -305,10 +314,9 @@ int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_fro
                 double *h, const scdk_options *opt, int64_t *status, int64_t *steps,
                 int64_t *accepted) {
     if (n != N || k != K || M < 0) return SCDK_BAD_SIZE;
-    char *raw = malloc(sizeof(lanes) + 64); /* the lanes 64-byte aligned */
-    if (!raw) return SCDK_NO_MEMORY;
-    lanes *c = (lanes *)(raw + (64 - (uintptr_t)raw % 64) % 64);
-    memset(c, 0, sizeof(lanes));
+    char *raw;
+    lanes *c = new_lanes(&raw);
+    if (!c) return SCDK_NO_MEMORY;
     lane_state s[L];
     int64_t next = 0;
     for (int l = 0; l < L; ++l) s[l].j = -1;
@@ -416,10 +424,9 @@ int scdk_pnewton(int64_t n, int64_t k, const double *weights, const double *p_fr
                  int64_t M, const int64_t *idx, double *z, const double *t, int64_t iterations,
                  double *nu, double *hz, double *cond) {
     if (n != N || k != K || M < 0 || iterations < 0) return SCDK_BAD_SIZE;
-    char *raw = malloc(sizeof(lanes) + 64);
-    if (!raw) return SCDK_NO_MEMORY;
-    lanes *c = (lanes *)(raw + (64 - (uintptr_t)raw % 64) % 64);
-    memset(c, 0, sizeof(lanes));
+    char *raw;
+    lanes *c = new_lanes(&raw);
+    if (!c) return SCDK_NO_MEMORY;
     for (int64_t j0 = 0; j0 < M; j0 += L) {
         int64_t path[L];
         double tl[L];
