@@ -209,8 +209,9 @@ def test_each_grid_point_follows_the_neighbour_one_step_back_on_its_last_nonzero
 def test_mode_sets_from_neighbours_along_a_line_are_the_polynomial_poses():
     """Along a line of 30 readings of the example's slice that crosses singular curves, each
     certified set tracked from the previous reading's complete root set holds exactly the
-    real poses of the polynomial (to 1e-8), and says it came from the neighbour."""
-    from scdk_sym.solvers.homotopy_modes import modes_from_neighbour
+    real poses of the polynomial (to 1e-8), and says it came from the neighbour; all the
+    readings solved at once from the same neighbours' sets give the same answers."""
+    from scdk_sym.solvers.homotopy_modes import modes_from_neighbour, modes_from_neighbours
 
     ex = load_example()
     model = ex.build_model()
@@ -218,9 +219,11 @@ def test_mode_sets_from_neighbours_along_a_line_are_the_polynomial_poses():
     (lo2, hi2), (lo3, hi3) = ex.LEG2, ex.LEG3
     line = [np.array([ex.RHO1, lo2 + u * (hi2 - lo2), hi3 - u * (hi3 - lo3)])
             for u in np.linspace(0.05, 0.95, 30)]  # fmt: skip
-    seed, counts = None, set()
+    seed, counts, seeds, walk = None, set(), [], []
     for i, theta in enumerate(line):
+        seeds.append(seed)
         modes, seed, used = modes_from_neighbour(model, theta, seed)
+        walk.append(modes)
         assert modes.certified and used == (i > 0)
         if used:
             assert "neighbouring point" in modes.report
@@ -230,3 +233,13 @@ def test_mode_sets_from_neighbours_along_a_line_are_the_polynomial_poses():
             assert min(pose_distance(cfg.x, pose) for cfg in modes) <= POSE_TOL
         counts.add(len(ref))
     assert len(counts) >= 2  # the line crosses a singular curve
+    # all points at once from the same neighbours' sets: the same answers, bit for bit
+    together = modes_from_neighbours(model, np.array(line), seeds)
+    for one, (many, _, used) in zip(walk, together, strict=True):
+        assert used == (one is not walk[0]) and many.report == one.report
+        assert len(many) == len(one) and len(many.certificates) == len(one.certificates)
+        for a, b in zip(many, one, strict=True):
+            np.testing.assert_array_equal(a.y, b.y)
+            np.testing.assert_array_equal(a.x, b.x)
+        for a, b in zip(many.certificates, one.certificates, strict=True):
+            np.testing.assert_array_equal(a.box, b.box)

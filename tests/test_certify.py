@@ -19,6 +19,7 @@ from flint import arb, ctx
 import scdk_sym as sc
 from scdk_sym.algebraic import (
     certify_all,
+    certify_configuration_sets,
     certify_configurations,
     certify_solution,
     closure_function,
@@ -310,6 +311,27 @@ def test_the_assembly_modes_of_the_hexapod_are_proven_distinct_in_one_chart():
     half_turn[list(model.chart.rotations[0])] = [math.pi, 0.0, 0.0]  # about x, from identity
     with pytest.raises(InputError, match="half turn"):
         certify_configurations(model, [half_turn], theta, np.eye(3).ravel())
+
+
+def test_sets_at_several_points_certified_at_once_equal_one_set_at_a_time():
+    """The modes of the hexapod at three leg vectors, certified in one call: the boxes and
+    verdicts of three separate calls (the points' parameters differ: each box is its own
+    point's)."""
+    model = shipped("stewart_gough")
+    rng = np.random.default_rng(3)
+    sets = []
+    for _ in range(3):
+        theta = model.home.theta * (1 + 0.01 * rng.normal(size=model.k))
+        ys = np.array([cfg.y for cfg in sc.assembly_modes(model, theta)])
+        sets.append((ys, theta, None))
+    together = certify_configuration_sets(model, sets)
+    for (ys, theta, _), got in zip(sets, together, strict=True):
+        one = certify_configurations(model, ys, theta)
+        assert got.proven and got.count == one.count == len(ys) >= 2
+        assert got.reason == one.reason
+        for a, b in zip(got.certificates, one.certificates, strict=True):
+            np.testing.assert_array_equal(a.box, b.box)
+            assert a.radius <= 1e-9 * (1 + np.abs(a.x).max())
 
 
 def test_an_mx_function_is_expanded_and_inputs_are_checked():

@@ -105,3 +105,10 @@ def test_mapped_calls_equal_single_calls_and_configurations_equal_configuration(
         assert cfg.joints.keys() == one.joints.keys()
         assert max(abs(cfg.joints[j] - one.joints[j]) for j in one.joints) <= 1e-14
     assert model.configurations(np.zeros((0, model.m)), theta, np.zeros((0, c0.size))) == []
+    # one theta per point
+    thetas = theta * (1 + 0.01 * rng.normal(size=(7, model.k)))
+    for cfg, y, th, c in zip(model.configurations(ys, thetas, cs), ys, thetas, cs, strict=True):
+        one = model.configuration(y, th, c)
+        np.testing.assert_array_equal(cfg.theta, th)
+        np.testing.assert_array_equal(cfg.x, one.x)
+        assert cfg.residual == one.residual

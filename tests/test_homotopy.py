@@ -10,6 +10,8 @@ certifies it with the trace test.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from polynomial_systems import Quadrics, QuarticPair, StewartGough, quaternions, rotation_numerator
@@ -30,7 +32,12 @@ from scdk_sym.algebraic import (
     start_system,
     trace_test,
 )
-from scdk_sym.algebraic.homotopy import ParameterHomotopy, dedup, track_parameter_homotopy
+from scdk_sym.algebraic.homotopy import (
+    ParameterHomotopy,
+    dedup,
+    solve_homotopies,
+    track_parameter_homotopy,
+)
 from scdk_sym.algebraic.tracker import DONE, STEP_LIMIT, TrackerOptions, track
 from scdk_sym.errors import HomotopyError, InputError, ScdkError
 
@@ -172,6 +179,32 @@ def test_quadrics_real_solutions_match_random_start_newton(quadrics):
     ref = _real_newton_reference(system, p0, starts=3000, seed=2)
     assert len(ref) >= 2  # the reference sees real roots at this p0
     assert _same_sets(res.real_solutions, ref, 1e-8)
+
+
+def test_homotopies_to_several_targets_at_once_equal_one_at_a_time(quadrics):
+    """Three targets reached from three root sets in one batch: each result is the one
+    homotopy's from its set, bit for bit, and the real roots are a random-start Newton's."""
+    system, start = quadrics
+    rng = np.random.default_rng(8)
+    p1 = rng.normal(size=3)
+    roots = solve_homotopy(system, start, p1, seed=1).endpoints
+    P_from = np.stack([p1, p1 + 0.01, p1 - 0.02]).astype(complex)
+    sets = [roots]
+    for p in P_from[1:]:  # the complete set at each of the other starting points
+        near = replace(start, p=P_from[0], b=0 * start.b, solutions=roots)
+        sets.append(solve_homotopy(system, near, p, attempts=1).endpoints)
+    targets = P_from.real + rng.normal(scale=0.1, size=(3, 3))
+    gamma = np.exp(0.7j)
+    batch = solve_homotopies(system, P_from, np.stack(sets), targets, gamma=gamma)
+    for p_from, z, p0, got in zip(P_from, sets, targets, batch, strict=True):
+        one = solve_homotopy(system, replace(start, p=p_from, b=0 * start.b, solutions=z), p0,
+                             attempts=1, gamma=gamma)  # fmt: skip
+        assert (got.status == one.status).all() and got.gamma == one.gamma
+        np.testing.assert_array_equal(got.endpoints, one.endpoints)
+        np.testing.assert_array_equal(got.real_solutions, one.real_solutions)
+        assert got.complete and (got.steps == one.steps).all()
+    ref = _real_newton_reference(system, targets[0], starts=3000, seed=2)
+    assert _same_sets(batch[0].real_solutions, ref, 1e-8)
 
 
 def test_two_paths_at_one_regular_endpoint_fail(quadrics):

@@ -521,21 +521,67 @@ def certify_all(
         The :class:`CertificateSet`: ``proven`` when every solution is proven and every pair
         of boxes is disjoint (then ``count == N`` distinct real zeros).
     """
-    xs = _real(xs, "xs")
-    if xs.ndim != 2:
-        raise InputError(f"xs must be (N, n) approximate zeros, got shape {xs.shape}")
+    return certify_sets(f, [xs], [p], tries=tries, tighten=tighten, arithmetic=arithmetic)[0]
+
+
+def certify_sets(
+    f: ca.Function,
+    xs_list: list,
+    p_list: list,
+    *,
+    tries: int = TRIES,
+    tighten: int = TIGHTEN,
+    arithmetic: str = "auto",
+) -> list[CertificateSet]:
+    """:func:`certify_all` of several sets of one system, each at its own parameters; the
+    first box of every point of every set in one C call (the certificates are those of
+    separate calls).
+
+    Args:
+        f: square system (see :func:`krawczyk`).
+        xs_list: S arrays (N_s, n) of approximate zeros.
+        p_list: S parameter vectors (or bounds), one per set (see :func:`krawczyk`).
+        tries: as :func:`certify_all`.
+        tighten: as :func:`certify_all`.
+        arithmetic: as :func:`certify_all`.
+
+    Returns:
+        S :class:`CertificateSet`.
+    """
     _checked(tries, tighten, arithmetic)
     sq: _Square = _SQUARES(f)
-    if xs.shape[1] == sq.n and np.all(np.isfinite(xs)):
-        ms = np.ascontiguousarray(xs)
-    else:  # the first bad row says what is wrong
-        ms = np.array([_vector(x, sq.n, "x") for x in xs]).reshape(len(xs), sq.n)
-    P, p_mid, bounds = _parameters(p, sq.n_params)
-    fast = _fast(sq, ms, bounds, tighten, arithmetic)  # all points in one call
-    certs = tuple(
-        c if c is not None else _krawczyk(sq, m, P, p_mid, tries, tighten)
-        for c, m in zip(fast, ms, strict=True)
+    sets, params = [], []
+    for xs, p in zip(xs_list, p_list, strict=True):
+        xs = _real(xs, "xs")
+        if xs.ndim != 2:
+            raise InputError(f"xs must be (N, n) approximate zeros, got shape {xs.shape}")
+        if xs.shape[1] == sq.n and np.all(np.isfinite(xs)):
+            ms = np.ascontiguousarray(xs)
+        else:  # the first bad row says what is wrong
+            ms = np.array([_vector(x, sq.n, "x") for x in xs]).reshape(len(xs), sq.n)
+        sets.append(ms)
+        params.append(_parameters(p, sq.n_params))
+    sizes = [len(ms) for ms in sets]
+    if not sets:
+        return []
+    ms_all = np.concatenate(sets)
+    bounds = np.concatenate(
+        [np.broadcast_to(b, (n, *b.shape)) for (_, _, b), n in zip(params, sizes, strict=True)]
     )
+    fast = _fast(sq, ms_all, bounds, tighten, arithmetic)  # all points in one call
+    out, start = [], 0
+    for ms, (P, p_mid, _) in zip(sets, params, strict=True):
+        certs = tuple(
+            c if c is not None else _krawczyk(sq, m, P, p_mid, tries, tighten)
+            for c, m in zip(fast[start : start + len(ms)], ms, strict=True)
+        )
+        start += len(ms)
+        out.append(_certificate_set(certs))
+    return out
+
+
+def _certificate_set(certs: tuple) -> CertificateSet:
+    """The :class:`CertificateSet` of certificates: which are proven, which boxes meet."""
     proven = [i for i, c in enumerate(certs) if c.proven]
     overlaps, duplicates = [], []
     if len(proven) > 1:
@@ -655,6 +701,49 @@ def certify_configurations(
     Returns:
         The :class:`CertificateSet` (boxes in the local coordinates of the common chart).
     """
+    return certify_configuration_sets(
+        model, [(ys, theta, c)], tries=tries, tighten=tighten, arithmetic=arithmetic
+    )[0]
+
+
+def certify_configuration_sets(
+    model: Model,
+    sets: list,
+    *,
+    tries: int = TRIES,
+    tighten: int = TIGHTEN,
+    arithmetic: str = "auto",
+) -> list[CertificateSet]:
+    """:func:`certify_configurations` of several sets, e.g. the modes of several points of a
+    map, the first boxes of all in one C call (the certificates are those of separate calls).
+
+    Args:
+        model: a loaded model.
+        sets: S tuples ``(ys, theta, c)``, each as :func:`certify_configurations` takes them.
+        tries: as :func:`certify_configurations`.
+        tighten: as :func:`certify_configurations`.
+        arithmetic: as :func:`certify_configurations`.
+
+    Returns:
+        S :class:`CertificateSet`.
+
+    Raises:
+        InputError: a set as :func:`certify_configurations` raises it.
+    """
+    xs_list, q_list = [], []
+    for ys, theta, c in sets:
+        local, q = _local(model, ys, theta, c)
+        xs_list.append(local)
+        q_list.append(q)
+    return certify_sets(
+        closure_function(model), xs_list, q_list, tries=tries, tighten=tighten,
+        arithmetic=arithmetic,
+    )  # fmt: skip
+
+
+def _local(model: Model, ys: ArrayLike, theta: ArrayLike, c: ArrayLike | None) -> tuple:
+    """Configurations ``ys`` in the common chart ``c`` and the closure's parameters
+    ``[theta; c]`` (see :func:`certify_configurations`)."""
     ys = _real(ys, "ys")
     if ys.ndim != 2 or ys.shape[1] != model.m or not np.all(np.isfinite(ys)):
         raise InputError(
@@ -675,7 +764,4 @@ def certify_configurations(
             f"configurations {far.tolist()} are turned by about a half turn from the chart; "
             f"pass a chart c nearer to them (e.g. certify them in separate sets)"
         )
-    q = np.concatenate([theta, c])
-    return certify_all(
-        closure_function(model), local, q, tries=tries, tighten=tighten, arithmetic=arithmetic
-    )
+    return local, np.concatenate([theta, c])

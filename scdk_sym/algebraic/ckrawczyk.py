@@ -132,7 +132,7 @@ def _library() -> ctypes.CDLL:
         I = ctypes.c_int64  # noqa: E741
         D = ctypes.c_double
         f.argtypes = [ctypes.POINTER(_Tape), ctypes.POINTER(_Tape), I, I, I, dbl, dbl, dbl, I,
-                      D, D, i64, dbl, dbl]  # fmt: skip
+                      I, D, D, i64, dbl, dbl]  # fmt: skip
         f.restype = ctypes.c_int
         g = lib.scdk_ireplay
         g.argtypes = [ctypes.POINTER(_Tape), I, I, dbl, dbl, dbl]
@@ -196,7 +196,8 @@ class IntervalKrawczyk:
 
         Args:
             m: (N, n) points: the centres of the boxes.
-            p_bounds: (k, 2) ``[lo, hi]`` of each parameter (``lo == hi``: exact).
+            p_bounds: (k, 2) ``[lo, hi]`` of each parameter (``lo == hi``: exact), or
+                (N, k, 2) a box per point.
             tighten: most Krawczyk steps that shrink a proven enclosure.
             tiny: smallest box radius.
             max_condition: no test where the condition estimate of ``J(m)`` is not below.
@@ -210,12 +211,13 @@ class IntervalKrawczyk:
         status = np.zeros(N, dtype=np.int64)
         r = np.empty((N, self.n))
         box = np.empty((N, self.n, 2))
-        lo = np.ascontiguousarray(p_bounds[:, 0], dtype=np.float64)
-        hi = np.ascontiguousarray(p_bounds[:, 1], dtype=np.float64)
+        stride = self.n_params if p_bounds.ndim == 3 else 0
+        lo = np.ascontiguousarray(p_bounds[..., 0], dtype=np.float64)
+        hi = np.ascontiguousarray(p_bounds[..., 1], dtype=np.float64)
         rc = _library().scdk_ikrawczyk(
             ctypes.byref(self.value.struct), ctypes.byref(self.jacobian.struct), self.n,
-            self.n_params, N, m, lo, hi, int(tighten), float(tiny), float(max_condition),
-            status, r, box,
+            self.n_params, N, m, lo, hi, stride, int(tighten), float(tiny),
+            float(max_condition), status, r, box,
         )  # fmt: skip
         if rc:
             status[:] = 0

@@ -263,24 +263,65 @@ def real_endpoints(
     Returns:
         (K, n) float, sorted lexicographically.
     """
-    z = z[np.isfinite(z).all(axis=1)]
-    real = rel_norm(z.imag, z) <= real_tol
-    x = z[real].real.astype(complex)
-    if len(x) and polish and ctrack is not None:
-        p = np.asarray(p0, dtype=complex)[None]
-        b = np.zeros((1, system.n), dtype=complex)
-        at_p0 = ParameterHomotopy(system, p, p, b, b, [1.0])
-        x = ctrack.newton(at_p0, x, np.zeros(len(x)), np.zeros(len(x), dtype=int), 2)[0]
-    elif len(x) and polish:
-        P = np.broadcast_to(np.asarray(p0, dtype=complex), (len(x), system.n_params))
-        for _ in range(2):
-            G, Gz, _ = system.evaluate(x, P)
-            try:
-                dx = np.linalg.solve(Gz.real, G.real[..., None])[..., 0]
-            except np.linalg.LinAlgError:
-                break
-            x = x - np.where(np.isfinite(dx), dx, 0.0)
-    return dedup(x.real, dedup_tol)
+    p = np.asarray(p0, dtype=complex)[None]
+    return real_endpoints_many(system, [z], p, real_tol, dedup_tol, polish, ctrack)[0]
+
+
+def real_endpoints_many(
+    system: PolynomialSystem,
+    zs: list[np.ndarray],
+    P0: np.ndarray,
+    real_tol: float = 1e-8,
+    dedup_tol: float = 1e-8,
+    polish: bool = True,
+    ctrack=None,
+) -> list[np.ndarray]:
+    """:func:`real_endpoints` of several targets, the C Newton steps of all in one call.
+
+    Args:
+        system: the polynomial system.
+        zs: W arrays (M_w, n) of complex endpoints, one per target.
+        P0: (W, n_params) the targets' parameters.
+        real_tol: as :func:`real_endpoints`.
+        dedup_tol: as :func:`real_endpoints`.
+        polish: as :func:`real_endpoints`.
+        ctrack: as :func:`real_endpoints`.
+
+    Returns:
+        W arrays (K_w, n) float, each as :func:`real_endpoints` returns it (each row's Newton
+        steps are those of a single call).
+    """
+    xs = []
+    for z in zs:
+        z = z[np.isfinite(z).all(axis=1)]
+        real = rel_norm(z.imag, z) <= real_tol
+        xs.append(z[real].real.astype(complex))
+    sizes = [len(x) for x in xs]
+    if sum(sizes) and polish and ctrack is not None:
+        P = np.asarray(P0, dtype=complex).reshape(len(zs), system.n_params)
+        b = np.zeros((len(zs), system.n), dtype=complex)
+        at_p0 = ParameterHomotopy(system, P, P, b, b, np.ones(len(zs)))
+        idx = np.repeat(np.arange(len(zs)), sizes)
+        x = ctrack.newton(at_p0, np.concatenate(xs), np.zeros(len(idx)), idx, 2)[0]
+        xs = np.split(x, np.cumsum(sizes)[:-1])
+    elif sum(sizes) and polish:
+        xs = [_real_newton(system, x, p) for x, p in zip(xs, P0, strict=True)]
+    return [dedup(x.real, dedup_tol) for x in xs]
+
+
+def _real_newton(system: PolynomialSystem, x: np.ndarray, p0: np.ndarray) -> np.ndarray:
+    """Two real Newton steps in numpy at ``p0`` (all stop where one Jacobian is singular)."""
+    if not len(x):
+        return x
+    P = np.broadcast_to(np.asarray(p0, dtype=complex), (len(x), system.n_params))
+    for _ in range(2):
+        G, Gz, _ = system.evaluate(x, P)
+        try:
+            dx = np.linalg.solve(Gz.real, G.real[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            break
+        x = x - np.where(np.isfinite(dx), dx, 0.0)
+    return x
 
 
 def dedup(x: np.ndarray, tol: float, block: int = 256) -> np.ndarray:
@@ -363,8 +404,6 @@ def solve_homotopy(
             f"n = {system.n}; recompute it with start_system(system)"
         )
     rng = np.random.default_rng(seed)
-    b_to = np.zeros(system.n, dtype=complex)
-    R = len(start.solutions)
     attempt = 0
     while attempt < attempts:
         attempt += 1
@@ -372,25 +411,93 @@ def solve_homotopy(
         # infinity; an arc with a random gamma moves every path away from it (all paths are
         # rerun, so the endpoints stay one arc's complete set)
         g = complex(gamma) if attempt == 1 else complex(np.exp(2j * np.pi * rng.uniform()))
-        hom = ParameterHomotopy(system, start.p[None], p0[None], start.b[None], b_to[None], [g])
-        ends = track_parameter_homotopy(
-            system, start.solutions, hom, np.zeros(R, dtype=int), options, tracker=tracker
-        )
+        ends = _track_all(system, start.p[None], start.b[None], start.solutions[None],
+                          p0[None], g, options, tracker)  # fmt: skip
         if not (ends.status == "failed").any():
             break
-    ctrack = c_tracker(system, tracker)
-    reg = real_endpoints(system, ends.z[ends.status == "success"], p0, real_tol, ctrack=ctrack)
-    # endgame estimates are accurate to about 1e-8 relative: looser tests for them
-    sing = real_endpoints(system, ends.z[ends.status == "singular"], p0, 1e-6, 1e-6, polish=False)
-    merged = dedup(np.concatenate([reg, sing]), 1e-6) if len(sing) else reg
-    return HomotopyResult(
-        endpoints=ends.z,
-        status=ends.status,
-        winding=ends.winding,
-        real_solutions=merged,
-        complete=bool(np.isin(ends.status, ("success", "singular", "at_infinity")).all()),
-        start_certified=bool(start.trace_passed),
-        gamma=g,
-        steps=ends.steps,
-        attempts=attempt,
+    return _results(system, ends, p0[None], g, attempt, bool(start.trace_passed), real_tol,
+                    tracker)[0]  # fmt: skip
+
+
+def solve_homotopies(
+    system: PolynomialSystem,
+    p_from: np.ndarray,
+    roots: np.ndarray,
+    P0: np.ndarray,
+    *,
+    gamma: complex,
+    options: TrackerOptions | None = None,
+    real_tol: float = 1e-8,
+    tracker: str = "auto",
+    start_certified: bool = True,
+) -> list[HomotopyResult]:
+    """One homotopy attempt to each of several targets, all paths tracked in one batch.
+
+    Target ``w`` is reached from the roots ``roots[w]`` at ``p_from[w]`` (offsets ``b`` zero)
+    along the arc of ``gamma``; each target's result is the one :func:`solve_homotopy` with
+    ``attempts=1`` returns from a start system of those roots (every path is tracked on its
+    own: the batch changes no value).
+
+    Args:
+        system: the polynomial system.
+        p_from: (W, n_params) complex parameters of the root sets.
+        roots: (W, R, n) complex roots at ``p_from``.
+        P0: (W, n_params) the targets' parameters.
+        gamma: the gamma of every arc.
+        options: tracker step control.
+        real_tol: as :func:`solve_homotopy`.
+        tracker: as :func:`solve_homotopy`.
+        start_certified: what each result's ``start_certified`` says.
+
+    Returns:
+        W :class:`HomotopyResult`.
+    """
+    P0 = np.asarray(P0, dtype=complex).reshape(-1, system.n_params)
+    roots = np.asarray(roots, dtype=complex).reshape(len(P0), -1, system.n)
+    b = np.zeros((len(P0), system.n), dtype=complex)
+    ends = _track_all(system, np.asarray(p_from, dtype=complex), b, roots, P0, gamma, options,
+                      tracker)  # fmt: skip
+    return _results(system, ends, P0, complex(gamma), 1, start_certified, real_tol, tracker)
+
+
+def _track_all(system, p_from, b_from, roots, P0, gamma, options, tracker) -> PathEndpoints:
+    """The paths of W homotopies (datum w: ``roots[w]`` from ``(p_from[w], b_from[w])`` to
+    ``(P0[w], 0)``) in one batch, datum after datum."""
+    W, R = roots.shape[:2]
+    b_to = np.zeros((W, system.n), dtype=complex)
+    hom = ParameterHomotopy(system, p_from, P0, b_from, b_to, np.full(W, complex(gamma)))
+    idx = np.repeat(np.arange(W), R)
+    return track_parameter_homotopy(
+        system, roots.reshape(W * R, system.n), hom, idx, options, tracker=tracker
     )
+
+
+def _results(system, ends, P0, g, attempt, start_certified, real_tol, tracker) -> list:
+    """The :class:`HomotopyResult` of each of the W data of a batch's endpoints."""
+    W = len(P0)
+    R = len(ends.z) // W if W else 0
+    ctrack = c_tracker(system, tracker)
+    cut = [slice(w * R, (w + 1) * R) for w in range(W)]
+    success = ends.status == "success"
+    regs = real_endpoints_many(system, [ends.z[c][success[c]] for c in cut], P0, real_tol,
+                               ctrack=ctrack)  # fmt: skip
+    out = []
+    for w, c in enumerate(cut):
+        z, status = ends.z[c], ends.status[c]
+        # endgame estimates are accurate to about 1e-8 relative: looser tests for them
+        sing = real_endpoints(system, z[status == "singular"], P0[w], 1e-6, 1e-6, polish=False)
+        merged = dedup(np.concatenate([regs[w], sing]), 1e-6) if len(sing) else regs[w]
+        out.append(
+            HomotopyResult(
+                endpoints=z,
+                status=status,
+                winding=ends.winding[c],
+                real_solutions=merged,
+                complete=bool(np.isin(status, ("success", "singular", "at_infinity")).all()),
+                start_certified=start_certified,
+                gamma=g,
+                steps=ends.steps[c],
+                attempts=attempt,
+            )
+        )
+    return out

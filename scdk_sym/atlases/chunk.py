@@ -220,6 +220,21 @@ def predecessors(offset: int, count: int, shape: tuple[int, ...]) -> np.ndarray:
     return pred
 
 
+#: Most points of a front of a mode map solved in one batch.
+FRONT = 64
+
+
+def _one(model, theta: np.ndarray, near):
+    """:func:`~scdk_sym.solvers.homotopy_modes.modes_from_neighbour` at one point, None
+    where it fails."""
+    from ..solvers.homotopy_modes import modes_from_neighbour
+
+    try:
+        return modes_from_neighbour(model, theta, near, backend="compiled")
+    except ScdkError:
+        return None
+
+
 def mode_counts(
     model, thetas: np.ndarray, offset: int, shape: tuple[int, ...]
 ) -> tuple[np.ndarray, int]:
@@ -239,32 +254,48 @@ def mode_counts(
         sets came from a neighbour.
     """
     from ..solvers.block_modes import split
-    from ..solvers.homotopy_modes import ModeSeed, modes_from_neighbour
+    from ..solvers.homotopy_modes import ModeSeed, modes_from_neighbours
     from ..solvers.modes import assembly_modes
 
     N = len(thetas)
     n_modes = np.full(N, -1, dtype=np.int16)
-    pred = predecessors(offset, N, shape)
-    last_use = np.full(N, -1)
-    last_use[pred[pred >= 0]] = np.flatnonzero(pred >= 0)  # rows ascend: the last one stays
-    walk = split(model) is None
-    seeds: dict[int, ModeSeed] = {}
     continued = 0
-    for row in range(N):
-        check()
-        try:
-            if walk:
-                near = seeds.get(int(pred[row]))
-                sols, seed, used = modes_from_neighbour(model, thetas[row], near)
-                continued += used
-                if seed is not None and last_use[row] > row:
-                    seeds[row] = seed
-            else:
+    if split(model) is not None:
+        for row in range(N):
+            check()
+            try:
                 sols = assembly_modes(model, thetas[row], backend="compiled")
-            n_modes[row] = len(sols) if sols.certified else -1
-        except ScdkError:
-            n_modes[row] = -1
-        if pred[row] >= 0 and last_use[pred[row]] == row:
-            seeds.pop(int(pred[row]), None)
+                n_modes[row] = len(sols) if sols.certified else -1
+            except ScdkError:
+                pass
+        check()
+        return n_modes, continued
+    pred = predecessors(offset, N, shape)
+    # fronts: a point's front is one more than its neighbour's, so a front's points are solved
+    # together from the sets of the front before (kept until then)
+    depth = np.zeros(N, dtype=np.int64)
+    for r in np.flatnonzero(pred >= 0).tolist():  # rows ascend: neighbours' depths first
+        depth[r] = depth[pred[r]] + 1
+    followed = np.zeros(N, dtype=bool)
+    followed[pred[pred >= 0]] = True
+    fronts = np.split(np.argsort(depth, kind="stable"), np.cumsum(np.bincount(depth))[:-1])
+    before: dict[int, ModeSeed] = {}
+    for front in fronts:
+        seeds: dict[int, ModeSeed] = {}
+        for rows in np.array_split(front, -(-len(front) // FRONT)):
+            check()
+            near = [before.get(int(pred[r])) for r in rows]
+            try:
+                found = modes_from_neighbours(model, thetas[rows], near, backend="compiled")
+            except ScdkError:  # which point: each on its own
+                found = [_one(model, thetas[r], nb) for r, nb in zip(rows, near, strict=True)]
+            for r, item in zip(rows, found, strict=True):
+                if item is not None:
+                    sols, seed, used = item
+                    n_modes[r] = len(sols) if sols.certified else -1
+                    continued += used
+                    if seed is not None and followed[r]:
+                        seeds[int(r)] = seed
+        before = seeds
     check()
     return n_modes, continued

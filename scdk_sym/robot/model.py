@@ -843,33 +843,40 @@ class Model:
         cs: np.ndarray,
         residuals: np.ndarray | None = None,
     ) -> list[Configuration]:
-        """:meth:`configuration` of several points at one ``theta``, the kernels evaluated
-        over all of them in one call.
+        """:meth:`configuration` of several points, the kernels evaluated over all of them
+        in one call.
 
         Args:
             ys: (N, m) unknowns in the local charts ``cs``.
-            theta: (k,) actuated joint values.
+            theta: (k,) actuated joint values of every point, or (N, k) one row per point.
             cs: (N, chart size) the chart of each row of ``ys``.
             residuals: (N,) each point's :meth:`residual` when already known.
         """
         ys = np.asarray(ys, dtype=float).reshape(-1, self.m)
-        theta = as_vector(theta, self.k, "theta")
         N = len(ys)
+        if np.ndim(theta) == 2:
+            thetas = np.asarray(theta, dtype=float).reshape(N, self.k)
+            for bad in thetas[~np.isfinite(thetas).all(axis=1)][:1]:  # its error says what
+                as_vector(bad, self.k, "theta")
+            arg = thetas.T
+        else:
+            arg = as_vector(theta, self.k, "theta")
+            thetas = np.broadcast_to(arg, (N, self.k))
         if not N:
             return []
         cs = np.asarray(cs, dtype=float).reshape(N, self.chart.size)
         canonical = self.chart.to_canonical_many(ys, cs)
         calls = model_calls(self)
-        T, x = calls.mapped("pose", N)(ys.T, theta, cs.T)
+        T, x = calls.mapped("pose", N)(ys.T, arg, cs.T)
         if residuals is None:
-            residuals = np.abs(calls.mapped("check", N)(ys.T, theta, cs.T)).max(axis=0)
+            residuals = np.abs(calls.mapped("check", N)(ys.T, arg, cs.T)).max(axis=0)
         return [
             Configuration(
-                theta,
+                thetas[i],
                 y,
                 x[:, i],
                 T[:, 4 * i : 4 * i + 4],
-                self.joint_values(y, theta),
+                self.joint_values(y, thetas[i]),
                 float(residuals[i]),
             )  # fmt: skip
             for i, y in enumerate(canonical)

@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..backends import resolve
-from ..errors import ScdkError
+from ..errors import InputError, ScdkError
 from ..follower.geometry import features
 from ..kernels.cache import read_entry, write_entry
 from ..kernels.fastcall import model_calls
@@ -418,10 +418,11 @@ _FIELDS = (
 
 
 def _polish(model: Model, ys: np.ndarray, cs: np.ndarray, theta: np.ndarray):
-    """Newton on the model's rows, each point (N, m) in its chart (N, chart size), all points
-    in each kernel call; a point stops when ``max |g| <= RESIDUAL / 100``, after
-    ``NEWTON_STEPS``, or when its Jacobian is singular. Returns ``(ys, residuals)``, the
-    residual :meth:`~scdk_sym.robot.Model.residual` (``inf`` where ``g`` went non-finite)."""
+    """Newton on the model's rows, each point (N, m) in its chart (N, chart size) at its
+    actuated values (``theta`` (k,) for all or (N, k)), all points in each kernel call; a
+    point stops when ``max |g| <= RESIDUAL / 100``, after ``NEWTON_STEPS``, or when its
+    Jacobian is singular. Returns ``(ys, residuals)``, the residual
+    :meth:`~scdk_sym.robot.Model.residual` (``inf`` where ``g`` went non-finite)."""
     calls = model_calls(model)
     N = len(ys)
     ys = np.array(ys, dtype=float).reshape(N, model.m)
@@ -429,6 +430,8 @@ def _polish(model: Model, ys: np.ndarray, cs: np.ndarray, theta: np.ndarray):
     if not N:
         return ys, np.zeros(0)
     g_all, jac_all = calls.mapped("g", N), calls.mapped("jac", N)
+    theta = np.asarray(theta, dtype=float)
+    theta = theta.T if theta.ndim == 2 else theta  # one column per point
     lost = np.zeros(N, dtype=bool)  # g went non-finite
     active = np.ones(N, dtype=bool)
     for _ in range(NEWTON_STEPS):
@@ -553,7 +556,41 @@ def modes_from_neighbour(
         distinct regular roots); whether the neighbour's set was used.
     """
     theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
-    return _homotopy_modes(model, theta0, neighbour, backend=backend)
+    return _modes_many(model, theta0[None], [neighbour], backend=backend)[0]
+
+
+def modes_from_neighbours(
+    model: Model,
+    thetas: ArrayLike,
+    neighbours: list[ModeSeed | None],
+    *,
+    backend: str = "compiled",
+) -> list[tuple[AssemblyModes, ModeSeed | None, bool]]:
+    """:func:`modes_from_neighbour` at several points at once (e.g. one front of a mode map):
+    the paths of all points tracked in one batch, the real ends of all polished and
+    certified in batches. Every point's answer is the one :func:`modes_from_neighbour` gives.
+
+    Args:
+        model: the model.
+        thetas: (W, k) actuated joint values [rad or model length unit].
+        neighbours: W complete root sets of neighbouring points (None where there is none).
+        backend: as for :func:`homotopy_modes`.
+
+    Returns:
+        W ``(modes, seed, continued)`` as :func:`modes_from_neighbour` returns them.
+
+    Raises:
+        InputError: ``thetas`` is not (W, k) finite values, or not one neighbour per point.
+    """
+    th = np.asarray(thetas, dtype=float)
+    if th.ndim != 2 or th.shape[1] != model.k or len(neighbours) != len(th):
+        raise InputError(
+            f"thetas must be (W, {model.k}) actuated values with one neighbour each, got shape "
+            f"{th.shape} and {len(neighbours)} neighbours"
+        )
+    for bad in th[~np.isfinite(th).all(axis=1)][:1]:  # its error says what is wrong
+        as_vector(bad, model.k, f"theta ({', '.join(model.actuated)})")
+    return _modes_many(model, th, list(neighbours), backend=backend)
 
 
 def _complete_set(res, root_count: int) -> bool:
@@ -573,6 +610,16 @@ def _homotopy_modes(
     model: Model,
     theta0: np.ndarray,
     neighbour: ModeSeed | None,
+    **kwargs: Any,
+) -> tuple[AssemblyModes, ModeSeed | None, bool]:
+    """:func:`_modes_many` at one point."""
+    return _modes_many(model, theta0[None], [neighbour], **kwargs)[0]
+
+
+def _modes_many(
+    model: Model,
+    thetas: np.ndarray,
+    neighbours: list[ModeSeed | None],
     *,
     seed: int = 0,
     progress: bool = False,
@@ -581,33 +628,40 @@ def _homotopy_modes(
     cache: bool = True,
     rebuild: bool = False,
     certified_only: bool = False,
-) -> tuple[AssemblyModes, ModeSeed | None, bool]:
+) -> list[tuple[AssemblyModes, ModeSeed | None, bool]]:
+    """The modes at each of W points (W, k): from its neighbour's set where that gives a
+    complete set (all such points in one batch), else from the start system."""
     from ..algebraic import algebraic_form, solve_homotopy
+    from ..algebraic.homotopy import solve_homotopies
     from ..algebraic.scaled import scaled_form
 
+    options = dict(seed=seed, progress=progress, backend=backend, max_loops=max_loops,
+                   cache=cache, rebuild=rebuild, certified_only=certified_only)  # fmt: skip
     rods, reduced = rod_reduction(model)
     if reduced is not None:  # rods between balls: the distance model's modes, lifted
-        found, seed_out, continued = _homotopy_modes(
-            reduced, theta0, neighbour, seed=seed, progress=progress, backend=backend,
-            max_loops=max_loops, cache=cache, rebuild=rebuild, certified_only=certified_only,
-        )  # fmt: skip
-        modes = lifted_modes(
-            model, rods, reduced, found, theta0,
-            lambda cfgs, reasons: _certificates(model, cfgs, theta0, reasons),
-        )  # fmt: skip
-        return modes, seed_out, continued
+        distances = _modes_many(reduced, thetas, neighbours, **options)  # type: ignore[arg-type]
+        return [
+            (
+                lifted_modes(model, rods, reduced, modes, th, _certifier(model, th)),
+                seed_out,
+                used,
+            )  # fmt: skip
+            for (modes, seed_out, used), th in zip(distances, thetas, strict=True)
+        ]
     form = scaled_form(algebraic_form(model, resolve(backend, "modes")))
     start = model_start_system(
         form, seed, progress=progress, max_loops=max_loops, cache=cache, rebuild=rebuild
     )
-    reasons: list[str] = []
+    W = len(thetas)
+    reasons: list[list[str]] = [[] for _ in range(W)]
     if not start.trace_passed:
         why = start.reason or (
             f"trace residual {start.trace_residual:.1e} after {start.loops} monodromy loops"
         )
-        reasons.append(f"start system not proven complete: {why} (rebuild=True recomputes it)")
+        for r in reasons:
+            r.append(f"start system not proven complete: {why} (rebuild=True recomputes it)")
         if certified_only:
-            note = f"not certified: {reasons[0]}; its paths not tracked (certified_only)"
+            note = f"not certified: {reasons[0][0]}; its paths not tracked (certified_only)"
             skipped = AssemblyModes(
                 solutions=(),
                 certified=False,
@@ -616,20 +670,51 @@ def _homotopy_modes(
                 certificates=(),
                 method="homotopy",
             )
-            return skipped, None, False
-    p0 = form.params(theta0)
-    res, continued = None, False
-    if neighbour is not None and start.trace_passed:
-        near = replace(start, p=neighbour.p, b=np.zeros_like(start.b), solutions=neighbour.roots)
-        res = solve_homotopy(form, near, p0, seed=seed, real_tol=REAL_TOL, attempts=1,
-                             gamma=NEIGHBOUR_GAMMA)  # fmt: skip
-        continued = _complete_set(res, start.root_count)
-    if not continued:
-        res = solve_homotopy(form, start, p0, seed=seed, real_tol=REAL_TOL)
-    assert res is not None
-    half_turns = _path_reasons(form, res, theta0, reasons)
-    cfgs, spurious = _real_modes(model, form, res, theta0, reasons)
-    certs = _certificates(model, cfgs, theta0, reasons)
+            return [(skipped, None, False)] * W
+    P0 = np.stack([form.params(th) for th in thetas])
+    results: list = [None] * W
+    continued = [False] * W
+    near = [w for w, nb in enumerate(neighbours) if nb is not None and start.trace_passed]
+    if near:
+        ends = solve_homotopies(
+            form, np.stack([neighbours[w].p for w in near]),  # type: ignore[union-attr]
+            np.stack([neighbours[w].roots for w in near]),  # type: ignore[union-attr]
+            P0[near], gamma=NEIGHBOUR_GAMMA, real_tol=REAL_TOL,
+        )  # fmt: skip
+        for w, res in zip(near, ends, strict=True):
+            if _complete_set(res, start.root_count):
+                results[w], continued[w] = res, True
+    for w in range(W):
+        if results[w] is None:
+            results[w] = solve_homotopy(form, start, P0[w], seed=seed, real_tol=REAL_TOL)
+    half_turns = [
+        _path_reasons(form, res, th, why)
+        for res, th, why in zip(results, thetas, reasons, strict=True)
+    ]
+    found = _real_modes(model, form, results, thetas, reasons)
+    certs = _certificates_many(model, [cfgs for cfgs, _ in found], thetas, reasons)
+    out = []
+    for w in range(W):
+        modes = _assembly_modes(start, found[w], certs[w], reasons[w], half_turns[w],
+                                continued[w])  # fmt: skip
+        complete = start.trace_passed and _complete_set(results[w], start.root_count)
+        out.append((modes, ModeSeed(P0[w], results[w].endpoints) if complete else None,
+                    continued[w]))  # fmt: skip
+    return out
+
+
+def _certifier(model: Model, theta0: np.ndarray):
+    """``(configurations, reasons) -> certificates`` at ``theta0`` (see :func:`_certificates`)."""
+
+    def certify(cfgs: list[Configuration], reasons: list[str]) -> tuple:
+        return _certificates(model, cfgs, theta0, reasons)
+
+    return certify
+
+
+def _assembly_modes(start, found, certs, reasons, half_turns, continued) -> AssemblyModes:
+    """The :class:`AssemblyModes` of one point from its chain's outcomes."""
+    cfgs, spurious = found
     certified = not reasons
     if certified:
         source = (
@@ -654,7 +739,7 @@ def _homotopy_modes(
             f"; {half_turns} path(s) ended on roots of the form that close a weld with a half "
             "turn (tr R_a^T R_b = -1 on all of them): no closures"
         )
-    modes = AssemblyModes(
+    return AssemblyModes(
         solutions=tuple(cfgs),
         certified=certified,
         root_count=int(start.root_count),
@@ -662,8 +747,6 @@ def _homotopy_modes(
         certificates=certs,
         method="homotopy",
     )
-    complete = start.trace_passed and _complete_set(res, start.root_count)
-    return modes, (ModeSeed(p0, res.endpoints) if complete else None), continued
 
 
 def _path_reasons(form, res, theta0: np.ndarray, reasons: list[str]) -> int:
@@ -701,58 +784,93 @@ def _path_reasons(form, res, theta0: np.ndarray, reasons: list[str]) -> int:
     return half_turns
 
 
-def _real_modes(model, form, res, theta0: np.ndarray, reasons: list[str]):
-    """The real endpoints as distinct model configurations polished on ``g``, sorted; the
-    number of real roots of the form that are no closures of the model."""
-    # real endpoints -> model unknowns, polished on g
+def _real_modes(model, form, results, thetas: np.ndarray, reasons: list[list[str]]) -> list:
+    """Each point's real endpoints as distinct model configurations polished on ``g``, sorted,
+    and the number of real roots of the form that are no closures of the model (all points'
+    kernels in common calls; a failure appended to the point's ``reasons``)."""
     scale = max(1.0, model.length_scale)
-    Z = np.asarray(res.real_solutions, dtype=float)
-    finite = np.isfinite(Z).all(axis=1)
-    dropped, spurious = int((~finite).sum()), 0
-    Y0, C = form.to_model(Z[finite], reference=model.home.y)  # (K, m), (K, chart size)
-    Y, R = _polish(model, Y0, C, theta0)
+    Zs = [np.asarray(res.real_solutions, dtype=float) for res in results]
+    finite = [np.isfinite(Z).all(axis=1) for Z in Zs]
+    dropped = [int((~f).sum()) for f in finite]
+    spurious = [0] * len(Zs)
+    owner = np.repeat(np.arange(len(Zs)), [int(f.sum()) for f in finite])
+    # real endpoints -> model unknowns, polished on g
+    Y0, C = form.to_model(  # (K, m), (K, chart size)
+        np.concatenate([Z[f] for Z, f in zip(Zs, finite, strict=True)] or [np.zeros((0, form.n))]),
+        reference=model.home.y,
+    )
+    Th = thetas[owner]
+    Y, R = _polish(model, Y0, C, Th)
     good = R <= RESIDUAL
-    for y0, c, r in zip(Y0[~good], C[~good], R[~good], strict=True):
-        if r > SPURIOUS * scale and model.residual(y0, theta0, c) > SPURIOUS * scale:
-            spurious += 1  # a root of the form that is no closure of the model
+    for i in np.flatnonzero(~good).tolist():
+        w = int(owner[i])
+        if R[i] > SPURIOUS * scale and model.residual(Y0[i], thetas[w], C[i]) > SPURIOUS * scale:
+            spurious[w] += 1  # a root of the form that is no closure of the model
         else:
-            dropped += 1
-    polished = model.configurations(Y[good], theta0, C[good], R[good])
+            dropped[w] += 1
+    polished = model.configurations(Y[good], Th[good], C[good], R[good])
     # distinct endpoints of the homotopy are distinct roots; only images of one configuration
     # (polished to the same point) are merged: two real solutions next to a singular surface
     # may lie 1e-5 model sizes apart, and the Krawczyk boxes below decide (they must be
     # pairwise disjoint)
     feats = features(model, np.vstack([cfg.y for cfg in polished] or [np.zeros((0, model.m))]))
-    cfgs: list[Configuration] = []
-    kept: list[int] = []
-    for i, cfg in enumerate(polished):
-        if kept and np.abs(feats[kept] - feats[i]).max(axis=1).min() <= DUPLICATE * scale:
-            continue
-        cfgs.append(cfg)
-        kept.append(i)
-    if dropped:
-        reasons.append(f"{dropped} real endpoint(s) did not polish to max |g| <= {RESIDUAL:.0e}")
-    cfgs.sort(key=sort_key)
-    return cfgs, spurious
+    per_point: list[list[int]] = [[] for _ in Zs]
+    for i, w in enumerate(owner[good].tolist()):
+        per_point[w].append(i)
+    out = []
+    for w, rows in enumerate(per_point):
+        cfgs: list[Configuration] = []
+        kept: list[int] = []
+        for i in rows:
+            if kept and np.abs(feats[kept] - feats[i]).max(axis=1).min() <= DUPLICATE * scale:
+                continue
+            cfgs.append(polished[i])
+            kept.append(i)
+        if dropped[w]:
+            reasons[w].append(
+                f"{dropped[w]} real endpoint(s) did not polish to max |g| <= {RESIDUAL:.0e}"
+            )
+        cfgs.sort(key=sort_key)
+        out.append((cfgs, spurious[w]))
+    return out
 
 
 def _certificates(model, cfgs, theta0: np.ndarray, reasons: list[str]) -> tuple:
     """Krawczyk certificates of the real configurations in one common chart (a failure
     appended to ``reasons``)."""
-    from ..algebraic import certify_configurations
+    return _certificates_many(model, [cfgs], theta0[None], [reasons])[0]
 
-    certs: tuple = ()
-    if cfgs:
-        ys = np.vstack([c.y for c in cfgs])
-        try:
-            cs = certify_configurations(model, ys, theta0, _common_chart(model, ys))
-        except ScdkError as exc:
-            reasons.append(f"certificates not computed: {exc}")
-        else:
-            certs = cs.certificates
-            if not cs.proven:
-                reasons.append(f"certificates: {cs.reason}")
-    return certs
+
+def _certificates_many(model, cfg_lists, thetas: np.ndarray, reasons: list[list[str]]) -> list:
+    """:func:`_certificates` of several points' configurations, the C tests of all in one
+    call."""
+    from ..algebraic import CertificateSet, certify_configuration_sets
+
+    out: list[tuple] = [() for _ in cfg_lists]
+    todo, sets = [], []
+    for w, cfgs in enumerate(cfg_lists):
+        if cfgs:
+            ys = np.vstack([c.y for c in cfgs])
+            todo.append(w)
+            sets.append((ys, thetas[w], _common_chart(model, ys)))
+    done: list[CertificateSet | None]
+    try:
+        done = list(certify_configuration_sets(model, sets))
+    except ScdkError:  # which set: each on its own, as a single query makes them
+        done = []
+        for w, st in zip(todo, sets, strict=True):
+            try:
+                done.append(certify_configuration_sets(model, [st])[0])
+            except ScdkError as exc:
+                reasons[w].append(f"certificates not computed: {exc}")
+                done.append(None)
+    for w, cs in zip(todo, done, strict=True):
+        if cs is None:
+            continue
+        out[w] = cs.certificates
+        if not cs.proven:
+            reasons[w].append(f"certificates: {cs.reason}")
+    return out
 
 
 def sort_key(cfg: Configuration) -> tuple:

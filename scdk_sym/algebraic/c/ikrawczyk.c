@@ -353,8 +353,8 @@ static void tighten_box(work *s, ival *B, double *c, int64_t steps) {
 
 int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n, int64_t k,
                    int64_t N, const double *m, const double *p_lo, const double *p_hi,
-                   int64_t tighten, double tiny, double max_cond, int64_t *status, double *r,
-                   double *box) {
+                   int64_t p_stride, int64_t tighten, double tiny, double max_cond,
+                   int64_t *status, double *r, double *box) {
     if (n <= 0 || k < 0 || N < 0 || value->n_out != n || jacobian->n_out != n * n)
         return SCDK_K_BAD_SIZE;
     const int64_t W = value->W > jacobian->W ? value->W : jacobian->W;
@@ -373,10 +373,6 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
         free(s.piv);
         return SCDK_K_NO_MEMORY;
     }
-    for (int64_t i = 0; i < k; ++i) {
-        P[i].lo = p_lo[i];
-        P[i].hi = p_hi[i];
-    }
     s.P = P;
     s.w = iv;
     s.out = s.w + W + 1;
@@ -394,6 +390,10 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
         const double *mq = m + q * n;
         double *rq = r + q * n, *bq = box + 2 * q * n;
         status[q] = SCDK_K_NOT_PROVEN;
+        for (int64_t i = 0; i < k; ++i) {
+            P[i].lo = p_lo[q * p_stride + i];
+            P[i].hi = p_hi[q * p_stride + i];
+        }
         for (int64_t i = 0; i < n; ++i) {
             rq[i] = NAN;
             bq[2 * i] = bq[2 * i + 1] = NAN;

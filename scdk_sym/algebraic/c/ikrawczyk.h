@@ -61,14 +61,16 @@ enum { SCDK_K_OK = 0, SCDK_K_NO_MEMORY = 1, SCDK_K_BAD_SIZE = 2, SCDK_K_FAILED =
  * every p in the parameter box, and it lies in K(X). A proven enclosure is then shrunk by at
  * most `tighten` Krawczyk steps centred on its midpoint while its largest radius exceeds
  * 64 eps (1 + max|mid|) and decreases (each intersected with the previous enclosure).
+ * Point q's parameter box is [p_lo + q p_stride, p_hi + q p_stride] (k each; p_stride 0:
+ * one box for all points).
  * Outputs per point: status (SCDK_K_*), r (n, the radii of X), box (n x 2, [lo, hi] of the
  * enclosure of the zero when proven; NaN otherwise). Any non-finite bound, a divisor
  * interval holding 0 or a failed inversion leaves a point not proven (or ends its
  * tightening). */
 int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n, int64_t k,
                    int64_t N, const double *m, const double *p_lo, const double *p_hi,
-                   int64_t tighten, double tiny, double max_cond, int64_t *status, double *r,
-                   double *box);
+                   int64_t p_stride, int64_t tighten, double tiny, double max_cond,
+                   int64_t *status, double *r, double *box);
 
 /* The tape replayed once on x (n x 2) and p (k x 2) intervals [lo, hi] into out (n_out x 2).
  * Returns SCDK_K_OK, SCDK_K_FAILED (a bound not finite or a divisor holding 0: out is NaN) or
