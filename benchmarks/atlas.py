@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from distributed import Client, LocalCluster
+from common import warm_cluster
 
 import scdk_sym as sc
 from scdk_sym.atlases import make_grid, open_atlas
@@ -70,15 +70,7 @@ def main() -> None:
         )
         report("sc.atlas in this process", run, base, base_x, pick)
         for workers in (1, 2):
-            t = time.perf_counter()
-            with (
-                LocalCluster(
-                    n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0"
-                ) as cluster,
-                Client(cluster) as client,
-            ):
-                client.run(warm_worker, model_source(model))
-                ready = time.perf_counter() - t
+            with warm_cluster(workers, warm_worker, model_source(model)) as (client, ready):
                 run = sc.atlas(
                     model,
                     spec,

@@ -33,7 +33,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
-from distributed import Client, LocalCluster  # noqa: E402
+from common import warm_cluster  # noqa: E402
 
 import scdk_sym as sc  # noqa: E402
 from scdk_sym.atlases import make_grid, open_atlas  # noqa: E402
@@ -80,14 +80,7 @@ def main() -> None:
                                 branch="convergent", backend="compiled").x  # fmt: skip
 
     with tempfile.TemporaryDirectory() as tmp:
-        t = time.perf_counter()
-        with (
-            LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True,
-                         dashboard_address=":0") as cluster,
-            Client(cluster) as client,
-        ):  # fmt: skip
-            client.run(warm_worker, model_source(model))
-            ready = time.perf_counter() - t
+        with warm_cluster(args.workers, warm_worker, model_source(model)) as (client, ready):
             run = sc.atlas(model, spec, Path(tmp) / "workers.zarr", start=home,
                            scheduler=client, chunk=args.chunk, progress=False)  # fmt: skip
         per_worker = report(f"sc.atlas, {args.workers} workers", run, base, check, ref_x)

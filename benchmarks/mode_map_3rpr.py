@@ -11,8 +11,9 @@ values each). Prints, measured in the same run (BLAS pinned to one thread):
   chunk: each point's certified set from its grid neighbour's complete root set), its rate
   and the ratio to the baseline, and how many sets came from a neighbour;
 * ``sc.atlas(..., modes=True)`` in this process and on ``--workers`` local worker processes
-  (points per busy worker-second; the convergent solves included: a point the C sweep
-  leaves, past a fold of its straight path or unreachable, costs a full ``sc.solve``);
+  (points per busy worker-second), as a mode map alone (``solve=False``) and with the
+  convergent solves (a point the C sweep leaves, past a fold of its straight path or
+  unreachable, costs a full ``sc.solve``);
 * the check: the walk's counts against the baseline's at its points.
 
     OMP_NUM_THREADS=1 python benchmarks/mode_map_3rpr.py [--n 40] [--baseline 200]
@@ -21,7 +22,6 @@ values each). Prints, measured in the same run (BLAS pinned to one thread):
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import os
 import tempfile
 import time
@@ -31,21 +31,11 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
-from distributed import Client, LocalCluster  # noqa: E402
+from common import example, warm_cluster  # noqa: E402
 
 import scdk_sym as sc  # noqa: E402
 from scdk_sym.atlases import make_grid  # noqa: E402
 from scdk_sym.atlases.chunk import mode_counts, model_source  # noqa: E402
-
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def example():
-    path = ROOT / "examples" / "atlas_3rpr_singularity.py"
-    spec = importlib.util.spec_from_file_location("atlas_3rpr_singularity", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def main() -> None:
@@ -54,13 +44,14 @@ def main() -> None:
     parser.add_argument("--baseline", type=int, default=200, help="points solved from scratch")
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args()
-    ex = example()
+    ex = example("atlas_3rpr_singularity")
     model = ex.build_model()
     home = model.home
     spec = ex.grid(args.n)
     grid = make_grid(model, spec, home.theta)
     thetas = grid.thetas(0, grid.size)
     sc.assembly_modes(model, home.theta, backend="compiled")  # start system, kernels
+    mode_counts(model, thetas[:50], 0, grid.shape)  # as on the workers (warm_worker)
 
     rng = np.random.default_rng(0)
     pick = np.sort(rng.choice(grid.size, min(args.baseline, grid.size), replace=False))
@@ -84,31 +75,38 @@ def main() -> None:
           f"baseline at its {len(pick)} points: {same})")  # fmt: skip
 
     with tempfile.TemporaryDirectory() as tmp:
-        run = sc.atlas(model, spec, Path(tmp) / "local.zarr", start=home, modes=True,
-                       progress=False)  # fmt: skip
-        print(f"{'sc.atlas(modes=True), in process':<34} {run.points / run.busy:>8.0f} points "
-              f"per busy second ({run.points / run.busy / base:.2f}x baseline)")  # fmt: skip
-        with (
-            LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True,
-                         dashboard_address=":0") as cluster,
-            Client(cluster) as client,
-        ):  # fmt: skip
-            client.run(warm_worker, model_source(model))
-            run = sc.atlas(model, spec, Path(tmp) / "workers.zarr", start=home, modes=True,
-                           scheduler=client, chunk=grid.size // (2 * args.workers) or 1,
-                           progress=False)  # fmt: skip
-        print(f"{f'sc.atlas(modes=True), {args.workers} workers':<34} "
-              f"{run.points / run.busy:>8.0f} points per busy worker-second "
-              f"({run.points / run.busy / base:.2f}x baseline)")  # fmt: skip
+        for solve in (False, True):
+            run = sc.atlas(model, spec, Path(tmp) / f"local{solve}.zarr", start=home,
+                           modes=True, solve=solve, progress=False)  # fmt: skip
+            report(run, solve, "in process", base)
+        with warm_cluster(args.workers, warm_worker, model_source(model), spec) as (client, _):
+            chunk = grid.size // (2 * args.workers) or 1
+            for solve in (False, True):
+                run = sc.atlas(model, spec, Path(tmp) / f"workers{solve}.zarr", start=home,
+                               modes=True, solve=solve, scheduler=client, chunk=chunk,
+                               progress=False)  # fmt: skip
+                report(run, solve, f"{args.workers} workers", base)
 
 
-def warm_worker(source) -> None:
-    """Build the model, its start system and kernels on a worker (before timing)."""
+def report(run, solve: bool, where: str, base: float) -> None:
+    """One line of an atlas run's rate against the baseline's."""
+    what = "mode map alone (solve=False)" if not solve else "with the convergent solves"
+    rate = run.points / run.busy
+    print(f"sc.atlas(modes=True), {what}, {where}: {rate:.0f} points per busy worker-second "
+          f"({rate / base:.2f}x baseline; {run.points / run.cpu:.0f} per CPU-second of the "
+          "tasks' threads)")  # fmt: skip
+
+
+def warm_worker(source, spec) -> None:
+    """Build the model, its start system and kernels on a worker, and walk 50 points of the
+    grid (the C libraries loaded, the kernels' maps made: costs paid once per process)."""
     from scdk_sym.atlases.chunk import _tracker, worker_model
 
     model = worker_model(source)
     _tracker(model)
     sc.assembly_modes(model, model.home.theta, backend="compiled")
+    grid = make_grid(model, spec, model.home.theta)
+    mode_counts(model, grid.thetas(0, min(50, grid.size)), 0, grid.shape)
 
 
 if __name__ == "__main__":

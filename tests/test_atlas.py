@@ -338,7 +338,7 @@ def test_grid_names_and_order(seed):
     np.testing.assert_array_equal(g.thetas(2, 5), th[2:5])
     with pytest.raises(UnknownNameError, match="theta_1, theta_2, theta_3"):
         make_grid(model, "theta_9=0:1:2", start.theta)
-    assert set(STATUS) == {0, 1, 2, 3, 4}
+    assert set(STATUS) == {0, 1, 2, 3, 4, 5}
 
 
 def test_plot_atlas(serial_store, tmp_path):

@@ -88,6 +88,25 @@ def test_mode_counts_equal_real_roots_of_the_polynomial(atlas_run):
     assert pose_distance(best, start.x) < POSE_TOL
 
 
+def test_a_mode_map_alone_counts_the_real_roots_of_the_polynomial(atlas_run, tmp_path):
+    """``solve=False``: the same counts on a finer grid (the polynomial's), in chunks of 10
+    (fronts cut at chunk ends) and on the CLI; no convergent solve (status 5, x NaN)."""
+    import scdk_sym as sc
+    from scdk_sym.errors import InputError
+
+    ex, model, start, _, _ = atlas_run
+    out = tmp_path / "map.zarr"
+    run = sc.atlas(model, ex.grid(N + 2), out, start=start, modes=True, solve=False, chunk=10,
+                   progress=False)  # fmt: skip
+    store = open_atlas(out)
+    thetas = store["theta"][:]
+    np.testing.assert_array_equal(store["n_modes"][:], reference_counts(ex, thetas))
+    assert run.counts == {5: (N + 2) ** 2} and run.swept == 0
+    assert np.isnan(store["x"][:]).all() and store.attrs["scdk_atlas"]["branch"] is None
+    with pytest.raises(InputError, match="pass modes=True"):
+        sc.atlas(model, ex.grid(N), tmp_path / "none.zarr", start=start, solve=False)
+
+
 def test_convergent_solutions_are_real_roots_with_the_start_sign(atlas_run):
     ex, model, start, thetas, store = atlas_run
     C = ex.platform_points()

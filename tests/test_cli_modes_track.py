@@ -154,3 +154,25 @@ def test_missing_csv_and_bad_theta(tmp_path, capsys):
     assert f"cannot read '{missing}'" in capsys.readouterr().err
     assert main(["modes", str(MODELS / "planar_hexa"), "--theta", "1,2"]) == 1
     assert "theta0 (theta_1, theta_2, theta_3) must have 3 values" in capsys.readouterr().err
+
+
+def test_atlas_modes_only_counts_the_polynomial_roots(tmp_path, capsys):
+    """``scdk atlas --modes-only``: the certified counts of a 3 x 3 leg grid equal the real
+    roots of the 3-RPR polynomial at every point, with no convergent solve."""
+    pytest.importorskip("zarr")
+    from scdk_sym.atlases import open_atlas
+
+    rng = np.random.default_rng(11)
+    A, C = rng.uniform(-1, 1, (3, 2)), rng.uniform(-0.6, 0.6, (3, 2))
+    directory = sc.builders.planar_3rpr(A, C).save(tmp_path / "rpr")
+    model = sc.load_model(directory)
+    leg = model.home.theta
+    grid = ",".join(f"{name}={float(v) * 0.9!r}:{float(v) * 1.1!r}:3" for name, v in
+                    zip(model.actuated[:2], leg[:2], strict=True))  # fmt: skip
+    out = run_json(capsys, "atlas", str(directory), "--grid", grid, "--modes-only", "--out",
+                   str(tmp_path / "map.zarr"), "--no-progress")  # fmt: skip
+    assert out["statuses"] == [{"code": 5, "name": "not solved", "count": 9}]
+    store = open_atlas(tmp_path / "map.zarr")
+    ref = [len(rpr_reference(A, C, th)) for th in store["theta"][:]]
+    np.testing.assert_array_equal(store["n_modes"][:], ref)
+    assert sum(ref) > 0  # the grid has assembly modes to count

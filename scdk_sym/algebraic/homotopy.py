@@ -485,8 +485,10 @@ def _results(system, ends, P0, g, attempt, start_certified, real_tol, tracker) -
     for w, c in enumerate(cut):
         z, status = ends.z[c], ends.status[c]
         # endgame estimates are accurate to about 1e-8 relative: looser tests for them
-        sing = real_endpoints(system, z[status == "singular"], P0[w], 1e-6, 1e-6, polish=False)
-        merged = dedup(np.concatenate([regs[w], sing]), 1e-6) if len(sing) else regs[w]
+        merged = regs[w]
+        if (status == "singular").any():
+            sing = real_endpoints(system, z[status == "singular"], P0[w], 1e-6, 1e-6, False)
+            merged = dedup(np.concatenate([regs[w], sing]), 1e-6) if len(sing) else regs[w]
         out.append(
             HomotopyResult(
                 endpoints=z,

@@ -25,8 +25,9 @@ STATUS = {
     2: "VerificationError: the solution failed its residual check",
     3: "SolveError: another solver failure",
     4: "singular: solved, theta on the singular surface (J_p singular)",
+    5: "not solved: a mode map alone (atlas(..., solve=False))",
 }
-SOLVED, PATH, VERIFICATION, SOLVE, SINGULAR = 0, 1, 2, 3, 4
+SOLVED, PATH, VERIFICATION, SOLVE, SINGULAR, UNSOLVED = 0, 1, 2, 3, 4, 5
 #: Points per call into the C sweep (interrupts are checked between calls, and each call's
 #: first point is solved from the start).
 SWEEP_CALL = 1024
@@ -119,6 +120,7 @@ def solve_chunk(
     *,
     offset: int = 0,
     shape: tuple[int, ...] | None = None,
+    solve: bool = True,
 ) -> ChunkResult:
     """Convergent solves of every row of ``thetas`` from ``start``.
 
@@ -131,13 +133,13 @@ def solve_chunk(
         offset: flat (C-order) index of the first row in the grid.
         shape: the grid's shape (default ``(N,)``: a list of readings, each row continued from
             the row before it).
+        solve: the convergent solves; False (with ``modes``): the mode counts alone, every
+            finite point's status :data:`UNSOLVED`.
 
     Returns:
         The :class:`ChunkResult`; each solved point equals
         ``sc.solve(model, theta, start=start, branch="convergent")`` to rounding.
     """
-    from ..solvers.sc import solve
-
     thetas = np.ascontiguousarray(thetas, dtype=float)
     N, n = len(thetas), len(model.workspace)
     grid_shape = (N,) if shape is None else tuple(shape)
@@ -145,6 +147,11 @@ def solve_chunk(
     det = np.full(N, np.nan)
     status = np.full(N, SOLVE, dtype=np.int8)
     finite = np.all(np.isfinite(thetas), axis=1)
+    if not solve:
+        status[finite] = UNSOLVED
+        n_modes, continued = mode_counts(model, thetas, offset, grid_shape) if modes else (
+            np.full(N, -1, dtype=np.int16), 0)  # fmt: skip
+        return ChunkResult(x, det, status, n_modes, 0, continued)
     swept = 0
     ok = np.zeros(N, dtype=bool)
     y1, c = model.chart.to_local(start.y)
@@ -167,6 +174,15 @@ def solve_chunk(
         # no real solution, certified: no path reaches theta (sc.solve's PathError)
         status[todo[n_modes[todo] == 0]] = PATH
         todo = todo[n_modes[todo] != 0]
+    _direct(model, start, thetas, todo, x, det, status)
+    check()  # an interrupt some library reported as a failed solve is not a failed point
+    return ChunkResult(x, det, status, n_modes, swept, continued)
+
+
+def _direct(model, start, thetas, todo, x, det, status) -> None:
+    """``sc.solve`` at the points ``todo``, written into ``x``, ``det`` and ``status``."""
+    from ..solvers.sc import solve
+
     for i in todo:
         check()  # a stop between points: the chunk is not written, a rerun redoes it
         try:
@@ -188,8 +204,6 @@ def solve_chunk(
             x[i] = r.x
             det[i] = _det_local(model, r.y, r.theta)
             status[i] = SINGULAR if r.status == "singular" else SOLVED
-    check()  # an interrupt some library reported as a failed solve is not a failed point
-    return ChunkResult(x, det, status, n_modes, swept, continued)
 
 
 def predecessors(offset: int, count: int, shape: tuple[int, ...]) -> np.ndarray:

@@ -104,6 +104,7 @@ def _task(
     grid: Grid | None,
     thetas: np.ndarray | None,
     modes: bool,
+    solve: bool = True,
 ) -> tuple[int, float, float, int]:
     """Solve and write chunk ``index``; returns (index, wall seconds, CPU seconds of this
     thread, points swept)."""
@@ -114,9 +115,9 @@ def _task(
     th = grid.thetas(a, b) if grid is not None else thetas
     assert th is not None  # _points gives a grid or the thetas
     if grid is not None:
-        res = solve_chunk(model, cfg, th, modes, offset=a, shape=grid.shape)
+        res = solve_chunk(model, cfg, th, modes, offset=a, shape=grid.shape, solve=solve)
     else:
-        res = solve_chunk(model, cfg, th, modes)
+        res = solve_chunk(model, cfg, th, modes, solve=solve)
     write_chunk(out, layout, index, th, res)
     return index, time.perf_counter() - t0, time.thread_time() - c0, res.swept
 
@@ -129,6 +130,7 @@ def atlas(
     workers: int | None = None,
     scheduler: Any = None,
     modes: bool = False,
+    solve: bool = True,
     start: Configuration | None = None,
     chunk: int = DEFAULT_CHUNK,
     progress: bool = True,
@@ -152,7 +154,9 @@ def atlas(
             ``distributed.Client``; its workers must see ``out`` and share the kernel cache
             directory or be able to compile (``$SCDK_CACHE_DIR``).
         modes: also store ``n_modes``, the number of real assembly modes at each point
-            (:func:`scdk_sym.assembly_modes`; slow: a certified homotopy at every point).
+            (:func:`scdk_sym.assembly_modes`, each point's set from its grid neighbour's).
+        solve: the convergent solve at every point; False (with ``modes``): a mode map
+            alone, every point's status 5 ("not solved"), ``x`` and ``det_jp`` NaN.
         start: the assembled start Configuration (default: ``model.home``).
         chunk: points per chunk (task and Zarr chunk); memory per task is O(chunk).
         progress: a tqdm progress bar on stderr.
@@ -165,7 +169,8 @@ def atlas(
         :mod:`scdk_sym.atlases.store`).
 
     Raises:
-        InputError: bad grid, thetas, chunk or worker count.
+        InputError: bad grid, thetas, chunk or worker count; ``solve=False`` without
+            ``modes``.
         UnknownNameError: a grid name is not an actuated joint.
         StoreMismatchError: ``out`` holds an atlas of another model, grid or options.
         StoreLockedError: another run is writing ``out`` (and ``wait`` is False).
@@ -178,15 +183,18 @@ def atlas(
     """
     t0 = time.perf_counter()
     start = _check_call(model, start, chunk, workers, scheduler)
+    if not solve and not modes:
+        raise InputError("atlas: solve=False leaves nothing to compute; pass modes=True")
     grid, thetas, what = _points(model, grid_or_thetas, start)
     assert grid is not None or thetas is not None  # _points gives one of them
     points = grid.size if grid is not None else len(thetas)  # type: ignore[arg-type]
     layout = Layout(points, model.k, len(model.workspace), int(min(chunk, max(points, 1))), modes)
-    meta = _metadata(model, what, points, layout, start, modes)
+    meta = _metadata(model, what, points, layout, start, modes, solve)
     out = Path(out)
     with stop_on_signals(), store_lock(out, wait=wait):
         try:
-            plan = _Plan(model, out, layout, grid, thetas, start, modes, progress, on_chunk)
+            plan = _Plan(model, out, layout, grid, thetas, start, modes, solve, progress,
+                         on_chunk)  # fmt: skip
             return _run(plan, meta, workers, scheduler, t0)
         except (Interrupted, Exception) as exc:  # a stop, or the error a library made of one
             stop = stop_for(exc)
@@ -222,7 +230,9 @@ def _check_call(model, start, chunk, workers, scheduler) -> Any:
     return start
 
 
-def _metadata(model, what: dict, points: int, layout: Layout, start, modes: bool) -> dict:
+def _metadata(
+    model, what: dict, points: int, layout: Layout, start, modes: bool, solve: bool
+) -> dict:
     """The store's metadata of a run: what a resumed run must match (see :mod:`.store`)."""
     return {
         "format": FORMAT,
@@ -239,7 +249,7 @@ def _metadata(model, what: dict, points: int, layout: Layout, start, modes: bool
         "points": points,
         "chunk": layout.chunk,
         "start": {"theta": np.asarray(start.theta).tolist(), "y": np.asarray(start.y).tolist()},
-        "branch": "convergent",
+        "branch": "convergent" if solve else None,
         "status_codes": {str(k): v for k, v in STATUS.items()},
         "modes": modes,
         **({"n_modes_method": MODES_METHOD} if modes else {}),
@@ -257,6 +267,7 @@ class _Plan:
     thetas: np.ndarray | None
     start: Any
     modes: bool
+    solve: bool
     progress: bool
     on_chunk: Callable[[int, int], None] | None
 
@@ -294,7 +305,7 @@ def _run(plan: _Plan, meta: dict, workers, scheduler, t0: float) -> AtlasRun:
     def args(i: int):
         a, b = layout.bounds(i)
         rows = None if grid is not None else thetas[a:b]  # type: ignore[index]
-        return (source, st, str(out), layout, i, grid, rows, modes)
+        return (source, st, str(out), layout, i, grid, rows, modes, plan.solve)
 
     try:
         if scheduler is None and not workers:

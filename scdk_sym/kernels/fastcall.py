@@ -120,8 +120,10 @@ class Dense:
         return out[0] if self._single else tuple(out)
 
 
-#: Mapped callers kept per model (:meth:`ModelCalls.mapped`; the oldest dropped first).
-MAPS_KEPT = 16
+#: Mapped callers kept per model (:meth:`ModelCalls.mapped`; the oldest dropped first): a
+#: mode map's fronts ask for each kernel over up to a few hundred different point counts, each
+#: made once (about 80 us) and a few kB.
+MAPS_KEPT = 512
 
 
 @dataclass(frozen=True)

@@ -684,9 +684,11 @@ def _modes_many(
         for w, res in zip(near, ends, strict=True):
             if _complete_set(res, start.root_count):
                 results[w], continued[w] = res, True
+    complete = list(continued)
     for w in range(W):
         if results[w] is None:
             results[w] = solve_homotopy(form, start, P0[w], seed=seed, real_tol=REAL_TOL)
+            complete[w] = start.trace_passed and _complete_set(results[w], start.root_count)
     half_turns = [
         _path_reasons(form, res, th, why)
         for res, th, why in zip(results, thetas, reasons, strict=True)
@@ -697,8 +699,7 @@ def _modes_many(
     for w in range(W):
         modes = _assembly_modes(start, found[w], certs[w], reasons[w], half_turns[w],
                                 continued[w])  # fmt: skip
-        complete = start.trace_passed and _complete_set(results[w], start.root_count)
-        out.append((modes, ModeSeed(P0[w], results[w].endpoints) if complete else None,
+        out.append((modes, ModeSeed(P0[w], results[w].endpoints) if complete[w] else None,
                     continued[w]))  # fmt: skip
     return out
 
