@@ -16,7 +16,7 @@ values each). Prints, measured in the same run (BLAS pinned to one thread):
   unreachable, costs a full ``sc.solve``);
 * the check: the walk's counts against the baseline's at its points.
 
-    OMP_NUM_THREADS=1 python benchmarks/mode_map_3rpr.py [--n 40] [--baseline 200]
+    OMP_NUM_THREADS=1 python benchmarks/mode_map_3rpr.py [--n 40] [--baseline 200] [--chunk N]
 """
 
 from __future__ import annotations
@@ -43,6 +43,8 @@ def main() -> None:
     parser.add_argument("--n", type=int, default=40, help="values per leg (n^2 points)")
     parser.add_argument("--baseline", type=int, default=200, help="points solved from scratch")
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--chunk", type=int, default=0,
+                        help="points per task on the workers (default: two tasks per worker)")  # fmt: skip
     args = parser.parse_args()
     ex = example("atlas_3rpr_singularity")
     model = ex.build_model()
@@ -78,28 +80,34 @@ def main() -> None:
         for solve in (False, True):
             run = sc.atlas(model, spec, Path(tmp) / f"local{solve}.zarr", start=home,
                            modes=True, solve=solve, progress=False)  # fmt: skip
-            report(run, solve, "in process", base)
+            report(run, solve, "in process", base, pick, base_n)
         with warm_cluster(args.workers, warm_worker, model_source(model), spec) as (client, _):
-            chunk = grid.size // (2 * args.workers) or 1
+            chunk = args.chunk or grid.size // (2 * args.workers) or 1
             for solve in (False, True):
                 run = sc.atlas(model, spec, Path(tmp) / f"workers{solve}.zarr", start=home,
                                modes=True, solve=solve, scheduler=client, chunk=chunk,
                                progress=False)  # fmt: skip
-                report(run, solve, f"{args.workers} workers", base)
+                report(run, solve, f"{args.workers} workers", base, pick, base_n)
 
 
-def report(run, solve: bool, where: str, base: float) -> None:
-    """One line of an atlas run's rate against the baseline's."""
+def report(run, solve: bool, where: str, base: float, pick, base_n) -> None:
+    """One line of an atlas run: its rate against the baseline's, its stored counts against
+    the baseline's at its points."""
     what = "mode map alone (solve=False)" if not solve else "with the convergent solves"
     rate = run.points / run.busy
+    same = bool(np.array_equal(sc.open_atlas(run.out)["n_modes"][:][pick], base_n))
     print(f"sc.atlas(modes=True), {what}, {where}: {rate:.0f} points per busy worker-second "
           f"({rate / base:.2f}x baseline; {run.points / run.cpu:.0f} per CPU-second of the "
-          "tasks' threads)")  # fmt: skip
+          f"tasks' threads; counts equal to the baseline at its {len(pick)} points: "
+          f"{same})")  # fmt: skip
 
 
 def warm_worker(source, spec) -> None:
-    """Build the model, its start system and kernels on a worker, and walk 50 points of the
-    grid (the C libraries loaded, the kernels' maps made: costs paid once per process)."""
+    """Build the model, its start system and kernels on a worker, walk 50 points of the grid
+    and import Zarr (the C libraries loaded, the kernels' maps made, the store's module
+    imported: costs paid once per process)."""
+    import zarr  # noqa: F401
+
     from scdk_sym.atlases.chunk import _tracker, worker_model
 
     model = worker_model(source)

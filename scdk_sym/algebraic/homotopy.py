@@ -332,8 +332,8 @@ def dedup(x: np.ndarray, tol: float, block: int = 256) -> np.ndarray:
     distances are computed ``block`` rows at a time.
     """
     x = np.asarray(x)
-    if not len(x):
-        return np.zeros((0, x.shape[1]), dtype=x.dtype)
+    if len(x) <= 1:  # nothing to merge
+        return np.zeros((0, x.shape[1]), dtype=x.dtype) if not len(x) else x.copy()
     scale = 1.0 + np.abs(x).max(axis=1)
     close = np.zeros((len(x), len(x)), dtype=bool)
     with np.errstate(invalid="ignore"):

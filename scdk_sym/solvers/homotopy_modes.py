@@ -595,15 +595,34 @@ def modes_from_neighbours(
 
 def _complete_set(res, root_count: int) -> bool:
     """Every path ended regular, at ``root_count`` pairwise distinct finite roots."""
-    z = res.endpoints
-    if len(z) != root_count or not (res.status == "success").all() or not np.isfinite(z).all():
-        return False
-    if root_count < 2:
-        return True
-    scale = 1.0 + np.abs(z).max(axis=1)
-    d = np.abs(z[:, None] - z[None]).max(axis=2) / np.minimum(scale[:, None], scale[None])
-    np.fill_diagonal(d, np.inf)
-    return bool(d.min() >= DISTINCT)
+    return bool(_complete_sets([res], root_count)[0])
+
+
+def _complete_sets(results: list, root_count: int, block: int = 1 << 22) -> np.ndarray:
+    """:func:`_complete_set` of each result (W,) bool, the pairwise distances of up to
+    ``block`` entries at once."""
+    out = np.zeros(len(results), dtype=bool)
+    full = [
+        i for i, res in enumerate(results)
+        if len(res.endpoints) == root_count and (res.status == "success").all()
+        and np.isfinite(res.endpoints).all()
+    ]  # fmt: skip
+    if root_count < 2 or not full:
+        out[full] = True
+        return out
+    n = results[full[0]].endpoints.shape[1]
+    step = max(1, block // (root_count * root_count * max(n, 1)))
+    for a in range(0, len(full), step):
+        rows = full[a : a + step]
+        z = np.stack([results[i].endpoints for i in rows])  # (S, R, n)
+        scale = 1.0 + np.abs(z).max(axis=2)
+        d = np.abs(z[:, :, None] - z[:, None]).max(axis=3) / np.minimum(
+            scale[:, :, None], scale[:, None]
+        )
+        diag = np.arange(root_count)
+        d[:, diag, diag] = np.inf
+        out[rows] = d.min(axis=(1, 2)) >= DISTINCT
+    return out
 
 
 def _homotopy_modes(
@@ -681,8 +700,8 @@ def _modes_many(
             np.stack([neighbours[w].roots for w in near]),  # type: ignore[union-attr]
             P0[near], gamma=NEIGHBOUR_GAMMA, real_tol=REAL_TOL,
         )  # fmt: skip
-        for w, res in zip(near, ends, strict=True):
-            if _complete_set(res, start.root_count):
+        for w, res, ok in zip(near, ends, _complete_sets(ends, start.root_count), strict=True):
+            if ok:
                 results[w], continued[w] = res, True
     complete = list(continued)
     for w in range(W):
