@@ -43,8 +43,9 @@ def main() -> None:
     parser.add_argument("--n", type=int, default=40, help="values per leg (n^2 points)")
     parser.add_argument("--baseline", type=int, default=200, help="points solved from scratch")
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--chunk", type=int, default=0,
-                        help="points per task on the workers (default: two tasks per worker)")  # fmt: skip
+    parser.add_argument(
+        "--chunk", type=int, default=0, help="points per worker task (default: 2 per worker)"
+    )
     args = parser.parse_args()
     ex = example("atlas_3rpr_singularity")
     model = ex.build_model()
