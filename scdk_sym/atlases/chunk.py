@@ -149,8 +149,9 @@ def solve_chunk(
     finite = np.all(np.isfinite(thetas), axis=1)
     if not solve:
         status[finite] = UNSOLVED
-        n_modes, continued = mode_counts(model, thetas, offset, grid_shape) if modes else (
-            np.full(N, -1, dtype=np.int16), 0)  # fmt: skip
+        n_modes, continued = np.full(N, -1, dtype=np.int16), 0
+        if modes:
+            n_modes, continued = mode_counts(model, thetas, offset, grid_shape)
         return ChunkResult(x, det, status, n_modes, 0, continued)
     swept = 0
     ok = np.zeros(N, dtype=bool)
@@ -283,6 +284,8 @@ def mode_counts(
             except ScdkError:
                 pass
         check()
+        return n_modes, continued
+    if not N:
         return n_modes, continued
     pred = predecessors(offset, N, shape)
     # fronts: a point's front is one more than its neighbour's, so a front's points are solved

@@ -129,10 +129,7 @@ def triangular_models(model: Model) -> tuple[Model, ...]:
 
 def _row_closures(model: Model) -> list[int]:
     """Closure index of each row of ``g_all``."""
-    out: list[int] = []
-    for i, c in enumerate(model.closures):
-        out.extend([i] * c.rows)
-    return out
+    return np.repeat(np.arange(len(model.closures)), np.diff(model.row_offsets)).tolist()
 
 
 def block_models(model: Model) -> tuple[Model, ...]:
@@ -162,12 +159,11 @@ def _block_model(model: Model, block: Block, index: int) -> Model:
     for ci in block.closures:
         offsets[ci] = start
         start += model.closures[ci].rows
-    full_offsets = np.cumsum([0, *[c.rows for c in model.closures]])
     owner = _row_closures(model)
     rows = []
     for r in block.rows:
         full = model.rows[r]
         ci = owner[full]
-        rows.append(offsets[ci] + int(full - full_offsets[ci]))
+        rows.append(offsets[ci] + int(full - model.row_offsets[ci]))
     closures = tuple(model.closures[ci] for ci in block.closures)
     return Model.restricted(model, unknowns, actuated, closures, tuple(rows), held, (index, block))

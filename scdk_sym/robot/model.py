@@ -648,6 +648,14 @@ class Model:
                     break
         return y
 
+    @cached_property
+    def row_offsets(self) -> np.ndarray:
+        """(closures + 1,) int: closure ``i``'s rows of the full closure system are
+        ``row_offsets[i]`` to ``row_offsets[i + 1] - 1`` (``rows`` indexes that system)."""
+        offsets = np.cumsum([0, *[c.rows for c in self.closures]])
+        offsets.flags.writeable = False
+        return offsets
+
     # ------------------------------------------------------------------ products
 
     @cached_property

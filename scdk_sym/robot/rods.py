@@ -121,8 +121,7 @@ def find_rods(model: Model) -> tuple[Rod, ...]:
 
 def _closure_rows(model: Model, ci: int) -> list[int]:
     """Indices into the model's kept rows ``g`` of closure ``ci``'s rows."""
-    lo = sum(c.rows for c in model.closures[:ci])
-    hi = lo + model.closures[ci].rows
+    lo, hi = model.row_offsets[ci], model.row_offsets[ci + 1]
     return [i for i, r in enumerate(model.rows) if lo <= r < hi]
 
 
@@ -159,7 +158,7 @@ def distance_model(model: Model, rods: tuple[Rod, ...]) -> Model | None:
     for ci, c in enumerate(model.closures):
         if ci in welds:
             continue
-        lo = sum(cl.rows for cl in model.closures[:ci])
+        lo = int(model.row_offsets[ci])
         rows += [start + r - lo for r in model.rows if lo <= r < lo + c.rows]
         closures.append(c)
         start += c.rows
