@@ -160,7 +160,7 @@ def _c_only(f: ca.Function, xs: np.ndarray, p: list) -> list:
     """The certificates of the C test alone (None where it proves nothing)."""
     sq = certify_module._SQUARES(f)
     assert sq.fast is not None  # rational: the C test applies
-    _, _, bounds = certify_module._parameters(p, sq.n_params)
+    _, bounds, _ = certify_module._parameters(p, sq.n_params)
     return certify_module._fast(sq, np.atleast_2d(xs), bounds, certify_module.TIGHTEN)
 
 

@@ -208,19 +208,25 @@ def _vector(value: ArrayLike, size: int, what: str) -> np.ndarray:
     return v
 
 
-def _parameters(p: ArrayLike, size: int) -> tuple[list[arb], np.ndarray, np.ndarray]:
-    """Parameter balls, their binary64 midpoints and (k, 2) bounds from (k,) exact values or
-    (k, 2) bounds."""
+def _parameters(p: ArrayLike, size: int) -> tuple[np.ndarray, np.ndarray, bool]:
+    """Binary64 midpoints, (k, 2) bounds and whether the values are exact, from (k,) exact
+    values or (k, 2) bounds (:func:`_balls` makes their balls)."""
     a = _real(p, "parameters p")
     if a.ndim == 2 and a.shape == (size, 2):
         if not np.all(np.isfinite(a)) or np.any(a[:, 0] > a[:, 1]):
             raise InputError(
                 "parameter bounds must be finite with lo <= hi per row; pass (k, 2) [lo, hi]"
             )
-        balls = [arb(lo).union(arb(hi)) for lo, hi in a]
-        return balls, a.mean(axis=1), a.copy()
+        return a.mean(axis=1), a.copy(), False
     v = _vector(a, size, "parameters p")
-    return [arb(float(t)) for t in v], v, np.stack([v, v], axis=1)
+    return v, np.stack([v, v], axis=1), True
+
+
+def _balls(bounds: np.ndarray, exact: bool) -> list[arb]:
+    """The parameter balls of :func:`_parameters`' bounds (the Arb test's)."""
+    if exact:
+        return [arb(float(t)) for t in bounds[:, 0]]
+    return [arb(lo).union(arb(hi)) for lo, hi in bounds]
 
 
 def _down(a: arb) -> float:
@@ -421,9 +427,11 @@ def krawczyk(
     _checked(tries, tighten, arithmetic)
     sq: _Square = _SQUARES(f)
     m = _vector(x, sq.n, "x")
-    P, p_mid, bounds = _parameters(p, sq.n_params)
+    p_mid, bounds, exact = _parameters(p, sq.n_params)
     fast = _fast(sq, m[None], bounds, tighten, arithmetic)[0]
-    return fast if fast is not None else _krawczyk(sq, m, P, p_mid, tries, tighten)
+    if fast is not None:
+        return fast
+    return _krawczyk(sq, m, _balls(bounds, exact), p_mid, tries, tighten)
 
 
 def _krawczyk(
@@ -566,14 +574,16 @@ def certify_sets(
         return []
     ms_all = np.concatenate(sets)
     bounds = np.concatenate(
-        [np.broadcast_to(b, (n, *b.shape)) for (_, _, b), n in zip(params, sizes, strict=True)]
+        [np.broadcast_to(b, (n, *b.shape)) for (_, b, _), n in zip(params, sizes, strict=True)]
     )
     fast = _fast(sq, ms_all, bounds, tighten, arithmetic)  # all points in one call
     out, start = [], 0
-    for ms, (P, p_mid, _) in zip(sets, params, strict=True):
+    for ms, (p_mid, b, exact) in zip(sets, params, strict=True):
+        ours = fast[start : start + len(ms)]
+        P = _balls(b, exact) if any(c is None for c in ours) else []
         certs = tuple(
             c if c is not None else _krawczyk(sq, m, P, p_mid, tries, tighten)
-            for c, m in zip(fast[start : start + len(ms)], ms, strict=True)
+            for c, m in zip(ours, ms, strict=True)
         )
         start += len(ms)
         out.append(_certificate_set(certs))

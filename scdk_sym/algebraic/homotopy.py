@@ -342,7 +342,7 @@ def dedup(x: np.ndarray, tol: float, block: int = 256) -> np.ndarray:
             close[a : a + block, : a + block] = d / scale[None, : a + block] <= tol
     np.fill_diagonal(close, False)
     kept = list(range(len(x)))
-    if np.tril(close).any():  # the rule in order: an earlier match only counts if kept
+    if close.any() and np.tril(close).any():  # in order: an earlier match counts if kept
         rows, kept = close.tolist(), []
         for i, row in enumerate(rows):
             if not any(row[j] for j in kept):
@@ -495,7 +495,11 @@ def _results(system, ends, P0, g, attempt, start_certified, real_tol, tracker) -
                 status=status,
                 winding=ends.winding[c],
                 real_solutions=merged,
-                complete=bool(np.isin(status, ("success", "singular", "at_infinity")).all()),
+                complete=bool(
+                    (
+                        (status == "success") | (status == "singular") | (status == "at_infinity")
+                    ).all()
+                ),
                 start_certified=start_certified,
                 gamma=g,
                 steps=ends.steps[c],
