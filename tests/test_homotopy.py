@@ -473,3 +473,38 @@ def test_dedup_matches_only_rows_it_kept(block):
     out = dedup(x, tol, block=block)
     expected = np.vstack([a, c, far])
     np.testing.assert_array_equal(out, expected[np.lexsort(expected.T[::-1])])
+
+
+def test_path_jumps_fail_as_the_per_target_rule_says():
+    """Two regular ends of one target within 1e-8 (relative) both fail: the batched rule
+    against a plain loop over the targets, on 2000 seeded cases with planted near-copies."""
+    from scdk_sym.algebraic.homotopy import _fail_jumps
+
+    def per_target(out, status, idx):
+        for d in set(idx.tolist()):
+            ends = [i for i in range(len(idx)) if idx[i] == d and status[i] == "success"]
+            hit = [i for i in ends if sum(
+                np.abs(out[i] - out[j]).max() <= 1e-8 * (1.0 + np.abs(out[j]).max())
+                for j in ends if j != i) > 0]  # fmt: skip
+            for i in hit:
+                status[i], out[i] = "failed", np.nan
+
+    rng = np.random.default_rng(0)
+    fired = 0  # cases where the rule failed some path
+    for _ in range(2000):
+        M, n = int(rng.integers(0, 20)), int(rng.integers(1, 4))
+        idx = rng.integers(0, 4, M)
+        out = rng.normal(size=(M, n)) * 10.0 ** rng.integers(-3, 4) + 1j * rng.normal(size=(M, n))
+        for _ in range(int(rng.integers(0, 3)) if M >= 2 else 0):
+            i, j = rng.integers(0, M, 2)
+            out[j] = out[i] * (1 + rng.choice([0.0, 1e-9, 5e-9, 2e-8]))
+            idx[j] = idx[i] if rng.uniform() < 0.7 else idx[j]
+        status = rng.choice(np.array(["success", "singular", "failed"], dtype=object), M,
+                            p=[0.8, 0.1, 0.1])  # fmt: skip
+        want_out, want = out.copy(), status.copy()
+        per_target(want_out, want, idx)
+        fired += int((want == "failed").sum() > (status == "failed").sum())
+        _fail_jumps(out, status, idx)
+        assert list(status) == list(want)
+        np.testing.assert_array_equal(out, want_out)
+    assert fired >= 200

@@ -187,18 +187,30 @@ def track_parameter_homotopy(
         zr, reg = _regular(system, homotopy, first.z[ok1], idx[ok1], cond_max, ctrack)
         good = ok1[reg]
         out[good], status[good], winding[good] = zr[reg], "success", 1
-    # a regular solution ends exactly one path: two paths at one regular endpoint (of the same
-    # target) mean a path jump, both fail
-    for d in np.unique(idx):
-        ends = np.flatnonzero((status == "success") & (idx == d))
-        if ends.size > 1:
-            zs = out[ends]
-            close = np.abs(zs[:, None] - zs[None]).max(axis=2) <= 1e-8 * (
-                1.0 + np.abs(zs).max(axis=1)
-            )
-            jumped = ends[close.sum(axis=1) > 1]
-            status[jumped], out[jumped] = "failed", np.nan
+    _fail_jumps(out, status, idx)
     return PathEndpoints(out, status.astype(str), winding, steps)
+
+
+def _fail_jumps(out: np.ndarray, status: np.ndarray, idx: np.ndarray) -> None:
+    """A regular solution ends exactly one path: two paths at one regular endpoint of the same
+    target (datum) mean a path jump, and both fail (``status`` and ``out`` changed in place).
+    Data with equally many regular ends are compared all at once."""
+    ends = np.flatnonzero(status == "success")
+    if ends.size < 2:
+        return
+    ends = ends[np.argsort(idx[ends], kind="stable")]
+    _, first, sizes = np.unique(idx[ends], return_index=True, return_counts=True)
+    groups = [ends[a : a + k] for a, k in zip(first, sizes, strict=True) if k > 1]
+    if not groups:
+        return
+    for size in np.unique([len(g) for g in groups]):
+        rows = np.stack([g for g in groups if len(g) == size])  # (G, size)
+        zs = out[rows]  # (G, size, n)
+        close = np.abs(zs[:, :, None] - zs[:, None]).max(axis=3) <= 1e-8 * (
+            1.0 + np.abs(zs).max(axis=2)
+        )[:, None, :]  # the scale of the column's end, as one datum's (size, size) takes it
+        jumped = rows[close.sum(axis=2) > 1]
+        status[jumped], out[jumped] = "failed", np.nan
 
 
 def _identity(tau, idx):
