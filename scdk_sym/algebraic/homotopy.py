@@ -206,9 +206,10 @@ def _fail_jumps(out: np.ndarray, status: np.ndarray, idx: np.ndarray) -> None:
     for size in np.unique([len(g) for g in groups]):
         rows = np.stack([g for g in groups if len(g) == size])  # (G, size)
         zs = out[rows]  # (G, size, n)
-        close = np.abs(zs[:, :, None] - zs[:, None]).max(axis=3) <= 1e-8 * (
-            1.0 + np.abs(zs).max(axis=2)
-        )[:, None, :]  # the scale of the column's end, as one datum's (size, size) takes it
+        close = (
+            np.abs(zs[:, :, None] - zs[:, None]).max(axis=3)
+            <= 1e-8 * (1.0 + np.abs(zs).max(axis=2))[:, None, :]
+        )  # the scale of the column's end, as one datum's (size, size) takes it
         jumped = rows[close.sum(axis=2) > 1]
         status[jumped], out[jumped] = "failed", np.nan
 
