@@ -21,6 +21,7 @@ from scdk_sym.algebraic import (
     certify_all,
     certify_configuration_sets,
     certify_configurations,
+    certify_sets,
     certify_solution,
     closure_function,
     interval_function,
@@ -332,6 +333,8 @@ def test_sets_at_several_points_certified_at_once_equal_one_set_at_a_time():
         for a, b in zip(got.certificates, one.certificates, strict=True):
             np.testing.assert_array_equal(a.box, b.box)
             assert a.radius <= 1e-9 * (1 + np.abs(a.x).max())
+    with pytest.raises(InputError, match="one parameter vector per set"):
+        certify_sets(closure_function(model), [sets[0][0]], [])
 
 
 def test_an_mx_function_is_expanded_and_inputs_are_checked():

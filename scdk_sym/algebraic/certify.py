@@ -555,8 +555,17 @@ def certify_sets(
 
     Returns:
         S :class:`CertificateSet`.
+
+    Raises:
+        InputError: not one parameter vector per set, or a set or vector as
+            :func:`certify_all` refuses it.
     """
     _checked(tries, tighten, arithmetic)
+    if len(xs_list) != len(p_list):
+        raise InputError(
+            f"{len(xs_list)} sets of zeros and {len(p_list)} parameter vectors; pass one "
+            "parameter vector per set"
+        )
     sq: _Square = _SQUARES(f)
     sets, params = [], []
     for xs, p in zip(xs_list, p_list, strict=True):
