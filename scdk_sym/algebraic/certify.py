@@ -325,7 +325,8 @@ def _operator(
 
 
 def _tighten(sq: _Square, K: list[arb], P: list[arb], p_mid: np.ndarray, steps: int) -> list:
-    """Shrink an enclosure of the zero by Krawczyk steps centred on its midpoint."""
+    """Shrink an enclosure of the zero by Krawczyk steps centred on its midpoint, while each
+    step at least halves its largest radius."""
     n = sq.n
     for _ in range(steps):
         m = np.array([float(b.mid()) for b in K])
@@ -343,9 +344,12 @@ def _tighten(sq: _Square, K: list[arb], P: list[arb], p_mid: np.ndarray, steps: 
             K2 = [K2[i].intersection(K[i]) for i in range(n)]
         except ValueError:
             break
-        if not max(float(b.rad()) for b in K2) < width:
+        shrunk = max(float(b.rad()) for b in K2)
+        if not shrunk < width:
             break
         K = K2
+        if not shrunk <= 0.5 * width:  # at the rounding's floor: more steps gain little
+            break
     return K
 
 
@@ -409,8 +413,9 @@ def krawczyk(
             holds for every ``p`` in the box).
         tries: boxes tried (the first from the Newton correction at ``x``, then inflated).
         tighten: at most this many Krawczyk steps shrink a proven enclosure wider than a few
-            ulps (from a rough ``x``), each centred on the previous enclosure; they stop when
-            the enclosure stops shrinking.
+            ulps (from a rough ``x``), each centred on the previous enclosure; they stop after
+            a step that does not halve the enclosure's largest radius (the rounding's floor:
+            near a singular point ``cond(J) eps`` is wide, and more steps gain little).
         arithmetic: ``"auto"``: the first box in binary64 interval arithmetic in C where ``f``
             is rational (:mod:`scdk_sym.algebraic.ckrawczyk`), Arb balls if it proves
             nothing; ``"arb"``: Arb balls only (see :data:`ARITHMETICS`).

@@ -324,7 +324,8 @@ static double largest_radius(const ival *B, int64_t n) {
     return w;
 }
 
-/* Shrink the proven enclosure B (n) by Krawczyk steps centred on its midpoint. */
+/* Shrink the proven enclosure B (n) by Krawczyk steps centred on its midpoint, while each
+ * step at least halves its largest radius. */
 static void tighten_box(work *s, ival *B, double *c, int64_t steps) {
     const int64_t n = s->n;
     const double eps = 2.220446049250313e-16;
@@ -346,8 +347,10 @@ static void tighten_box(work *s, ival *B, double *c, int64_t steps) {
             s->K[i].lo = lo;
             s->K[i].hi = hi;
         }
-        if (!(largest_radius(s->K, n) < width)) return;
+        const double shrunk = largest_radius(s->K, n);
+        if (!(shrunk < width)) return;
         for (int64_t i = 0; i < n; ++i) B[i] = s->K[i];
+        if (!(shrunk <= 0.5 * width)) return; /* at the rounding's floor: more steps gain little */
     }
 }
 
