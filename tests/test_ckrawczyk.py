@@ -13,7 +13,7 @@ import contextlib
 import casadi as ca
 import numpy as np
 import pytest
-from flint import arb, ctx
+from flint import arb, arb_mat, ctx
 from stewart import DIETMAIER_BASE, DIETMAIER_LENGTHS, DIETMAIER_PLATFORM
 
 import scdk_sym as sc
@@ -249,3 +249,48 @@ def test_certify_all_checks_every_row_and_counts_distinct_zeros():
         certify_all(f, np.array([[0.0, np.nan]]), [1.0])
     with pytest.raises(InputError, match="unknown arithmetic"):
         certify_all(f, np.vstack([r]), [1.0], arithmetic="float")
+
+
+def _near_singular_system(rng: np.random.Generator, n: int, cond: float):
+    """The system ``A x + x * x / 20 - p b``, ``A`` of condition number about ``cond``, and
+    its zero near a random point at p = 1 by Newton steps in Arb at 300 bits: (f, zero,
+    cond(A))."""
+    U, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    V, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    A = U @ np.diag(np.geomspace(1.0, 1.0 / cond, n)) @ V.T
+    r = rng.uniform(-2, 2, n)
+    b = A @ r + r * r / 20
+    x, p = ca.SX.sym("x", n), ca.SX.sym("p")
+    f = ca.Function("f", [x, p], [ca.mtimes(ca.DM(A), x) + x * x / 20 - p * ca.DM(b)])
+    with _bits_300():
+        Aa, ba = arb_mat(A.tolist()), arb_mat([[v] for v in b])
+        z = arb_mat([[v] for v in r])
+        for _ in range(12):
+            z = arb_mat([[z[i, 0].mid()] for i in range(n)])
+            F = Aa * z + arb_mat([[z[i, 0] ** 2 / 20] for i in range(n)]) - ba
+            J = Aa + arb_mat(
+                n, n, [z[i, 0] / 10 if i == j else 0 for i in range(n) for j in range(n)]
+            )
+            z = z - J.solve(F)
+        zero = np.array([float(z[i, 0].mid()) for i in range(n)])
+        assert float(max(abs(F[i, 0]) for i in range(n)).mid()) < 1e-60
+    return f, zero, float(np.linalg.cond(A))
+
+
+@pytest.mark.parametrize("arithmetic", ["auto", "arb"])
+def test_tightening_near_a_singular_zero_holds_it_and_stops_on_its_own(arithmetic):
+    """A nearly singular zero from a rough point: the tightened enclosure holds the zero (Arb,
+    300 bits), is at least ten times narrower than the untightened one and within the
+    binary64 bound cond(A) eps (1 + |x|); a larger step budget gives the same enclosure."""
+    rng = np.random.default_rng(31)
+    for n, cond in [(2, 1e6), (3, 1e8), (4, 1e7)]:
+        f, zero, k = _near_singular_system(rng, n, cond)
+        x = zero + rng.normal(size=n) * 1e-7
+        c = krawczyk(f, x, [1.0], arithmetic=arithmetic)
+        rough = krawczyk(f, x, [1.0], arithmetic=arithmetic, tighten=0)
+        more = krawczyk(f, x, [1.0], arithmetic=arithmetic, tighten=40)
+        assert c.proven and rough.proven, (c.reason, rough.reason)
+        assert c.contains(zero) and rough.contains(zero)
+        assert c.radius * 10 <= rough.radius
+        assert c.radius <= k * EPS * (1 + float(np.max(np.abs(zero))))
+        assert np.array_equal(c.box, more.box)

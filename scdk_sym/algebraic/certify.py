@@ -324,14 +324,18 @@ def _operator(
     return [K[i, 0] for i in range(n)], C
 
 
-def _tighten(sq: _Square, K: list[arb], P: list[arb], p_mid: np.ndarray, steps: int) -> list:
+def _tighten(
+    sq: _Square, K: list[arb], P: list[arb], p_mid: np.ndarray, steps: int, floor: float
+) -> list:
     """Shrink an enclosure of the zero by Krawczyk steps centred on its midpoint, while each
-    step at least halves its largest radius."""
+    step at least halves its largest radius and that radius exceeds twice ``floor``, the
+    largest radius of the last interval Newton point (a step's enclosure holds a Newton point
+    about that wide: it cannot halve the radius then)."""
     n = sq.n
     for _ in range(steps):
         m = np.array([float(b.mid()) for b in K])
         width = max(float(b.rad()) for b in K)  # radii are exact in binary64
-        if width <= 64 * EPS * (1 + float(np.max(np.abs(m)))):
+        if width <= 64 * EPS * (1 + float(np.max(np.abs(m)))) or width <= 2 * floor:
             break
         Y, _ = _inverse(sq, m, p_mid)
         if Y is None:
@@ -350,6 +354,7 @@ def _tighten(sq: _Square, K: list[arb], P: list[arb], p_mid: np.ndarray, steps: 
         K = K2
         if not shrunk <= 0.5 * width:  # at the rounding's floor: more steps gain little
             break
+        floor = max(float(newton[i, 0].rad()) for i in range(n))
     return K
 
 
@@ -414,8 +419,9 @@ def krawczyk(
         tries: boxes tried (the first from the Newton correction at ``x``, then inflated).
         tighten: at most this many Krawczyk steps shrink a proven enclosure wider than a few
             ulps (from a rough ``x``), each centred on the previous enclosure; they stop after
-            a step that does not halve the enclosure's largest radius (the rounding's floor:
-            near a singular point ``cond(J) eps`` is wide, and more steps gain little).
+            a step that does not halve the enclosure's largest radius, and do not start when
+            it is within twice the interval Newton point's (the rounding's floor: near a
+            singular point ``cond(J) eps`` is wide, and more steps gain little).
         arithmetic: ``"auto"``: the first box in binary64 interval arithmetic in C where ``f``
             is rational (:mod:`scdk_sym.algebraic.ckrawczyk`), Arb balls if it proves
             nothing; ``"arb"``: Arb balls only (see :data:`ARITHMETICS`).
@@ -457,7 +463,7 @@ def _krawczyk(
         K, C = _operator(sq, X, mid, P, Ya, newton)
         tried = np.array([[m[i] - r[i], m[i] + r[i]] for i in range(n)])
         if all(X[i].contains_interior(K[i]) for i in range(n)):
-            K = _tighten(sq, K, P, p_mid, tighten)
+            K = _tighten(sq, K, P, p_mid, tighten, float(np.max(floor)) / 4)
             return _result(
                 True,
                 _outward(K),

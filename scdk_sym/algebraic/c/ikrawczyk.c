@@ -324,8 +324,15 @@ static double largest_radius(const ival *B, int64_t n) {
     return w;
 }
 
+/* The largest radius of the interval Newton point s->newton. */
+static double newton_radius(const work *s) {
+    return largest_radius(s->newton, s->n);
+}
+
 /* Shrink the proven enclosure B (n) by Krawczyk steps centred on its midpoint, while each
- * step at least halves its largest radius. */
+ * step at least halves its largest radius and that radius exceeds twice the last interval
+ * Newton point's (s->newton's: a step's enclosure holds a Newton point about that wide, so
+ * it cannot halve the radius then). */
 static void tighten_box(work *s, ival *B, double *c, int64_t steps) {
     const int64_t n = s->n;
     const double eps = 2.220446049250313e-16;
@@ -338,7 +345,7 @@ static void tighten_box(work *s, ival *B, double *c, int64_t steps) {
             if (fabs(c[i]) > big) big = fabs(c[i]);
         }
         const double width = largest_radius(B, n);
-        if (width <= 64 * eps * (1 + big)) return;
+        if (width <= 64 * eps * (1 + big) || width <= 2 * newton_radius(s)) return;
         if (inverse_at(s, c, INFINITY) || newton_point(s, c) || krawczyk_operator(s, B, c)) return;
         for (int64_t i = 0; i < n; ++i) { /* the zero lies in B and in K */
             const double lo = s->K[i].lo > B[i].lo ? s->K[i].lo : B[i].lo;

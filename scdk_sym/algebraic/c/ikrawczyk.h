@@ -60,8 +60,8 @@ enum { SCDK_K_OK = 0, SCDK_K_NO_MEMORY = 1, SCDK_K_BAD_SIZE = 2, SCDK_K_FAILED =
  * proven when K(X) lies in the interior of X: X then holds exactly one zero of f(., p) for
  * every p in the parameter box, and it lies in K(X). A proven enclosure is then shrunk by at
  * most `tighten` Krawczyk steps centred on its midpoint while its largest radius exceeds
- * 64 eps (1 + max|mid|) and decreases (each intersected with the previous enclosure; a step
- * that does not halve it is the last).
+ * 64 eps (1 + max|mid|) and twice the last interval Newton point's, and decreases (each
+ * intersected with the previous enclosure; a step that does not halve it is the last).
  * Point q's parameter box is [p_lo + q p_stride, p_hi + q p_stride] (k each; p_stride 0:
  * one box for all points).
  * Outputs per point: status (SCDK_K_*), r (n, the radii of X), box (n x 2, [lo, hi] of the
