@@ -55,6 +55,11 @@ class Configuration:
         }
 
 
+def mode_order(cfg: Configuration) -> tuple[float, ...]:
+    """The sort key of assembly modes: ``x``, then ``y``, each rounded to 1e-8."""
+    return tuple(round(v, 8) for v in (*cfg.x.tolist(), *cfg.y.tolist()))
+
+
 #: Kinds of singular points met along a path.
 CROSSING_KINDS = ("fold", "bifurcation")
 

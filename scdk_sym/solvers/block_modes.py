@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import VerificationError
-from ..results import AssemblyModes, Configuration
+from ..results import AssemblyModes, Configuration, mode_order
 from ..robot import Model
 from ..robot.blocks import BLOCK_MIN_UNKNOWNS, Block, triangular_blocks, triangular_models
 from ..robot.rods import rod_reduction
@@ -178,7 +178,6 @@ def _verified(
     Each part is verified with every other group at its first part (rows of different groups
     share no unknown, so any combination of verified parts closes); a group without a
     solution means no assembly, and nothing to verify."""
-    from .homotopy_modes import sort_key
 
     base = np.full(model.m, np.nan)
     for p in parts:
@@ -197,7 +196,7 @@ def _verified(
                 cfgs.append(cfg)
             else:
                 failed += 1
-        cfgs.sort(key=sort_key)
+        cfgs.sort(key=mode_order)
         kept.append(cfgs)
     return kept, failed
 

@@ -51,7 +51,7 @@ from ..follower.curve import Line, follow
 from ..follower.geometry import difference, features, kinds  # noqa: F401
 from ..follower.kernels import follower_kernels
 from ..model.rotations import quaternion_matrix
-from ..results import AssemblyModes, Configuration
+from ..results import AssemblyModes, Configuration, mode_order
 from ..robot import Model, as_vector
 from .sc import validate_start
 
@@ -387,7 +387,7 @@ class _Search:
 
     def result(self, t_begin: float) -> ModeSearch:
         """The search's record, the solutions in their canonical order."""
-        order = sorted(range(len(self.sols)), key=lambda i: _sort_key(self.sols[i]))
+        order = sorted(range(len(self.sols)), key=lambda i: mode_order(self.sols[i]))
         self.out.solutions = [self.sols[i] for i in order]
         self.out.met = [self.met[i] for i in order]
         self.out.elapsed = time.perf_counter() - t_begin
@@ -483,10 +483,6 @@ class RandomStarts:
     def _checked(self, cfg: Configuration) -> Configuration | None:
         ok = cfg.residual <= self.model.tolerance and np.all(np.isfinite(cfg.theta))
         return cfg if ok else None
-
-
-def _sort_key(cfg: Configuration) -> tuple:
-    return (*(round(float(v), 8) for v in cfg.x), *(round(float(v), 8) for v in cfg.y))
 
 
 def _progress_bar(enabled: bool):

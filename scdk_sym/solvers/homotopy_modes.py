@@ -42,7 +42,7 @@ from ..kernels.cache import read_entry, write_entry
 from ..kernels.fastcall import model_calls
 from ..model.rotations import rot_exp
 from ..products import START_SYSTEM
-from ..results import AssemblyModes, Configuration
+from ..results import AssemblyModes, Configuration, mode_order
 from ..robot import Model, as_vector
 from ..robot.rods import rod_reduction
 from .rod_modes import lifted_modes
@@ -839,20 +839,32 @@ def _real_modes(model, form, results, thetas: np.ndarray, reasons: list[list[str
         per_point[w].append(i)
     out = []
     for w, rows in enumerate(per_point):
-        cfgs: list[Configuration] = []
-        kept: list[int] = []
-        for i in rows:
-            if kept and np.abs(feats[kept] - feats[i]).max(axis=1).min() <= DUPLICATE * scale:
-                continue
-            cfgs.append(polished[i])
-            kept.append(i)
+        cfgs = [polished[rows[j]] for j in _first_of_images(feats[rows], DUPLICATE * scale)]
         if dropped[w]:
             reasons[w].append(
                 f"{dropped[w]} real endpoint(s) did not polish to max |g| <= {RESIDUAL:.0e}"
             )
-        cfgs.sort(key=sort_key)
+        cfgs.sort(key=mode_order)
         out.append((cfgs, spurious[w]))
     return out
+
+
+def _first_of_images(feats: np.ndarray, tol: float) -> list[int]:
+    """The rows of ``feats`` (R, d) kept in order, each unless some kept row lies within
+    ``tol`` of it (max-norm): all pairs compared at once, the in-order rule run only where
+    two rows meet."""
+    R = len(feats)
+    dist = np.abs(feats[:, None] - feats[None]).max(axis=2) if R else np.zeros((0, 0))
+    near = dist <= tol
+    if not np.triu(near, 1).any():
+        return list(range(R))
+    kept: list[int] = []
+    for i in range(R):
+        d = dist[kept, i]
+        if kept and not np.isnan(d).any() and d.min() <= tol:  # as min() of the column
+            continue
+        kept.append(i)
+    return kept
 
 
 def _certificates(model, cfgs, theta0: np.ndarray, reasons: list[str]) -> tuple:
@@ -891,8 +903,3 @@ def _certificates_many(model, cfg_lists, thetas: np.ndarray, reasons: list[list[
         if not cs.proven:
             reasons[w].append(f"certificates: {cs.reason}")
     return out
-
-
-def sort_key(cfg: Configuration) -> tuple:
-    """The order of assembly modes: ``x``, then ``y``, each rounded to 1e-8."""
-    return (*(round(float(v), 8) for v in cfg.x), *(round(float(v), 8) for v in cfg.y))
