@@ -357,3 +357,33 @@ def test_bad_inputs_raise_package_errors():
     )
     with pytest.raises(NotAssembledError):
         curve_modes(model, [0.4, 0.5, 0.4], start=broken)
+
+
+def test_images_of_one_configuration_keep_the_first_as_the_in_order_rule():
+    """The rows kept by the all-pairs rule against the plain in-order loop (a row goes when a
+    kept row lies within tol, max-norm, of it) on 2000 seeded cases with planted near-copies,
+    chains and NaN entries."""
+    from scdk_sym.solvers.homotopy_modes import _first_of_images
+
+    def in_order(feats, tol):
+        kept: list[int] = []
+        for i in range(len(feats)):
+            if kept and np.abs(feats[kept] - feats[i]).max(axis=1).min() <= tol:
+                continue
+            kept.append(i)
+        return kept
+
+    rng = np.random.default_rng(3)
+    fired = 0  # cases where some row went
+    for _ in range(2000):
+        R, d, tol = int(rng.integers(0, 12)), int(rng.integers(1, 5)), 1e-6
+        feats = rng.normal(size=(R, d))
+        for _ in range(int(rng.integers(0, 4)) if R >= 2 else 0):
+            i, j = rng.integers(0, R, 2)
+            feats[j] = feats[i] + rng.choice([0.0, 0.5, 0.9, 1.5]) * tol * rng.choice([-1, 1], d)
+        if R and rng.random() < 0.2:
+            feats[rng.integers(0, R), rng.integers(0, d)] = np.nan
+        want = in_order(feats, tol)
+        assert _first_of_images(feats, tol) == want, feats
+        fired += len(want) < R
+    assert fired >= 300
