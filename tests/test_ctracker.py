@@ -89,8 +89,10 @@ def test_sources_compile_with_every_warning_as_error(dietmaier, tmp_path):
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_c_tracker_steps_like_the_numpy_tracker(dietmaier, seed):
-    """Raw tracker on t in [0, 0.99]: same statuses, same end points, same step counts."""
+@pytest.mark.parametrize("third", [True, False])
+def test_c_tracker_steps_like_the_numpy_tracker(dietmaier, seed, third):
+    """Raw tracker on t in [0, 0.99]: same statuses, same end points, same step counts, with
+    the third Newton iteration and without (and the tighter predictor target it needs)."""
     _, form, start = dietmaier
     rng = np.random.default_rng(seed)
     gamma = np.exp(2j * np.pi * rng.uniform())
@@ -98,7 +100,7 @@ def test_c_tracker_steps_like_the_numpy_tracker(dietmaier, seed):
     hom = ParameterHomotopy(form, start.p[None], p0[None], start.b[None], np.zeros((1, 8)), [gamma])
     M = len(start.solutions)
     idx, tau0, tau1 = np.zeros(M, dtype=int), np.zeros(M), np.full(M, 0.99)
-    options = TrackerOptions()
+    options = TrackerOptions() if third else TrackerOptions(third=False, eta=1e-5, trust=1e-3)
     py = track(hom, lambda tau, i: (tau + 0j, np.ones_like(tau, dtype=complex)),
                start.solutions, idx, tau0, tau1, options)  # fmt: skip
     c = c_tracker(form, "c")(hom, start.solutions, idx, tau0, tau1, options)

@@ -52,6 +52,7 @@ class _Options(ctypes.Structure):
         ("noise", ctypes.c_double),
         ("max_steps", ctypes.c_int64),
         ("max_norm", ctypes.c_double),
+        ("third", ctypes.c_int64),
     ]
 
 
@@ -270,7 +271,7 @@ class CTracker:
         ix = np.ascontiguousarray(idx, dtype=np.int64)
         status, steps, accepted = (np.zeros(M, dtype=np.int64) for _ in range(3))
         opt = _Options(o.h0, o.h_min, o.h_max, o.eta, o.trust, o.theta, o.tol, o.floor,
-                       o.noise, int(o.max_steps), o.max_norm)  # fmt: skip
+                       o.noise, int(o.max_steps), o.max_norm, int(o.third))  # fmt: skip
         rc = self._track(
             self.n, self.k, *self._data(homotopy, weights), M, ix, z, tau, t1, h,
             ctypes.byref(opt), status, steps, accepted,

@@ -54,6 +54,11 @@ class TrackerOptions:
         floor: noise level of the updates (the contraction checks allow it).
         noise: a step whose two updates are both below this is accepted (Newton stagnates at
             the rounding level, ``eps cond(H_z)``, which is large near a path's escape).
+        third: a step whose first two updates contract (``nu1 <= trust``, ``nu2 <= theta
+            nu1 + floor``) but whose second is above ``tol`` makes a third Newton iteration,
+            accepted when ``nu3 <= theta nu2 + floor`` and ``nu3 <= tol`` (False: two
+            iterations only). Near a nearly singular endpoint the second update is what
+            limits the step: the third lets the predictor's error target ``eta`` be larger.
         max_steps: step attempts per path before ``STEP_LIMIT``.
         max_norm: ``|z|`` beyond which a path is ``DIVERGED``.
     """
@@ -61,14 +66,15 @@ class TrackerOptions:
     h0: float = 0.05
     h_min: float = 1e-13
     h_max: float = 0.25
-    eta: float = 1e-5
-    trust: float = 1e-3
+    eta: float = 1e-4
+    trust: float = 1e-2
     theta: float = 0.25
     tol: float = 1e-7
     floor: float = 1e-11
     noise: float = 1e-7
     max_steps: int = 2000
     max_norm: float = 1e8
+    third: bool = True
 
 
 @dataclass(frozen=True)
@@ -134,6 +140,23 @@ def newton(
         nu[:, k] = rel_norm(dz, z)
         z = z - np.where(np.isfinite(dz), dz, 0.0)
     return z, nu
+
+
+def _third(homotopy, zc, v, t, dt, idx, nu1, nu2, converged, o: TrackerOptions):
+    """The third Newton iteration of the steps that ask for it (``TrackerOptions.third``):
+    the corrected points, velocities and acceptances after it (the others unchanged)."""
+    more = ~converged & (nu1 <= o.trust) & (nu2 <= o.theta * nu1 + o.floor)
+    more &= np.isfinite(zc).all(axis=1)
+    if not more.any():
+        return zc, v, converged
+    z2 = zc[more]
+    H, Hz, Ht = homotopy(z2, t[more], idx[more])
+    X = solve_batched(Hz, np.stack([H, Ht * dt[more][:, None]], axis=2))
+    nu3 = rel_norm(X[..., 0], z2)
+    zc, v, converged = zc.copy(), v.copy(), converged.copy()
+    zc[more], v[more] = z2 - X[..., 0], -X[..., 1]
+    converged[more] = (nu3 <= o.theta * nu2[more] + o.floor) & (nu3 <= o.tol)
+    return zc, v, converged
 
 
 def _velocity(homotopy, tmap, z, tau, idx):
@@ -205,6 +228,9 @@ def track(
         zc, v_new = z1 - X[..., 0], -X[..., 1]
         nu1, nu2 = rel_norm(d1, zp), rel_norm(X[..., 0], z1)
         converged = (nu1 <= o.trust) & (nu2 <= o.theta * nu1 + o.floor) & (nu2 <= o.tol)
+        if o.third:
+            zc, v_new, converged = _third(homotopy, zc, v_new, t_new, dt_new, ia, nu1, nu2,
+                                          converged, o)  # fmt: skip
         at_noise = np.maximum(nu1, nu2) <= o.noise
         ok = np.isfinite(zc).all(axis=1) & np.isfinite(v_new).all(axis=1) & (converged | at_noise)
         steps[act] += 1

@@ -6,14 +6,18 @@
  *   corrector: two Newton iterations at the new t; norms nu1, nu2 of the updates relative to
  *              1 + max|z|; accepted when (nu1 <= trust, nu2 <= theta nu1 + floor, nu2 <= tol)
  *              or max(nu1, nu2) <= noise, and everything is finite; the second factorisation
- *              also gives the velocity at the new point;
+ *              also gives the velocity at the new point; with opt->third, a path whose first
+ *              two updates contract (nu1 <= trust, nu2 <= theta nu1 + floor) but whose nu2
+ *              exceeds tol makes a third iteration (and takes its velocity), accepted when
+ *              nu3 <= theta nu2 + floor and nu3 <= tol;
  *   step control: accepted, h = min(h clip((eta / nu1)^(1/5), 0.25, 2), h_max), the factor at
  *              most 1 right after a rejected step; rejected, h / 2.
  *
  * Lanes: SCDK_LANES paths advance in lock step, one per lane of a GCC vector type, so that
  * each evaluation of G (generated for lane vectors: scdk_sym/kernels/lanes.py) and each
- * elimination serves all of them; every step of every path makes the same five evaluations,
- * so the lanes never wait on each other. Each lane keeps its own step size, time and
+ * elimination serves all of them; every step of every path makes the same five evaluations
+ * (six when some lane makes a third Newton iteration: all lanes evaluate it, those that do
+ * not need it keep their second iteration's results), so the lanes never wait on each other. Each lane keeps its own step size, time and
  * counters; a lane whose path stops takes the next path. Lane by lane the arithmetic is that
  * of one path alone.
  * Linear systems: the package's LU with partial pivoting (scdk_lu.h, its lane form: pivot of
@@ -252,6 +256,29 @@ static void step(lanes *c, const double *weights, const double *tau, const doubl
     }
 }
 
+/* Whether a step's first two updates are accepted. */
+static int converged2(const scdk_options *o, double nu1, double nu2) {
+    return nu1 <= o->trust && nu2 <= o->theta * nu1 + o->floor && nu2 <= o->tol;
+}
+
+/* The third Newton iteration (see the file's comment) of the lanes with more[l], at times t:
+ * c->zt and the velocity -c->x1 updated in those lanes, their update norms in nu3. */
+static void third(lanes *c, const double *weights, const double *t, const int *more,
+                  double *nu3) {
+    homotopy(c, weights, &c->zt, t);
+    solve(c, &c->H, &c->Ht, &c->d1, &c->k2); /* d1, k2: free after the step */
+    for (int l = 0; l < L; ++l) {
+        if (!more[l]) continue;
+        nu3[l] = rel_norm(&c->d1, &c->zt, l);
+        for (int i = 0; i < N; ++i) {
+            c->zt.re[i][l] -= c->d1.re[i][l];
+            c->zt.im[i][l] -= c->d1.im[i][l];
+            c->x1.re[i][l] = c->k2.re[i][l];
+            c->x1.im[i][l] = c->k2.im[i][l];
+        }
+    }
+}
+
 /* The per-path state of a lane. */
 typedef struct {
     int64_t j;  /* the path in the lane, -1: idle */
@@ -268,11 +295,13 @@ static void store(const lanes *c, int l, double *z) {
     }
 }
 
-/* Accept or reject the step of lane l (see the file's comment); 1 when its path stopped. */
+/* Accept or reject the step of lane l (see the file's comment); nu3: the third update's norm
+ * when the lane made one, NaN else; 1 when its path stopped. */
 static int advance(lanes *c, lane_state *s, const scdk_options *o, double hh, double nu1,
-                   double nu2, int l) {
+                   double nu2, double nu3, int l) {
     const double t_new = s->tau + hh;
-    const int converged = nu1 <= o->trust && nu2 <= o->theta * nu1 + o->floor && nu2 <= o->tol;
+    const int converged = isnan(nu3) ? converged2(o, nu1, nu2)
+                                     : nu3 <= o->theta * nu2 + o->floor && nu3 <= o->tol;
     const int at_noise = (nu1 > nu2 ? nu1 : nu2) <= o->noise;
     const int ok = all_finite(&c->zt, l) && all_finite(&c->x1, l) && (converged || at_noise);
     ++s->steps;
@@ -358,8 +387,20 @@ int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_fro
             if (remaining - hh[l] < 1e-3 * hh[l]) hh[l] = remaining; /* no sliver before the end */
         }
         step(c, weights, t, hh, nu1, nu2);
+        double nu3[L];
+        int more[L], any = 0;
         for (int l = 0; l < L; ++l) {
-            if (s[l].j < 0 || !advance(c, &s[l], opt, hh[l], nu1[l], nu2[l], l)) continue;
+            nu3[l] = NAN;
+            more[l] = opt->third && s[l].j >= 0 && !converged2(opt, nu1[l], nu2[l]) &&
+                      nu1[l] <= opt->trust && nu2[l] <= opt->theta * nu1[l] + opt->floor &&
+                      all_finite(&c->zt, l);
+            any |= more[l];
+            t[l] = t[l] + hh[l]; /* the step's end, as step() takes it */
+        }
+        if (any) third(c, weights, t, more, nu3);
+        for (int l = 0; l < L; ++l) {
+            if (s[l].j < 0 || !advance(c, &s[l], opt, hh[l], nu1[l], nu2[l], nu3[l], l))
+                continue;
             const int64_t j = s[l].j;
             store(c, l, z + 2 * N * j);
             tau[j] = s[l].tau;

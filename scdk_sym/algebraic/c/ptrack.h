@@ -27,6 +27,7 @@ typedef struct {
     double h0, h_min, h_max, eta, trust, theta, tol, floor, noise;
     int64_t max_steps;
     double max_norm;
+    int64_t third; /* nonzero: a third Newton iteration where the first two contract */
 } scdk_options;
 
 /* Track M paths of the homotopy above from tau0[j] to tau1[j] (t = tau).
