@@ -14,6 +14,15 @@ if TYPE_CHECKING:
 
 
 def frozen_array(a: np.ndarray) -> np.ndarray:
+    """A read-only float copy of ``a``; ``a`` itself when it is already a read-only float
+    array whose memory nothing can write (its base, if any, read-only too)."""
+    if (
+        isinstance(a, np.ndarray)
+        and a.dtype == np.float64
+        and not a.flags.writeable
+        and (a.base is None or (isinstance(a.base, np.ndarray) and not a.base.flags.writeable))
+    ):
+        return a
     a = np.array(a, dtype=float)
     a.setflags(write=False)
     return a

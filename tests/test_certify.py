@@ -362,3 +362,31 @@ def test_certificates_hold_at_other_arb_precisions(prec):
         ctx.prec = old
     assert c.proven and c.contains(r), c.reason
     assert c.radius <= (1e-6 if prec < 53 else 1e-14)
+
+
+def test_configuration_sets_at_once_equal_set_by_set():
+    """certify_configuration_sets of several Stewart-Gough sets (rotations in a common chart
+    per set, given or not): bit for bit the sets certified one at a time (the loop of
+    ``_local`` and ``certify_sets``), and sets whose boxes are disjoint said so by the
+    comparison of all sets at once as by the pairwise one."""
+    from scdk_sym.algebraic import certify as cm
+
+    model = shipped("stewart_gough")
+    rng = np.random.default_rng(2)
+    sets = []
+    for _ in range(6):
+        theta = model.home.theta * (1 + 0.02 * rng.normal(size=model.k))
+        modes = sc.assembly_modes(model, theta)
+        ys = np.vstack([s.y for s in modes])[: int(rng.integers(1, len(modes) + 1))]
+        c = None if rng.random() < 0.5 else model.chart.to_local(ys[-1])[1]
+        sets.append((ys, theta, c))
+    at_once = cm.certify_configuration_sets(model, sets)
+    for (ys, theta, c), got in zip(sets, at_once, strict=True):
+        local, q = cm._local(model, ys, theta, c)
+        want = cm.certify_sets(cm.closure_function(model), [local], [q])[0]
+        assert got.reason == want.reason and got.count == want.count
+        assert got.overlaps == want.overlaps and got.duplicates == want.duplicates
+        for a, b in zip(got.certificates, want.certificates, strict=True):
+            assert a.box.tobytes() == b.box.tobytes() and a.x.tobytes() == b.x.tobytes()
+        plain = cm._certificate_set(got.certificates)  # every pair compared again
+        assert plain.reason == got.reason and plain.overlaps == got.overlaps

@@ -508,3 +508,30 @@ def test_path_jumps_fail_as_the_per_target_rule_says():
         assert list(status) == list(want)
         np.testing.assert_array_equal(out, want_out)
     assert fired >= 200
+
+
+def test_dedup_groups_equals_dedup_of_each_group():
+    """Groups of several sizes (empty, one row, planted near-copies, NaN rows) at once, bit
+    for bit as dedup of each, on 300 seeded batches."""
+    from scdk_sym.algebraic.homotopy import dedup, dedup_groups
+
+    rng = np.random.default_rng(11)
+    merged = 0  # groups where some row went
+    for _ in range(300):
+        n, tol = int(rng.integers(1, 4)), 1e-8
+        xs = []
+        for _ in range(int(rng.integers(1, 8))):
+            size = (int(rng.choice([0, 1, 2, 3, 3, 6])), n)
+            x = rng.normal(size=size) * 10.0 ** rng.integers(-2, 3)
+            for _ in range(int(rng.integers(0, 3)) if len(x) >= 2 else 0):
+                i, j = rng.integers(0, len(x), 2)
+                x[j] = x[i] * (1 + rng.choice([0.0, 5e-9, 2e-8]))
+            if len(x) and rng.random() < 0.15:
+                x[rng.integers(0, len(x))] = np.nan
+            xs.append(x)
+        got = dedup_groups(xs, tol, block=int(rng.choice([1, 50, 1 << 20])))
+        for x, g in zip(xs, got, strict=True):
+            want = dedup(x, tol)
+            assert g.shape == want.shape and g.tobytes() == want.tobytes()
+            merged += len(want) < len(x)
+    assert merged >= 50

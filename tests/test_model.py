@@ -230,3 +230,24 @@ def test_a_product_is_built_once_per_model_and_not_shared(monkeypatch):
     assert len(calls) == 2 and a.products.peek(MODEL_CALLS, "other") is None
     with pytest.raises(InputError, match="undeclared product key"):
         a.products.get(Key("model_calls", "a copy", "nothing"), lambda: 1)
+
+
+def test_frozen_arrays_copy_unless_nothing_can_write_them():
+    """A configuration's arrays are read-only; rows of a read-only owner are taken as they
+    are, a read-only view of a writable array is copied (writing the array leaves it)."""
+    from scdk_sym.results import Configuration, frozen_array
+
+    owner = np.arange(6.0).reshape(2, 3).copy()
+    owner.setflags(write=False)
+    assert frozen_array(owner[1]) is not None and np.shares_memory(frozen_array(owner[1]), owner)
+    base = np.arange(3.0)
+    view = base[:]
+    view.setflags(write=False)
+    kept = frozen_array(view)
+    base[0] = 42.0
+    assert kept[0] == 0.0 and not kept.flags.writeable
+    cfg = Configuration(base, base, base, np.eye(4), {"a": 1.0})
+    base[1] = -1.0
+    assert cfg.y[1] == 1.0 and not cfg.y.flags.writeable
+    with pytest.raises(ValueError):
+        cfg.x[0] = 3.0

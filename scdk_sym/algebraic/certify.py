@@ -383,6 +383,9 @@ def _fast(
     radius = np.max((box[:, :, 1] - box[:, :, 0]) / 2, axis=1)
     radius = np.where(np.isfinite(radius), radius, np.inf)
     r_max = np.max(r, axis=1)
+    box, ms = np.array(box), np.array(ms)  # owned, then read-only: the rows are not copied
+    for a in (box, domain, ms):
+        a.setflags(write=False)
     return [
         Certificate(
             proven=True,
@@ -589,32 +592,75 @@ def certify_sets(
             ms = np.array([_vector(x, sq.n, "x") for x in xs]).reshape(len(xs), sq.n)
         sets.append(ms)
         params.append(_parameters(p, sq.n_params))
-    sizes = [len(ms) for ms in sets]
     if not sets:
         return []
-    ms_all = np.concatenate(sets)
+    sizes = [len(ms) for ms in sets]
     bounds = np.concatenate(
         [np.broadcast_to(b, (n, *b.shape)) for (_, b, _), n in zip(params, sizes, strict=True)]
     )
+    return _certify_many(sq, np.concatenate(sets), sizes, params, bounds, tries, tighten,
+                         arithmetic)  # fmt: skip
+
+
+def _certify_many(
+    sq: _Square,
+    ms_all: np.ndarray,
+    sizes: list[int],
+    params: list,
+    bounds: np.ndarray,
+    tries: int,
+    tighten: int,
+    arithmetic: str,
+) -> list[CertificateSet]:
+    """:func:`certify_sets` of checked input: the points of all sets (N, n), each set's
+    size, its :func:`_parameters` and every point's parameter bounds (N, k, 2)."""
     fast = _fast(sq, ms_all, bounds, tighten, arithmetic)  # all points in one call
+    meets = _sets_meeting(fast, sizes)
     out, start = [], 0
-    for ms, (p_mid, b, exact) in zip(sets, params, strict=True):
-        ours = fast[start : start + len(ms)]
+    for size, (p_mid, b, exact), meet in zip(sizes, params, meets, strict=True):
+        ms = ms_all[start : start + size]
+        ours = fast[start : start + size]
         P = _balls(b, exact) if any(c is None for c in ours) else []
         certs = tuple(
             c if c is not None else _krawczyk(sq, m, P, p_mid, tries, tighten)
             for c, m in zip(ours, ms, strict=True)
         )
         start += len(ms)
-        out.append(_certificate_set(certs))
+        out.append(_certificate_set(certs, disjoint=not meet))
     return out
 
 
-def _certificate_set(certs: tuple) -> CertificateSet:
-    """The :class:`CertificateSet` of certificates: which are proven, which boxes meet."""
+def _sets_meeting(fast: list, sizes: list[int]) -> list[bool]:
+    """Per set of :func:`_fast`'s certificates: whether two of its boxes may meet (False only
+    when every point of the set is proven there and its boxes are pairwise disjoint), the
+    sets of one size compared at once."""
+    out = [True] * len(sizes)
+    starts = np.concatenate([[0], np.cumsum(sizes)]).astype(int).tolist()
+    by_size: dict[int, list[int]] = {}
+    for s, size in enumerate(sizes):
+        if all(c is not None for c in fast[starts[s] : starts[s + 1]]):
+            if size < 2:
+                out[s] = False
+            else:
+                by_size.setdefault(size, []).append(s)
+    for size, group in by_size.items():
+        B = np.stack([c.box for s in group for c in fast[starts[s] : starts[s + 1]]])
+        B = B.reshape(len(group), size, *B.shape[1:])  # (G, size, n, 2)
+        lo, hi = B[..., 0], B[..., 1]
+        meet = np.all((lo[:, :, None] <= hi[:, None]) & (lo[:, None] <= hi[:, :, None]), axis=3)
+        diag = np.arange(size)
+        meet[:, diag, diag] = False
+        for s, m in zip(group, meet.any(axis=(1, 2)).tolist(), strict=True):
+            out[s] = m
+    return out
+
+
+def _certificate_set(certs: tuple, disjoint: bool = False) -> CertificateSet:
+    """The :class:`CertificateSet` of certificates: which are proven, which boxes meet
+    (``disjoint``: known pairwise disjoint, not compared again)."""
     proven = [i for i, c in enumerate(certs) if c.proven]
     overlaps, duplicates = [], []
-    if len(proven) > 1:
+    if len(proven) > 1 and not disjoint:
         box = np.array([certs[i].box for i in proven])  # (P, n, 2)
         dom = np.array([certs[i].domain for i in proven])
         meet = np.all(
@@ -760,7 +806,15 @@ def certify_configuration_sets(
     Raises:
         InputError: a set as :func:`certify_configurations` raises it.
     """
-    xs_list, q_list = [], []
+    _checked(tries, tighten, arithmetic)
+    batch = _local_sets(model, sets)
+    if batch is not None:
+        sq: _Square = _SQUARES(closure_function(model))
+        local, qs, sizes = batch
+        params = [(q, np.stack([q, q], axis=1), True) for q in qs]
+        bounds = np.repeat(np.stack([qs, qs], axis=2), sizes, axis=0)
+        return _certify_many(sq, local, sizes, params, bounds, tries, tighten, arithmetic)
+    xs_list, q_list = [], []  # one set after the other: the first bad one says what is wrong
     for ys, theta, c in sets:
         local, q = _local(model, ys, theta, c)
         xs_list.append(local)
@@ -769,6 +823,50 @@ def certify_configuration_sets(
         closure_function(model), xs_list, q_list, tries=tries, tighten=tighten,
         arithmetic=arithmetic,
     )  # fmt: skip
+
+
+def _local_sets(model: Model, sets: list) -> tuple | None:
+    """:func:`_local` of every set at once, as it makes them set by set: the local
+    coordinates of all configurations (N, m), each set's parameters (S, k + chart size) and
+    sizes; ``None`` where some set is not plain valid input (:func:`_local` says why)."""
+    if not sets:
+        return None
+    ys_list, thetas, charts = [], [], []
+    for ys, theta, c in sets:
+        if not (isinstance(ys, np.ndarray) and isinstance(theta, np.ndarray)):
+            return None
+        if ys.dtype != np.float64 or ys.ndim != 2 or ys.shape[1] != model.m:
+            return None
+        if theta.dtype != np.float64 or theta.shape != (model.k,):
+            return None
+        ys_list.append(ys)
+        thetas.append(theta)
+        charts.append(c)
+    sizes = [len(ys) for ys in ys_list]
+    Y = np.concatenate(ys_list)
+    T = np.stack(thetas)
+    if not (np.isfinite(Y).all() and np.isfinite(T).all()):
+        return None
+    size = model.chart.size
+    C = np.zeros((len(sets), size))
+    for i, (ys, c) in enumerate(zip(ys_list, charts, strict=True)):
+        if c is None:
+            C[i] = model.chart.to_local(ys[0])[1] if len(ys) else np.zeros(size)
+        elif isinstance(c, np.ndarray) and c.dtype == np.float64 and c.shape == (size,):
+            C[i] = c
+        else:
+            return None
+    if not np.isfinite(C).all():
+        return None
+    local = Y.copy()
+    if model.chart.rotations:
+        row_charts = np.repeat(C, sizes, axis=0)  # each row's set's chart
+        for i, idx in enumerate(model.chart.rotations):
+            ref = row_charts[:, 9 * i : 9 * i + 9].reshape(-1, 3, 3, order="F")
+            local[:, list(idx)] = gibbs(ref.transpose(0, 2, 1) @ rot_exp(local[:, list(idx)]))
+    if not np.all(np.abs(local) < 1e8):
+        return None
+    return local, np.concatenate([T, C], axis=1), sizes
 
 
 def _local(model: Model, ys: ArrayLike, theta: ArrayLike, c: ArrayLike | None) -> tuple:

@@ -304,12 +304,15 @@ def real_endpoints_many(
         W arrays (K_w, n) float, each as :func:`real_endpoints` returns it (each row's Newton
         steps are those of a single call).
     """
-    xs = []
-    for z in zs:
-        z = z[np.isfinite(z).all(axis=1)]
-        real = rel_norm(z.imag, z) <= real_tol
-        xs.append(z[real].real.astype(complex))
-    sizes = [len(x) for x in xs]
+    n = system.n
+    owner = np.repeat(np.arange(len(zs)), [len(z) for z in zs])
+    z = np.concatenate(zs) if zs else np.zeros((0, n), dtype=complex)
+    z = z.reshape(len(owner), n)
+    keep = np.isfinite(z).all(axis=1)
+    keep[keep] = rel_norm(z[keep].imag, z[keep]) <= real_tol
+    owner = owner[keep]
+    sizes = np.bincount(owner, minlength=len(zs)).tolist()
+    xs = np.split(z[keep].real.astype(complex), np.cumsum(sizes)[:-1]) if zs else []
     if sum(sizes) and polish and ctrack is not None:
         P = np.asarray(P0, dtype=complex).reshape(len(zs), system.n_params)
         b = np.zeros((len(zs), system.n), dtype=complex)
@@ -319,7 +322,7 @@ def real_endpoints_many(
         xs = np.split(x, np.cumsum(sizes)[:-1])
     elif sum(sizes) and polish:
         xs = [_real_newton(system, x, p) for x, p in zip(xs, P0, strict=True)]
-    return [dedup(x.real, dedup_tol) for x in xs]
+    return dedup_groups([x.real for x in xs], dedup_tol)
 
 
 def _real_newton(system: PolynomialSystem, x: np.ndarray, p0: np.ndarray) -> np.ndarray:
@@ -335,6 +338,35 @@ def _real_newton(system: PolynomialSystem, x: np.ndarray, p0: np.ndarray) -> np.
             break
         x = x - np.where(np.isfinite(dx), dx, 0.0)
     return x
+
+
+def dedup_groups(xs: list[np.ndarray], tol: float, block: int = 1 << 20) -> list[np.ndarray]:
+    """:func:`dedup` of each of several arrays (each (M_g, n)), the pairs of all groups
+    compared at once (about ``block`` entries at a time); a group runs :func:`dedup` itself
+    only where two of its rows meet."""
+    out: list[np.ndarray] = [np.zeros((0, 0))] * len(xs)
+    small = [g for g, x in enumerate(xs) if len(x) <= 1]
+    for g in small:
+        out[g] = dedup(xs[g], tol)
+    by_size: dict[tuple, list[int]] = {}
+    for g, x in enumerate(xs):
+        if len(x) > 1:
+            by_size.setdefault(x.shape, []).append(g)
+    for (M, n), groups in by_size.items():
+        step = max(1, block // (M * M * max(n, 1)))
+        for a in range(0, len(groups), step):
+            rows = groups[a : a + step]
+            x = np.stack([xs[g] for g in rows])  # (G, M, n)
+            scale = 1.0 + np.abs(x).max(axis=2)
+            with np.errstate(invalid="ignore"):
+                d = np.abs(x[:, :, None] - x[:, None]).max(axis=3)
+                close = d / scale[:, None, :] <= tol  # as dedup: relative to the column's row
+            diag = np.arange(M)
+            close[:, diag, diag] = False
+            meet = close.any(axis=(1, 2))
+            for g, m, xg in zip(rows, meet.tolist(), x, strict=True):
+                out[g] = dedup(xs[g], tol) if m else xg[np.lexsort(xg.real.T[::-1])]
+    return out
 
 
 def dedup(x: np.ndarray, tol: float, block: int = 256) -> np.ndarray:

@@ -878,16 +878,23 @@ class Model:
         T, x = calls.mapped("pose", N)(ys.T, arg, cs.T)
         if residuals is None:
             residuals = np.abs(calls.mapped("check", N)(ys.T, arg, cs.T)).max(axis=0)
+        # owned read-only arrays: the configurations take their rows without copies
+        ths = np.array(thetas)
+        xs = np.array(np.asarray(x).T)
+        poses = np.array(np.asarray(T).reshape(4, N, 4).transpose(1, 0, 2))
+        ys_c = np.array(canonical)
+        for a in (ths, xs, poses, ys_c):
+            a.setflags(write=False)
         return [
             Configuration(
-                thetas[i],
-                y,
-                x[:, i],
-                T[:, 4 * i : 4 * i + 4],
-                self.joint_values(y, thetas[i]),
+                ths[i],
+                ys_c[i],
+                xs[i],
+                poses[i],
+                self.joint_values(ys_c[i], ths[i]),
                 float(residuals[i]),
             )  # fmt: skip
-            for i, y in enumerate(canonical)
+            for i in range(N)
         ]
 
     @cached_property

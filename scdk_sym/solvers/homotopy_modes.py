@@ -854,9 +854,11 @@ def _first_of_images(feats: np.ndarray, tol: float) -> list[int]:
     ``tol`` of it (max-norm): all pairs compared at once, the in-order rule run only where
     two rows meet."""
     R = len(feats)
-    dist = np.abs(feats[:, None] - feats[None]).max(axis=2) if R else np.zeros((0, 0))
+    if R < 2:
+        return list(range(R))
+    dist = np.abs(feats[:, None] - feats[None]).max(axis=2)
     near = dist <= tol
-    if not np.triu(near, 1).any():
+    if np.count_nonzero(near) == np.count_nonzero(near.diagonal()):  # no two rows meet
         return list(range(R))
     kept: list[int] = []
     for i in range(R):
