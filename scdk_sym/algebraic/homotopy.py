@@ -198,13 +198,22 @@ def _fail_jumps(out: np.ndarray, status: np.ndarray, idx: np.ndarray) -> None:
     ends = np.flatnonzero(status == "success")
     if ends.size < 2:
         return
-    ends = ends[np.argsort(idx[ends], kind="stable")]
-    _, first, sizes = np.unique(idx[ends], return_index=True, return_counts=True)
-    groups = [ends[a : a + k] for a, k in zip(first, sizes, strict=True) if k > 1]
-    if not groups:
-        return
-    for size in np.unique([len(g) for g in groups]):
-        rows = np.stack([g for g in groups if len(g) == size])  # (G, size)
+    ie = idx[ends]
+    if np.any(ie[1:] < ie[:-1]):
+        order = np.argsort(ie, kind="stable")
+        ends, ie = ends[order], ie[order]
+    first = np.concatenate([[0], np.flatnonzero(ie[1:] != ie[:-1]) + 1])
+    sizes = np.diff(np.append(first, len(ie)))
+    if np.all(sizes == sizes[0]):  # every datum with equally many ends: one block
+        groups_by_size = {int(sizes[0]): [ends.reshape(len(first), int(sizes[0]))]}
+    else:
+        groups_by_size = {}
+        for a, k in zip(first.tolist(), sizes.tolist(), strict=True):
+            groups_by_size.setdefault(k, []).append(ends[a : a + k][None])
+    for size, blocks in groups_by_size.items():
+        if size < 2:
+            continue
+        rows = np.concatenate(blocks)  # (G, size)
         zs = out[rows]  # (G, size, n)
         close = (
             np.abs(zs[:, :, None] - zs[:, None]).max(axis=3)

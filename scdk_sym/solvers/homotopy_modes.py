@@ -708,10 +708,7 @@ def _modes_many(
         if results[w] is None:
             results[w] = solve_homotopy(form, start, P0[w], seed=seed, real_tol=REAL_TOL)
             complete[w] = start.trace_passed and _complete_set(results[w], start.root_count)
-    half_turns = [
-        _path_reasons(form, res, th, why)
-        for res, th, why in zip(results, thetas, reasons, strict=True)
-    ]
+    half_turns = _path_reasons_many(form, results, thetas, reasons)
     found = _real_modes(model, form, results, thetas, reasons)
     certs = _certificates_many(model, [cfgs for cfgs, _ in found], thetas, reasons)
     out = []
@@ -767,6 +764,26 @@ def _assembly_modes(start, found, certs, reasons, half_turns, continued) -> Asse
         certificates=certs,
         method="homotopy",
     )
+
+
+def _path_reasons_many(form, results: list, thetas: np.ndarray, reasons: list[list[str]]) -> list:
+    """:func:`_path_reasons` of each point: the points of one path count screened at once,
+    the function itself run only where some path failed, ended singular or nearly real."""
+    out = [0] * len(results)
+    by_paths: dict[tuple, list[int]] = {}
+    for w, res in enumerate(results):
+        by_paths.setdefault(res.endpoints.shape, []).append(w)
+    for group in by_paths.values():
+        S = np.stack([results[w].status for w in group])  # (G, R)
+        Z = np.stack([results[w].endpoints for w in group])  # (G, R, n)
+        ok = S == "success"
+        with np.errstate(invalid="ignore"):
+            imag = np.abs(Z.imag).max(axis=2) / np.maximum(1.0, np.abs(Z).max(axis=2))
+        undecided = ok & (imag > REAL_TOL) & (imag <= UNDECIDED_TOL)
+        look = (S == "failed").any(axis=1) | (S == "singular").any(axis=1) | undecided.any(axis=1)
+        for w in np.asarray(group)[look].tolist():
+            out[w] = _path_reasons(form, results[w], thetas[w], reasons[w])
+    return out
 
 
 def _path_reasons(form, res, theta0: np.ndarray, reasons: list[str]) -> int:
