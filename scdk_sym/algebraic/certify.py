@@ -635,6 +635,8 @@ def _sets_meeting(fast: list, sizes: list[int]) -> list[bool]:
     when every point of the set is proven there and its boxes are pairwise disjoint), the
     sets of one size compared at once."""
     out = [True] * len(sizes)
+    if len(sizes) < 2:  # one set: its own pairwise comparison is as cheap
+        return out
     starts = np.concatenate([[0], np.cumsum(sizes)]).astype(int).tolist()
     by_size: dict[int, list[int]] = {}
     for s, size in enumerate(sizes):
