@@ -375,3 +375,25 @@ def test_modes_counted_and_method_recorded(seed, tmp_path):
     assert g["n_modes"][:].tolist() == [len(s) for s in sols]
     assert g["status"][:].tolist() == [0] and len(sols[0]) >= 1
     assert "certified complete" in g.attrs["scdk_atlas"]["n_modes_method"]
+
+
+def test_temporary_files_of_unfinished_writes_are_removed_on_resume(seed, serial_store, tmp_path):
+    """A worker killed between Zarr's write of a chunk's temporary file and its rename leaves
+    ``<key>.<hex>.partial`` in the store: the next run on the store deletes it (the store then
+    equals a clean run's, file for file), and a finished run leaves none."""
+    model, start = seed
+    out = tmp_path / "partial.zarr"
+
+    def stop(done: int, total: int) -> None:
+        if done >= 2 * CHUNK:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        sc.atlas(model, GRID, out, start=start, chunk=CHUNK, progress=False, on_chunk=stop)
+    stale = out / "theta" / "c" / "2" / "0.aade6aa5bba94838bed8755b29099be8.partial"
+    stale.parent.mkdir(parents=True, exist_ok=True)
+    stale.write_bytes(b"")
+    sc.atlas(model, GRID, out, start=start, chunk=CHUNK, progress=False)
+    assert not stale.exists()
+    assert files(out) == files(serial_store)
+    assert not list(serial_store.rglob("*.partial"))

@@ -33,7 +33,7 @@ from ..optional import require
 from .chunk import STATUS, ModelSource, keep_model, model_source, solve_chunk, worker_model
 from .grid import Grid, make_grid
 from .lock import store_lock
-from .store import FORMAT, Layout, create_or_check, write_chunk
+from .store import FORMAT, Layout, create_or_check, remove_partial_writes, write_chunk
 
 if TYPE_CHECKING:
     from ..results import Configuration
@@ -318,6 +318,7 @@ def _run(plan: _Plan, meta: dict, workers, scheduler, t0: float) -> AtlasRun:
     finally:
         if bar is not None:
             bar.close()
+    remove_partial_writes(out)  # a worker killed while writing left its temporary file
     counts = _counts(out, len(STATUS))
     return AtlasRun(
         out,

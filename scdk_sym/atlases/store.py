@@ -18,6 +18,7 @@ install): the only difference used is how a group's arrays and attributes are cr
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
@@ -99,6 +100,7 @@ def create_or_check(path: str | Path, layout: Layout, meta: dict) -> np.ndarray:
                 f"store {str(p)!r} was written for another run (differs in: {', '.join(diff)}); "
                 "use a new --out path or the same model, grid and options"
             )
+        remove_partial_writes(p)
         return done_mask(p, layout.chunks, group)
     # built beside its place and renamed into it: a store is complete or absent
     tmp = p.with_name(f".{p.name}.{os.getpid()}.partial")
@@ -123,6 +125,24 @@ def create_or_check(path: str | Path, layout: Layout, meta: dict) -> np.ndarray:
         create(name, shape=shape, chunks=chunks, dtype=dtype, fill_value=fill)
     os.replace(tmp, p)
     return np.zeros(layout.chunks, dtype=bool)
+
+
+def remove_partial_writes(path: str | Path) -> int:
+    """Delete the temporary files of chunk writes that never finished in a local store (Zarr
+    writes ``<key>.<hex>.partial`` and renames it into place: a worker killed in between
+    leaves it behind). Only under the store's lock, with no worker of this run writing.
+
+    Returns:
+        How many were deleted.
+    """
+    removed = 0
+    for folder, _, names in os.walk(path):
+        for name in names:
+            if name.endswith(".partial"):
+                with contextlib.suppress(FileNotFoundError):
+                    os.remove(os.path.join(folder, name))
+                    removed += 1
+    return removed
 
 
 def done_mask(path: str | Path, chunks: int, group=None) -> np.ndarray:
