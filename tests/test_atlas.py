@@ -88,6 +88,12 @@ def files(store: Path) -> dict[str, bytes]:
     }
 
 
+def stop_after_two_chunks(done: int, total: int) -> None:
+    """An ``on_chunk`` that interrupts a run once two chunks are written."""
+    if done >= 2 * CHUNK:
+        raise KeyboardInterrupt
+
+
 def check_against(out: Path, reference) -> None:
     thetas, xs, status = reference
     g = open_atlas(out)
@@ -217,12 +223,9 @@ def test_client_interrupt_resumes_identically(seed, serial_store, tmp_path):
     model, start = seed
     out = tmp_path / "interrupted.zarr"
 
-    def stop(done: int, total: int) -> None:
-        if done >= 2 * CHUNK:
-            raise KeyboardInterrupt
-
     with pytest.raises(KeyboardInterrupt):
-        sc.atlas(model, GRID, out, start=start, chunk=CHUNK, progress=False, on_chunk=stop)
+        sc.atlas(model, GRID, out, start=start, chunk=CHUNK, progress=False,
+                 on_chunk=stop_after_two_chunks)  # fmt: skip
     assert open_atlas(out)["done"][:].tolist() == [1, 1, 0, 0, 0]
     seen = []
     run = sc.atlas(
@@ -384,12 +387,9 @@ def test_temporary_files_of_unfinished_writes_are_removed_on_resume(seed, serial
     model, start = seed
     out = tmp_path / "partial.zarr"
 
-    def stop(done: int, total: int) -> None:
-        if done >= 2 * CHUNK:
-            raise KeyboardInterrupt
-
     with pytest.raises(KeyboardInterrupt):
-        sc.atlas(model, GRID, out, start=start, chunk=CHUNK, progress=False, on_chunk=stop)
+        sc.atlas(model, GRID, out, start=start, chunk=CHUNK, progress=False,
+                 on_chunk=stop_after_two_chunks)  # fmt: skip
     stale = out / "theta" / "c" / "2" / "0.aade6aa5bba94838bed8755b29099be8.partial"
     stale.parent.mkdir(parents=True, exist_ok=True)
     stale.write_bytes(b"")

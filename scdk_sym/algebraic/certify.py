@@ -860,15 +860,21 @@ def _local_sets(model: Model, sets: list) -> tuple | None:
             return None
     if not np.isfinite(C).all():
         return None
-    local = Y.copy()
-    if model.chart.rotations:
-        row_charts = np.repeat(C, sizes, axis=0)  # each row's set's chart
-        for i, idx in enumerate(model.chart.rotations):
-            ref = row_charts[:, 9 * i : 9 * i + 9].reshape(-1, 3, 3, order="F")
-            local[:, list(idx)] = gibbs(ref.transpose(0, 2, 1) @ rot_exp(local[:, list(idx)]))
+    local = _in_charts(model, Y, np.repeat(C, sizes, axis=0))
     if not np.all(np.abs(local) < 1e8):
         return None
     return local, np.concatenate([T, C], axis=1), sizes
+
+
+def _in_charts(model: Model, ys: np.ndarray, charts: np.ndarray) -> np.ndarray:
+    """Canonical unknowns ``ys`` (N, m) in the local coordinates of the charts (N, chart
+    size), one per row: each floating joint's rotation in Rodrigues parameters relative to
+    its reference rotation (all rows at once)."""
+    local = ys.copy()
+    for i, idx in enumerate(model.chart.rotations):
+        ref = charts[:, 9 * i : 9 * i + 9].reshape(-1, 3, 3, order="F")
+        local[:, list(idx)] = gibbs(ref.transpose(0, 2, 1) @ rot_exp(local[:, list(idx)]))
+    return local
 
 
 def _local(model: Model, ys: ArrayLike, theta: ArrayLike, c: ArrayLike | None) -> tuple:
@@ -884,10 +890,7 @@ def _local(model: Model, ys: ArrayLike, theta: ArrayLike, c: ArrayLike | None) -
     if c is None:
         c = model.chart.to_local(ys[0])[1] if len(ys) else np.zeros(model.chart.size)
     c = _vector(c, model.chart.size, "chart c")
-    local = ys.copy()
-    for i, idx in enumerate(model.chart.rotations):
-        ref = c[9 * i : 9 * i + 9].reshape(3, 3, order="F")
-        local[:, list(idx)] = gibbs(ref.T @ rot_exp(local[:, list(idx)]))  # all rows at once
+    local = _in_charts(model, ys, np.broadcast_to(c, (len(ys), len(c))))
     far = np.flatnonzero(~np.all(np.abs(local) < 1e8, axis=1))
     if far.size:
         raise InputError(
