@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import TYPE_CHECKING
@@ -28,6 +28,33 @@ def frozen_array(a: np.ndarray) -> np.ndarray:
     return a
 
 
+class JointValues(Mapping[str, float]):
+    """A read-only joint name -> value map over one row of a read-only array: the joints of
+    many configurations held as one table, a value read only when asked for.
+
+    Args:
+        columns: joint name -> column of ``row`` (iteration order: the joints' order).
+        row: (C,) read-only values [rad or model length unit].
+    """
+
+    __slots__ = ("_columns", "_row")
+
+    def __init__(self, columns: Mapping[str, int], row: np.ndarray) -> None:
+        self._columns, self._row = columns, frozen_array(row)
+
+    def __getitem__(self, name: str) -> float:
+        return float(self._row[self._columns[name]])
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._columns)
+
+    def __len__(self) -> int:
+        return len(self._columns)
+
+    def __repr__(self) -> str:
+        return f"JointValues({dict(self)!r})"
+
+
 @dataclass(frozen=True)
 class Configuration:
     """An assembled configuration of a closed-chain model.
@@ -51,7 +78,8 @@ class Configuration:
     def __post_init__(self) -> None:
         for name in ("theta", "y", "x", "platform_pose"):
             object.__setattr__(self, name, frozen_array(getattr(self, name)))
-        object.__setattr__(self, "joints", MappingProxyType(dict(self.joints)))
+        if not isinstance(self.joints, JointValues):  # that one is read-only already
+            object.__setattr__(self, "joints", MappingProxyType(dict(self.joints)))
 
     def to_dict(self) -> dict:
         return {

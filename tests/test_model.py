@@ -79,6 +79,33 @@ def test_configuration_is_immutable_and_complete():
     assert cfg.platform_pose.shape == (4, 4)
 
 
+def test_batch_configurations_joints_are_the_named_values_read_only():
+    """The joints of a batch of configurations (one table, values read when asked) against
+    the rule itself: locked joints at their values, then y and theta by name, URDF order;
+    on a model with locked joints (a closed chain with idle joints)."""
+    from gepetto_reference import FIXTURE
+
+    model = sc.load_model(FIXTURE, frame="effector")
+    assert model.locked  # the case of interest
+    rng = np.random.default_rng(5)
+    y0, c0 = model.chart.to_local(model.home.y)
+    ys = y0 + 0.01 * rng.normal(size=(4, model.m))
+    thetas = model.home.theta + 0.01 * rng.normal(size=(4, model.k))
+    cfgs = model.configurations(ys, thetas, np.tile(c0, (4, 1)))
+    for cfg in cfgs:
+        plain = dict(model.locked)
+        plain.update(zip(model.unknowns, cfg.y.tolist(), strict=True))
+        plain.update(zip(model.actuated, cfg.theta.tolist(), strict=True))
+        expected = {j: plain[j] for j in model.tree.coordinates}
+        assert list(cfg.joints.items()) == list(expected.items())  # values and order, exact
+        assert model.joint_values(cfg.y, cfg.theta) == expected
+        assert cfg.to_dict()["joints"] == expected
+        with pytest.raises(TypeError):
+            cfg.joints["mot1_rod1"] = 0.0  # type: ignore[index]
+        with pytest.raises(KeyError):
+            cfg.joints["no_such_joint"]
+
+
 def test_save_and_load_round_trip(tmp_path):
     g = seed_geometry()
     model = sc.builders.planar_3rrr(**g)

@@ -37,7 +37,7 @@ from ..model.rotations import rot_exp, rot_log, rpy_matrix
 from ..model.spec import Spec
 from ..model.urdf import Tree, slides_along_carrier, tree_to_urdf
 from ..products import Products
-from ..results import Configuration
+from ..results import Configuration, JointValues
 from ..symbolic.kinematics import link_placements
 from ..symbolic.system import Symbolic, build_symbolic
 from . import assembly
@@ -885,13 +885,15 @@ class Model:
         ys_c = np.array(canonical)
         for a in (ths, xs, poses, ys_c):
             a.setflags(write=False)
+        values = self._joint_table(ys_c, ths)
+        columns = self._joint_columns
         return [
             Configuration(
                 ths[i],
                 ys_c[i],
                 xs[i],
                 poses[i],
-                self.joint_values(ys_c[i], ths[i]),
+                JointValues(columns, values[i]),
                 float(residuals[i]),
             )  # fmt: skip
             for i in range(N)
@@ -977,10 +979,27 @@ class Model:
 
     def joint_values(self, y: np.ndarray, theta: np.ndarray) -> dict[str, float]:
         """Every joint coordinate (URDF order, locked ones included) from canonical y, theta."""
-        joints = dict(self.locked)
-        joints.update(zip(self.unknowns, y.tolist(), strict=True))
-        joints.update(zip(self.actuated, theta.tolist(), strict=True))
-        return {j: joints[j] for j in self._coordinates}
+        y, theta = np.asarray(y, dtype=float), np.asarray(theta, dtype=float)
+        return dict(JointValues(self._joint_columns, self._joint_table(y[None], theta[None])[0]))
+
+    @cached_property
+    def _joint_columns(self) -> dict[str, int]:
+        """Joint coordinate (URDF order) -> its column of :meth:`_joint_table`'s rows (the
+        locked joints' values, then y, then theta; a name in two takes the later column)."""
+        L, m = len(self.locked), self.m
+        source = {j: i for i, j in enumerate(self.locked)}
+        source.update({j: L + i for i, j in enumerate(self.unknowns)})
+        source.update({j: L + m + i for i, j in enumerate(self.actuated)})
+        return {j: source[j] for j in self._coordinates}
+
+    def _joint_table(self, ys: np.ndarray, thetas: np.ndarray) -> np.ndarray:
+        """(N, C) read-only joint values of canonical ``ys`` (N, m) and ``thetas`` (N, k),
+        columns as :attr:`_joint_columns` says."""
+        locked = np.broadcast_to(np.array(list(self.locked.values()), dtype=float),
+                                 (len(ys), len(self.locked)))  # fmt: skip
+        out = np.hstack([locked, ys, thetas])
+        out.setflags(write=False)
+        return out
 
     def target_pose(self, x: ArrayLike) -> np.ndarray:
         """The 4x4 placement with workspace coordinates ``x`` (other components from home)."""
