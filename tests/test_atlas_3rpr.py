@@ -204,25 +204,48 @@ def test_a_chunk_of_mode_sets_walked_from_neighbours_equals_the_polynomial():
     )
 
 
-def test_each_grid_point_follows_the_neighbour_one_step_back_on_its_last_nonzero_axis():
-    """``predecessors`` against the definition, point by point on a 3 x 1 x 4 x 2 grid, for
-    chunks starting anywhere."""
-    from scdk_sym.atlases.chunk import predecessors
+def _grid_distances(points: list[tuple[int, ...]], root: tuple[int, ...]) -> dict:
+    """Steps from ``root`` to each point reachable through ``points`` (one index changed by
+    one per step): relaxation until nothing changes, independent of the package's search."""
+    dist = {root: 0}
+    changed = True
+    while changed:
+        changed = False
+        for q in points:
+            for a in range(len(q)):
+                for step in (-1, 1):
+                    nb = (*q[:a], q[a] + step, *q[a + 1 :])
+                    if nb in dist and dist[nb] + 1 < dist.get(q, 1 << 30):
+                        dist[q], changed = dist[nb] + 1, True
+    return dist
 
-    shape = (3, 1, 4, 2)
-    total = int(np.prod(shape))
-    for offset in (0, 5, 8):
-        for count in (1, 7, total - offset):
-            got = predecessors(offset, count, shape)
-            for i in range(count):
-                index = list(np.unravel_index(offset + i, shape))
-                axes = [a for a in range(len(shape)) if index[a] != 0]
-                if not axes:
-                    assert got[i] == -1
-                    continue
-                index[axes[-1]] -= 1
-                want = int(np.ravel_multi_index(index, shape)) - offset
-                assert got[i] == (want if want >= 0 else -1), (offset, count, i)
+
+def test_continuation_tree_is_a_shortest_path_forest_of_the_chunk():
+    """``continuation_tree`` against grid distances computed by plain relaxation, on chunks
+    of a 3 x 1 x 4 x 2 grid and of the 40 x 40 slice starting anywhere: each point's
+    neighbour is one grid step away inside the chunk and one front before it, its front is
+    its distance to its part's root, one root per connected part; a chunk of 10 x 40 grid
+    points has 26 fronts (its centre is 5 + 20 steps from the farthest corner)."""
+    from scdk_sym.atlases.chunk import continuation_tree
+
+    for shape, cases in (((3, 1, 4, 2), [(0, 24), (5, 1), (5, 7), (8, 16), (3, 10)]),
+                         ((40, 40), [(0, 400), (35, 10), (20, 400), (1590, 10)])):  # fmt: skip
+        for offset, count in cases:
+            pred, depth = continuation_tree(offset, count, shape)
+            pts = [tuple(int(v) for v in np.unravel_index(offset + i, shape)) for i in range(count)]
+            for i in np.flatnonzero(pred >= 0).tolist():
+                step = np.abs(np.subtract(pts[i], pts[pred[i]]))
+                assert step.sum() == 1 and depth[pred[i]] == depth[i] - 1, (offset, count, i)
+            seen: set = set()
+            for r in np.flatnonzero(pred < 0).tolist():
+                dist = _grid_distances(pts, pts[r])
+                assert not seen & set(dist)  # one root per connected part
+                seen |= set(dist)
+                for q, d in dist.items():
+                    assert depth[pts.index(q)] == d, (offset, count, q)
+            assert seen == set(pts)
+    _, depth = continuation_tree(400, 400, (40, 40))
+    assert depth.max() + 1 == 26
 
 
 def test_mode_sets_from_neighbours_along_a_line_are_the_polynomial_poses():

@@ -207,32 +207,66 @@ def _direct(model, start, thetas, todo, x, det, status) -> None:
             status[i] = SINGULAR if r.status == "singular" else SOLVED
 
 
-def predecessors(offset: int, count: int, shape: tuple[int, ...]) -> np.ndarray:
-    """The neighbour each point of a chunk is continued from, as the C sweep takes it.
+def continuation_tree(
+    offset: int, count: int, shape: tuple[int, ...]
+) -> tuple[np.ndarray, np.ndarray]:
+    """A shallow spanning forest of a chunk's points: the neighbour each point of a mode map
+    is continued from, and its front (depth).
 
-    Grid point ``g`` (C order) follows ``g - stride[t]``, ``t`` the last axis along which its
-    index is not 0 (point 0 follows none): a spanning tree of the grid whose every edge is
-    one grid step.
+    Two points are neighbours when their grid indices differ by one along one axis (both in
+    the chunk). Each connected part of the chunk is searched breadth first from the point
+    nearest the centre of its index box (axes in order, the step back before the step
+    forward): every point lies as few steps from its part's root as the grid allows, so a
+    chunk of ``a x b`` grid lines has about ``(a + b) / 2`` fronts where a walk from a corner
+    has ``a + b`` (and the points of a front are solved in one batch).
 
     Args:
-        offset: flat index of the chunk's first point.
+        offset: flat index (C order) of the chunk's first point.
         count: points in the chunk.
         shape: the grid's shape.
 
     Returns:
-        (count,) int: the neighbour's index within the chunk, -1 where it is outside the
-        chunk or there is none.
+        ``(pred, depth)``: (count,) int, each point's neighbour (index within the chunk; -1
+        at a root, solved from scratch) and its number of steps from its root.
     """
-    g = offset + np.arange(count, dtype=np.int64)
+    pred = np.full(count, -1, dtype=np.int64)
+    depth = np.full(count, -1, dtype=np.int64)
     if not count:
-        return g
-    idx = np.stack(np.unravel_index(g, shape))  # (axes, count)
-    strides = np.cumprod((*shape[1:], 1)[::-1])[::-1]
-    nonzero = idx != 0
-    last = len(shape) - 1 - np.argmax(nonzero[::-1], axis=0)  # last nonzero axis (0 if none)
-    pred = g - strides[last] - offset
-    pred[(g == 0) | (pred < 0)] = -1
-    return pred
+        return pred, depth
+    idx = np.stack(np.unravel_index(offset + np.arange(count), shape))  # (axes, count)
+    strides = np.cumprod((*shape[1:], 1)[::-1])[::-1].tolist()
+    while (depth < 0).any():
+        part = np.zeros(count, dtype=np.int64) - 1  # the part of the first point left
+        _search(int(np.argmax(depth < 0)), idx, strides, shape, part, pred.copy())
+        rest = np.flatnonzero(part >= 0)
+        centre = (idx[:, rest].min(axis=1) + idx[:, rest].max(axis=1)) / 2
+        off = np.abs(idx[:, rest] - centre[:, None])
+        _search(int(rest[np.lexsort((off.sum(axis=0), off.max(axis=0)))[0]]), idx, strides,
+                shape, depth, pred)  # fmt: skip
+    return pred, depth
+
+
+def _search(root: int, idx: np.ndarray, strides: list[int], shape, depth, pred) -> None:
+    """Breadth-first search of the chunk's grid graph from ``root``: ``depth`` (-1 where not
+    reached yet) and ``pred`` of the points it reaches set in place (axes in order, the step
+    back before the step forward)."""
+    count = len(depth)
+    depth[root], front, d = 0, np.array([root]), 0
+    while front.size:
+        d += 1
+        grown = []
+        for axis, stride in enumerate(strides):
+            for step in (-1, 1):
+                at = idx[axis, front] + step
+                src = front[(at >= 0) & (at < shape[axis])]
+                nb = src + step * stride
+                ok = (nb >= 0) & (nb < count)
+                nb, src = nb[ok], src[ok]
+                new = depth[nb] < 0
+                nb, src = nb[new], src[new]
+                pred[nb], depth[nb] = src, d
+                grown.append(nb)
+        front = np.concatenate(grown)
 
 
 #: Most points of a front of a mode map solved in one batch.
@@ -254,7 +288,8 @@ def mode_counts(
     model, thetas: np.ndarray, offset: int, shape: tuple[int, ...]
 ) -> tuple[np.ndarray, int]:
     """Certified real-mode counts of a chunk, each point's set from its grid neighbour's
-    complete root set where that is known
+    complete root set where that is known (the neighbour and the fronts:
+    :func:`continuation_tree`)
     (:func:`scdk_sym.solvers.homotopy_modes.modes_from_neighbour`; models of independent
     blocks: :func:`scdk_sym.assembly_modes` at each point).
 
@@ -287,12 +322,9 @@ def mode_counts(
         return n_modes, continued
     if not N:
         return n_modes, continued
-    pred = predecessors(offset, N, shape)
     # fronts: a point's front is one more than its neighbour's, so a front's points are solved
     # together from the sets of the front before (kept until then)
-    depth = np.zeros(N, dtype=np.int64)
-    for r in np.flatnonzero(pred >= 0).tolist():  # rows ascend: neighbours' depths first
-        depth[r] = depth[pred[r]] + 1
+    pred, depth = continuation_tree(offset, N, shape)
     followed = np.zeros(N, dtype=bool)
     followed[pred[pred >= 0]] = True
     fronts = np.split(np.argsort(depth, kind="stable"), np.cumsum(np.bincount(depth))[:-1])
