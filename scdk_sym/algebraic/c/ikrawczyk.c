@@ -233,6 +233,38 @@ static int replay(const scdk_tape *t, const ival *x, const ival *p, ival *w, iva
     return 0;
 }
 
+/* Replay a tape in plain binary64 on x (n) and p (k) into out (n_out), for the
+ * preconditioner only (any approximate inverse keeps the test sound): sin and cos from the C
+ * library, no check (a value that is not finite fails the inversion). */
+static void replay_float(const scdk_tape *t, const double *x, const double *p, double *w,
+                         double *out) {
+    for (int64_t i = 0; i < t->n_out; ++i) out[i] = 0.0;
+    for (int64_t s = 0; s < t->L; ++s) {
+        const int64_t a = t->a[s], b = t->b[s], o = t->o[s];
+        double r;
+        switch (t->op[s]) {
+        case SCDK_I_CONST: r = t->c[s]; break;
+        case SCDK_I_INPUT: r = a == 0 ? x[b] : p[b]; break;
+        case SCDK_I_OUTPUT: out[o] = w[a]; continue;
+        case SCDK_I_ASSIGN: r = w[a]; break;
+        case SCDK_I_NEG: r = -w[a]; break;
+        case SCDK_I_SQ: r = w[a] * w[a]; break;
+        case SCDK_I_TWICE: r = w[a] + w[a]; break;
+        case SCDK_I_INV: r = 1.0 / w[a]; break;
+        case SCDK_I_FABS: r = fabs(w[a]); break;
+        case SCDK_I_SIGN: r = w[a] > 0.0 ? 1.0 : (w[a] < 0.0 ? -1.0 : 0.0); break;
+        case SCDK_I_SIN: r = sin(w[a]); break;
+        case SCDK_I_COS: r = cos(w[a]); break;
+        case SCDK_I_ADD: r = w[a] + w[b]; break;
+        case SCDK_I_SUB: r = w[a] - w[b]; break;
+        case SCDK_I_MUL: r = w[a] * w[b]; break;
+        case SCDK_I_DIV: r = w[a] / w[b]; break;
+        default: r = NAN;
+        }
+        w[o] = r;
+    }
+}
+
 /* Y ~ A^-1 (n x n row-major) from the package's LU with partial pivoting (scdk_lu.h; piv:
  * n ints), and the infinity-norm condition estimate |A| |Y|; 0 on success. A is overwritten. */
 static int invert(double *A, double *Y, int64_t n, int *piv, double *cond) {
@@ -261,16 +293,15 @@ typedef struct {
     int64_t n;
     const ival *P;
     ival *w, *out, *X, *mid, *newton, *C, *K, *D; /* D = B - c */
-    double *A, *Y;
+    double *A, *Y, *fw, *pm; /* fw: a float work vector; pm: the parameters' midpoints */
     int *piv;
 } work;
 
-/* Y ~ J(c)^-1 (from the midpoints of the interval Jacobian at the point c); 0 on success. */
+/* Y ~ J(c)^-1 (the Jacobian at the point c and the parameters' midpoints, in binary64);
+ * 0 on success. */
 static int inverse_at(work *s, const double *c, double max_cond) {
     const int64_t n = s->n;
-    for (int64_t i = 0; i < n; ++i) s->mid[i] = point(c[i]);
-    if (replay(s->jacobian, s->mid, s->P, s->w, s->out)) return 1;
-    for (int64_t i = 0; i < n * n; ++i) s->A[i] = 0.5 * s->out[i].lo + 0.5 * s->out[i].hi;
+    replay_float(s->jacobian, c, s->pm, s->fw, s->A);
     double cond;
     if (invert(s->A, s->Y, n, s->piv, &cond)) return 1;
     return cond < max_cond ? 0 : 1;
@@ -374,7 +405,7 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
     s.n = n;
     ival *P = malloc((size_t)(k + 1) * sizeof(ival));
     ival *iv = malloc((size_t)(W + 1 + n * n + 6 * n + n * n) * sizeof(ival));
-    double *dv = malloc((size_t)(2 * n * n + n) * sizeof(double));
+    double *dv = malloc((size_t)(2 * n * n + n + W + 1 + k + 1) * sizeof(double));
     s.piv = malloc((size_t)n * sizeof(int));
     if (!P || !iv || !dv || !s.piv) {
         free(P);
@@ -396,6 +427,8 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
     s.A = dv;
     s.Y = s.A + n * n;
     double *c = s.Y + n * n;
+    s.fw = c + n;
+    s.pm = s.fw + W + 1;
     for (int64_t q = 0; q < N; ++q) {
         const double *mq = m + q * n;
         double *rq = r + q * n, *bq = box + 2 * q * n;
@@ -403,6 +436,7 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
         for (int64_t i = 0; i < k; ++i) {
             P[i].lo = p_lo[q * p_stride + i];
             P[i].hi = p_hi[q * p_stride + i];
+            s.pm[i] = 0.5 * P[i].lo + 0.5 * P[i].hi;
         }
         for (int64_t i = 0; i < n; ++i) {
             rq[i] = NAN;

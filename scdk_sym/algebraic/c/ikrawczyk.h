@@ -52,8 +52,9 @@ enum { SCDK_K_NOT_PROVEN = 0, SCDK_K_PROVEN = 1 };
 enum { SCDK_K_OK = 0, SCDK_K_NO_MEMORY = 1, SCDK_K_BAD_SIZE = 2, SCDK_K_FAILED = 3 };
 
 /* The Krawczyk test of N points m (N x n) for the parameters in [p_lo, p_hi] (k each):
- * Y ~ J(m)^-1 in binary64 (Gauss-Jordan on the midpoints of the interval Jacobian at m; no
- * test when its condition estimate |J|_inf |Y|_inf is not below max_cond), then
+ * Y ~ J(m)^-1 in binary64 (the Jacobian tape replayed in plain binary64 at m and the
+ * parameters' midpoints, then LU; any approximate inverse keeps the test sound; no test when
+ * its condition estimate |J|_inf |Y|_inf is not below max_cond), then
  *   X = [m - r, m + r] (bounds rounded outward), r_i = 2 max|mid(N) - m| + 4 rad(N_i) (at
  *   least tiny), N = m - Y f(m),
  *   K(X) = N + (I - Y J(X)) (X - m);
