@@ -20,7 +20,13 @@ from test_modes import assert_same_stewart_poses
 
 import scdk_sym as sc
 from scdk_sym.algebraic import algebraic_form, homotopy, trace_test
-from scdk_sym.algebraic.ctracker import c_tracker, source_dir, tracker_library
+from scdk_sym.algebraic.ctracker import (
+    CTracker,
+    _cpu_flags,
+    c_tracker,
+    source_dir,
+    tracker_library,
+)
 from scdk_sym.algebraic.homotopy import (
     ParameterHomotopy,
     scaled_cond,
@@ -28,7 +34,7 @@ from scdk_sym.algebraic.homotopy import (
 )
 from scdk_sym.algebraic.monodromy import StartSystem
 from scdk_sym.algebraic.scaled import scaled_form
-from scdk_sym.algebraic.tracker import TrackerOptions, track
+from scdk_sym.algebraic.tracker import DONE, TrackerOptions, track
 from scdk_sym.errors import InputError
 from scdk_sym.kernels.compile import LU_HEADER, run_compiler
 from scdk_sym.kernels.lanes import lane_source
@@ -113,6 +119,32 @@ def test_c_tracker_steps_like_the_numpy_tracker(dietmaier, seed, third):
     assert abs(int(c.steps.sum()) - int(py.steps.sum())) <= 0.02 * py.steps.sum()
 
 
+def test_the_lane_width_and_instruction_set_change_no_value(dietmaier):
+    """The tracker built 4 lanes wide on the baseline instruction set, with AVX2, and 8 wide
+    with AVX-512 (where the processor has them) tracks 40 paths of Dietmaier's homotopy (to
+    t = 1, near-singular ends included) to the same bits: endpoints, times, steps, step
+    sizes and statuses."""
+    _, form, start = dietmaier
+    cpu = _cpu_flags()
+    builds = [((), 4)]
+    if "avx2" in cpu:
+        builds.append((("-mavx2",), 4))
+    if "avx512f" in cpu:
+        builds.append((("-mavx2", "-mavx512f"), 8))
+    p0 = form.params(DIETMAIER_LENGTHS)
+    hom = ParameterHomotopy(form, start.p[None], p0[None], start.b[None], np.zeros((1, 8)), [1])
+    M = len(start.solutions)
+    outs = []
+    for flags, width in builds:
+        tracker = CTracker(form.form, tracker_library(form.form, flags, width))
+        outs.append(tracker.track(hom, start.solutions, np.zeros(M, dtype=int), np.zeros(M),
+                                  np.ones(M), np.asarray(form.weights)))  # fmt: skip
+    assert (outs[0].status == DONE).sum() >= 38  # the paths arrive
+    for other in outs[1:]:
+        for name in ("z", "tau", "h", "status", "steps", "accepted"):
+            np.testing.assert_array_equal(getattr(other, name), getattr(outs[0], name))
+
+
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_c_and_numpy_queries_reach_the_same_roots(dietmaier, seed):
     from scdk_sym.algebraic import solve_homotopy
@@ -190,3 +222,8 @@ def test_c_newton_equals_the_numpy_newton(dietmaier):
     # the condition bound: above the SVD's condition number, within sqrt(n) * sqrt(n) of it
     cond = scaled_cond(hzp)
     assert np.all(bound >= cond * (1 - 1e-9)) and np.all(bound <= 8.0 * cond)
+    # without the condition: the same iterates, no H_z and no bound
+    zn, nun, hzn, bn = c_tracker(form, "c").newton(hom, z0, t, idx, 3, condition=False)
+    np.testing.assert_array_equal(zn, zc)
+    np.testing.assert_array_equal(nun, nuc)
+    assert hzn is None and bn is None

@@ -3,11 +3,12 @@ model's algebraic form.
 
 ``c/ptrack.c`` tracks every path of a :class:`~scdk_sym.algebraic.homotopy.ParameterHomotopy`
 in one call, with the predictor, corrector and step rules of the numpy tracker (which stays
-the reference). :data:`LANES` paths advance in lock step, one per lane of a vector of
-doubles: the real-pair evaluation of ``G`` (:func:`~scdk_sym.algebraic.pairs.complexify`) is
-written for lane vectors (:func:`~scdk_sym.kernels.lanes.lane_source`) and compiled into the
-tracker with the system's sizes, so one library per system, compiled once and cached on disk
-under the hash of everything it is built from. Only straight segments in ``t`` are tracked
+the reference). :func:`lanes` paths (4 with AVX2, 8 with AVX-512) advance in lock step, one
+per lane of a vector of doubles: the real-pair evaluation of ``G``
+(:func:`~scdk_sym.algebraic.pairs.complexify`) is written for lane vectors
+(:func:`~scdk_sym.kernels.lanes.lane_source`) and compiled into the tracker with the
+system's sizes, so one library per system, compiled once and cached on disk under the hash
+of everything it is built from. Only straight segments in ``t`` are tracked
 here; the endgame's circles stay in numpy.
 """
 
@@ -32,7 +33,8 @@ TRACKERS = ("auto", "c", "python")
 TRACKER_CFLAGS = (
     "-std=c99", "-O3", "-fcx-limited-range", "-shared", "-fPIC", "-Wall", "-Wextra", "-Werror",
 )  # fmt: skip
-#: Paths tracked in lock step, one per lane of a GCC vector of doubles.
+#: Paths tracked in lock step, one per lane of a GCC vector of doubles, without AVX-512
+#: (:func:`lanes`).
 LANES = 4
 _ERRORS = {1: "out of memory", 3: "bad sizes"}
 
@@ -103,23 +105,43 @@ def source_library(
     return cached_file(target, build, "compiled library")
 
 
-def simd_flags() -> tuple[str, ...]:
-    """``-mavx2`` where the processor has AVX2 (Linux ``/proc/cpuinfo``), else nothing: the
-    lanes then run on the baseline instruction set. No ``-mfma``: without contracted
-    multiply-adds each lane rounds as the scalar evaluation does."""
+def _cpu_flags() -> list[str]:
+    """The processor's feature flags (Linux ``/proc/cpuinfo``; none elsewhere)."""
     try:
         info = Path("/proc/cpuinfo").read_text()
     except OSError:
+        return []
+    return next((ln.split(":", 1)[1].split() for ln in info.splitlines()
+                 if ln.startswith("flags")), [])  # fmt: skip
+
+
+def simd_flags() -> tuple[str, ...]:
+    """``-mavx2`` where the processor has AVX2, and ``-mavx512f`` where it has AVX-512F too,
+    else nothing: the lanes then run on the baseline instruction set. No ``-mfma`` (and
+    ``-std=c99`` keeps GCC from contracting): each lane rounds as the scalar evaluation
+    does, whatever the vector width."""
+    flags = _cpu_flags()
+    if "avx2" not in flags:
         return ()
-    flags = next((ln.split(":", 1)[1].split() for ln in info.splitlines()
-                  if ln.startswith("flags")), [])  # fmt: skip
-    return ("-mavx2",) if "avx2" in flags else ()
+    return ("-mavx2", "-mavx512f") if "avx512f" in flags else ("-mavx2",)
 
 
-def tracker_library(form) -> Path:
+def lanes() -> int:
+    """Paths the tracker advances in lock step: 8 (one 512-bit vector of doubles) with
+    AVX-512F, else :data:`LANES`. Lane by lane the arithmetic is that of one path alone, so
+    the count changes the speed only, never a value."""
+    return 8 if "-mavx512f" in simd_flags() else LANES
+
+
+def tracker_library(form, flags: tuple[str, ...] | None = None, width: int = 0) -> Path:
     """The compiled tracker of an :class:`~scdk_sym.algebraic.form.AlgebraicForm` (cached
     under the hash of the tracker's sources, the generated lane evaluation, the sizes, flags
     and compiler).
+
+    Args:
+        form: the form.
+        flags: instruction-set flags (default :func:`simd_flags`).
+        width: paths in lock step (default :func:`lanes`).
 
     Raises:
         BuildError: no C compiler, the compilation failed, or ``G`` uses an operation with no
@@ -128,12 +150,15 @@ def tracker_library(form) -> Path:
     from ..kernels.lanes import lane_source
 
     main = (
-        f"#define SCDK_N {form.n}\n#define SCDK_K {form.n_params}\n#define SCDK_LANES {LANES}\n"
+        f"#define SCDK_N {form.n}\n#define SCDK_K {form.n_params}\n"
+        f"#define SCDK_LANES {width or lanes()}\n"
         '#define SCDK_EVAL_FILE "scdk_eval.c"\n#include "ptrack.c"\n'
     )
     evaluation = lane_source(form.G_pairs, "scdk_eval")
     return source_library(
-        "ptrack", (*TRACKER_CFLAGS, *simd_flags()), {"scdk_eval.c": evaluation, "main.c": main}
+        "ptrack",
+        (*TRACKER_CFLAGS, *(simd_flags() if flags is None else flags)),
+        {"scdk_eval.c": evaluation, "main.c": main},
     )
 
 
@@ -154,14 +179,15 @@ class CTracker:
 
     Args:
         form: an :class:`~scdk_sym.algebraic.form.AlgebraicForm`.
+        library: its compiled tracker (default :func:`tracker_library` of the form).
 
     Raises:
         BuildError: no C compiler, or a compilation failed.
     """
 
-    def __init__(self, form) -> None:
+    def __init__(self, form, library: Path | None = None) -> None:
         self.n, self.k = form.n, form.n_params
-        lib = ctypes.CDLL(str(tracker_library(form)))
+        lib = ctypes.CDLL(str(library or tracker_library(form)))
         f = lib.scdk_ptrack
         dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
         cdbl = np.ctypeslib.ndpointer(dtype=np.complex128, flags="C_CONTIGUOUS")
@@ -172,7 +198,7 @@ class CTracker:
         f.restype = ctypes.c_int
         g = lib.scdk_pnewton
         g.argtypes = [I, I, dbl, cdbl, cdbl, cdbl, cdbl, cdbl, I, i64,
-                      cdbl, dbl, I, dbl, ctypes.c_void_p, dbl]  # fmt: skip
+                      cdbl, dbl, I, dbl, ctypes.c_void_p, ctypes.c_void_p]  # fmt: skip
         g.restype = ctypes.c_int
         self._lib, self._track, self._newton = lib, f, g
 
@@ -193,7 +219,8 @@ class CTracker:
         idx: np.ndarray,
         iterations: int,
         weights: np.ndarray,
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        condition: bool = True,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]:
         """Newton's method on ``H(., t) = 0`` in C, as :func:`~scdk_sym.algebraic.tracker.newton`.
 
         Args:
@@ -203,6 +230,8 @@ class CTracker:
             idx: (M,) int, each point's datum in the homotopy.
             iterations: Newton steps.
             weights: (n,) row weights of the system.
+            condition: also ``H_z`` and the condition bound at the final points (False: no
+                last evaluation; ``None`` returned for both).
 
         Returns:
             ``z`` (M, n) after the steps, ``nu`` (M, iterations) the relative norm of each
@@ -216,13 +245,13 @@ class CTracker:
         M = len(z)
         z = np.array(z, dtype=np.complex128, order="C").reshape(M, self.n)
         nu = np.zeros((M, iterations))
-        hz = np.zeros((M, self.n, self.n), dtype=np.complex128)
-        cond = np.zeros(M)
+        hz = np.zeros((M, self.n, self.n), dtype=np.complex128) if condition else None
+        cond = np.zeros(M) if condition else None
         rc = self._newton(
             self.n, self.k, *self._data(homotopy, weights), M,
             np.ascontiguousarray(idx, dtype=np.int64), z,
             np.ascontiguousarray(np.broadcast_to(t, (M,)), dtype=np.float64), iterations, nu,
-            hz.ctypes.data, cond,
+            None if hz is None else hz.ctypes.data, None if cond is None else cond.ctypes.data,
         )  # fmt: skip
         if rc:
             raise HomotopyError(
@@ -296,9 +325,9 @@ class BoundTracker:
         """``CTracker.track`` with the system's weights."""
         return self._tracker.track(homotopy, z0, idx, tau0, tau1, self._weights, options, h0)
 
-    def newton(self, homotopy, z, t, idx, iterations: int):
+    def newton(self, homotopy, z, t, idx, iterations: int, condition: bool = True):
         """``CTracker.newton`` with the system's weights: ``(z, nu, H_z, cond bound)``."""
-        return self._tracker.newton(homotopy, z, t, idx, iterations, self._weights)
+        return self._tracker.newton(homotopy, z, t, idx, iterations, self._weights, condition)
 
 
 def c_tracker(system, tracker: str = "auto") -> BoundTracker | None:

@@ -327,7 +327,7 @@ def real_endpoints_many(
         b = np.zeros((len(zs), system.n), dtype=complex)
         at_p0 = ParameterHomotopy(system, P, P, b, b, np.ones(len(zs)))
         idx = np.repeat(np.arange(len(zs)), sizes)
-        x = ctrack.newton(at_p0, np.concatenate(xs), np.zeros(len(idx)), idx, 2)[0]
+        x = ctrack.newton(at_p0, np.concatenate(xs), np.zeros(len(idx)), idx, 2, False)[0]
         xs = np.split(x, np.cumsum(sizes)[:-1])
     elif sum(sizes) and polish:
         xs = [_real_newton(system, x, p) for x, p in zip(xs, P0, strict=True)]

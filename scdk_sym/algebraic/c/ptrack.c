@@ -418,6 +418,11 @@ int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_fro
 /* An upper bound of the 2-norm condition number of the matrix in lane l of the augmented
  * matrix (H_z after the last homotopy call), rows and then columns scaled to unit max modulus
  * (as scaled_cond in homotopy.py): |A|_F |A^-1|_F; infinity or NaN when A is singular. */
+/* |a + b i| for the scaling of a condition bound: the plain formula, not hypot (which guards
+ * against an overflow of a^2 + b^2 that entries of H_z do not reach; an infinite or zero
+ * modulus gives an infinite or NaN bound, which sends the point to the SVD). */
+static double modulus(double a, double b) { return sqrt(a * a + b * b); }
+
 static double cond_bound(const lanes *c, int l) {
     double ar[N * N], ai[N * N], br[N * N], bi[N * N], scale;
     int piv[N];
@@ -426,7 +431,7 @@ static double cond_bound(const lanes *c, int l) {
         for (int j = 0; j < N; ++j) {
             ar[i * N + j] = c->ar[i * RS + j][l];
             ai[i * N + j] = c->ai[i * RS + j][l];
-            const double m = hypot(ar[i * N + j], ai[i * N + j]);
+            const double m = modulus(ar[i * N + j], ai[i * N + j]);
             if (m > scale) scale = m;
         }
         for (int j = 0; j < N; ++j) {
@@ -438,7 +443,7 @@ static double cond_bound(const lanes *c, int l) {
     for (int j = 0; j < N; ++j) {
         scale = 0.0;
         for (int i = 0; i < N; ++i) {
-            const double m = hypot(ar[i * N + j], ai[i * N + j]);
+            const double m = modulus(ar[i * N + j], ai[i * N + j]);
             if (m > scale) scale = m;
         }
         for (int i = 0; i < N; ++i) {
