@@ -523,10 +523,11 @@ def homotopy_modes(
         AlgebraicFormError: a joint type with no algebraic form.
     """
     theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
-    modes, _, _ = _homotopy_modes(
-        model, theta0, None, seed=seed, progress=progress, backend=backend,
+    modes, _, _ = _modes_many(
+        model, theta0[None], [None], seed=seed, progress=progress, backend=backend,
         max_loops=max_loops, cache=cache, rebuild=rebuild, certified_only=certified_only,
-    )  # fmt: skip
+        seeds=False,
+    )[0]  # fmt: skip
     return modes
 
 
@@ -625,16 +626,6 @@ def _complete_sets(results: list, root_count: int, block: int = 1 << 22) -> np.n
     return out
 
 
-def _homotopy_modes(
-    model: Model,
-    theta0: np.ndarray,
-    neighbour: ModeSeed | None,
-    **kwargs: Any,
-) -> tuple[AssemblyModes, ModeSeed | None, bool]:
-    """:func:`_modes_many` at one point."""
-    return _modes_many(model, theta0[None], [neighbour], **kwargs)[0]
-
-
 def _modes_many(
     model: Model,
     thetas: np.ndarray,
@@ -647,15 +638,19 @@ def _modes_many(
     cache: bool = True,
     rebuild: bool = False,
     certified_only: bool = False,
+    seeds: bool = True,
 ) -> list[tuple[AssemblyModes, ModeSeed | None, bool]]:
     """The modes at each of W points (W, k): from its neighbour's set where that gives a
-    complete set (all such points in one batch), else from the start system."""
+    complete set (all such points in one batch), else from the start system; with
+    ``seeds=False`` no point's set is tested for completeness, and only those from a
+    neighbour are returned as seeds (a single query does not pass its set on)."""
     from ..algebraic import algebraic_form, solve_homotopy
     from ..algebraic.homotopy import solve_homotopies
     from ..algebraic.scaled import scaled_form
 
     options = dict(seed=seed, progress=progress, backend=backend, max_loops=max_loops,
-                   cache=cache, rebuild=rebuild, certified_only=certified_only)  # fmt: skip
+                   cache=cache, rebuild=rebuild, certified_only=certified_only,
+                   seeds=seeds)  # fmt: skip
     rods, reduced = rod_reduction(model)
     if reduced is not None:  # rods between balls: the distance model's modes, lifted
         distances = _modes_many(reduced, thetas, neighbours, **options)  # type: ignore[arg-type]
@@ -707,7 +702,9 @@ def _modes_many(
     for w in range(W):
         if results[w] is None:
             results[w] = solve_homotopy(form, start, P0[w], seed=seed, real_tol=REAL_TOL)
-            complete[w] = start.trace_passed and _complete_set(results[w], start.root_count)
+            complete[w] = (
+                seeds and start.trace_passed and _complete_set(results[w], start.root_count)
+            )
     half_turns = _path_reasons_many(form, results, thetas, reasons)
     found = _real_modes(model, form, results, thetas, reasons)
     certs = _certificates_many(model, [cfgs for cfgs, _ in found], thetas, reasons)
