@@ -191,6 +191,30 @@ def track_parameter_homotopy(
     return PathEndpoints(out, status.astype(str), winding, steps)
 
 
+#: Machine epsilon of binary64.
+EPS = float(np.finfo(float).eps)
+
+
+def pair_distances(z: np.ndarray, bound: np.ndarray | float) -> np.ndarray:
+    """``max_k |z[g, i, k] - z[g, j, k]|`` (G, M, M) of complex rows ``z`` (G, M, n) wherever
+    it may be at most ``bound`` (broadcast to (G, M, M)); ``inf`` where it is surely above.
+
+    The full moduli are computed only for the pairs whose first coordinates' real parts, a
+    lower bound of the distance, are not already farther apart than ``bound``; those pairs
+    get the values the full computation gives, bit for bit (NaN included; the others are
+    ``inf`` even where a later coordinate is NaN), so a test ``<= bound`` (or with a larger
+    bound) answers as on the full matrix.
+    """
+    with np.errstate(invalid="ignore"):
+        x = np.ascontiguousarray(z[..., 0].real)
+        lower = np.abs(x[:, :, None] - x[:, None])  # |z| >= (1 - 2 eps) |Re z| after rounding
+        near = ~(lower * (1.0 - 4.0 * EPS) > bound)  # NaN: computed
+        out = np.full(lower.shape, np.inf)
+        g, i, j = np.nonzero(near)
+        out[g, i, j] = np.abs(z[g, i] - z[g, j]).max(axis=1)
+    return out
+
+
 def _fail_jumps(out: np.ndarray, status: np.ndarray, idx: np.ndarray) -> None:
     """A regular solution ends exactly one path: two paths at one regular endpoint of the same
     target (datum) mean a path jump, and both fail (``status`` and ``out`` changed in place).
@@ -215,10 +239,9 @@ def _fail_jumps(out: np.ndarray, status: np.ndarray, idx: np.ndarray) -> None:
             continue
         rows = np.concatenate(blocks)  # (G, size)
         zs = out[rows]  # (G, size, n)
-        close = (
-            np.abs(zs[:, :, None] - zs[:, None]).max(axis=3)
-            <= 1e-8 * (1.0 + np.abs(zs).max(axis=2))[:, None, :]
-        )  # the scale of the column's end, as one datum's (size, size) takes it
+        # the scale of the column's end, as one datum's (size, size) takes it
+        bound = 1e-8 * (1.0 + np.abs(zs).max(axis=2))[:, None, :]
+        close = pair_distances(zs, bound) <= bound
         jumped = rows[close.sum(axis=2) > 1]
         status[jumped], out[jumped] = "failed", np.nan
 

@@ -602,6 +602,8 @@ def _complete_set(res, root_count: int) -> bool:
 def _complete_sets(results: list, root_count: int, block: int = 1 << 22) -> np.ndarray:
     """:func:`_complete_set` of each result (W,) bool, the pairwise distances of up to
     ``block`` entries at once."""
+    from ..algebraic.homotopy import pair_distances
+
     out = np.zeros(len(results), dtype=bool)
     full = [
         i for i, res in enumerate(results)
@@ -617,9 +619,9 @@ def _complete_sets(results: list, root_count: int, block: int = 1 << 22) -> np.n
         rows = full[a : a + step]
         z = np.stack([results[i].endpoints for i in rows])  # (S, R, n)
         scale = 1.0 + np.abs(z).max(axis=2)
-        d = np.abs(z[:, :, None] - z[:, None]).max(axis=3) / np.minimum(
-            scale[:, :, None], scale[:, None]
-        )
+        least = np.minimum(scale[:, :, None], scale[:, None])
+        # the moduli only where a pair may be nearer than DISTINCT (margin: the division)
+        d = pair_distances(z, DISTINCT * (1.0 + 1e-9) * least) / least
         diag = np.arange(root_count)
         d[:, diag, diag] = np.inf
         out[rows] = d.min(axis=(1, 2)) >= DISTINCT
