@@ -94,7 +94,27 @@ class Configuration:
 
 def mode_order(cfg: Configuration) -> tuple[float, ...]:
     """The sort key of assembly modes: ``x``, then ``y``, each rounded to 1e-8."""
-    return tuple(round(v, 8) for v in (*cfg.x.tolist(), *cfg.y.tolist()))
+    return mode_orders(cfg.x[None], cfg.y[None])[0]
+
+
+def mode_orders(xs: np.ndarray, ys: np.ndarray) -> list[tuple[float, ...]]:
+    """:func:`mode_order` of several configurations from their stacked ``x`` (N, n) and
+    ``y`` (N, m): the keys Python's ``round(v, 8)`` gives, bit for bit.
+
+    ``round(v, 8)`` is the double nearest to ``k 1e-8``, ``k`` the integer nearest to
+    ``v 1e8``; so is ``rint(v * 1e8) / 1e8`` (one correctly rounded division of two exact
+    doubles) wherever ``rint`` finds the same ``k``: when ``|v| < 1000`` (``v * 1e8`` then
+    within 1e-5 of the exact product) and ``v * 1e8`` is not within 1e-3 of a half-integer;
+    ``round`` itself rounds the other entries.
+    """
+    v = np.hstack([xs, ys])
+    s = v * 1e8
+    r = np.rint(s) / 1e8
+    with np.errstate(invalid="ignore"):
+        slow = ~((np.abs(v) < 1000.0) & (np.abs(s - np.floor(s) - 0.5) > 1e-3))
+    if slow.any():
+        r[slow] = [round(x, 8) for x in v[slow].tolist()]
+    return [tuple(row) for row in r.tolist()]
 
 
 #: Kinds of singular points met along a path.

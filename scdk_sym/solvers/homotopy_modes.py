@@ -42,7 +42,7 @@ from ..kernels.cache import read_entry, write_entry
 from ..kernels.fastcall import model_calls
 from ..model.rotations import rot_exp
 from ..products import START_SYSTEM
-from ..results import AssemblyModes, Configuration, mode_order
+from ..results import AssemblyModes, Configuration, mode_orders
 from ..robot import Model, as_vector
 from ..robot.rods import rod_reduction
 from .rod_modes import lifted_modes
@@ -849,28 +849,36 @@ def _real_modes(model, form, results, thetas: np.ndarray, reasons: list[list[str
     # (polished to the same point) are merged: two real solutions next to a singular surface
     # may lie 1e-5 model sizes apart, and the Krawczyk boxes below decide (they must be
     # pairwise disjoint)
-    feats = features(model, np.vstack([cfg.y for cfg in polished] or [np.zeros((0, model.m))]))
+    ys = np.vstack([cfg.y for cfg in polished] or [np.zeros((0, model.m))])
+    feats = features(model, ys)
+    keys = mode_orders(np.vstack([cfg.x for cfg in polished] or [np.zeros((0, 0))]), ys)
     per_point: list[list[int]] = [[] for _ in Zs]
     for i, w in enumerate(owner[good].tolist()):
         per_point[w].append(i)
     out = []
     for w, rows in enumerate(per_point):
-        cfgs = [polished[rows[j]] for j in _first_of_images(feats[rows], DUPLICATE * scale)]
+        kept = [rows[j] for j in _first_of_images(feats[rows], DUPLICATE * scale)]
         if dropped[w]:
             reasons[w].append(
                 f"{dropped[w]} real endpoint(s) did not polish to max |g| <= {RESIDUAL:.0e}"
             )
-        cfgs.sort(key=mode_order)
-        out.append((cfgs, spurious[w]))
+        kept.sort(key=keys.__getitem__)  # stable, as sorting the configurations by mode_order
+        out.append(([polished[i] for i in kept], spurious[w]))
     return out
 
 
 def _first_of_images(feats: np.ndarray, tol: float) -> list[int]:
     """The rows of ``feats`` (R, d) kept in order, each unless some kept row lies within
-    ``tol`` of it (max-norm): all pairs compared at once, the in-order rule run only where
-    two rows meet."""
+    ``tol`` of it (max-norm): all pairs compared at once (by their first coordinate, then,
+    where two may meet, by all), the in-order rule run only where two rows meet."""
     R = len(feats)
     if R < 2:
+        return list(range(R))
+    first = feats[:, 0]
+    with np.errstate(invalid="ignore"):
+        apart = np.abs(first[:, None] - first[None]) > tol  # a lower bound of the distance
+    np.fill_diagonal(apart, True)
+    if apart.all():  # no two rows meet
         return list(range(R))
     dist = np.abs(feats[:, None] - feats[None]).max(axis=2)
     near = dist <= tol
