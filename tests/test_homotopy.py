@@ -540,8 +540,9 @@ def test_dedup_groups_equals_dedup_of_each_group():
 
 def test_pair_distances_answer_every_bound_test_as_the_full_matrix():
     """``pair_distances`` against the plain (G, M, M) max-modulus matrix on 500 seeded
-    batches with repeated rows, rows a hair apart (1e-9 .. 1e-7, along any coordinate and in
-    the imaginary part only), NaN rows and bounds per column: ``<= bound`` is the same
+    batches (complex, and their real parts) with repeated rows, rows a hair apart (1e-9 ..
+    1e-7, along any coordinate and in the imaginary part only), NaN rows and bounds per
+    column: ``<= bound`` is the same
     everywhere, every finite entry equals the plain value bit for bit, a NaN is a NaN or
     (a pair apart in its first coordinate) inf."""
     rng = np.random.default_rng(17)
@@ -556,12 +557,14 @@ def test_pair_distances_answer_every_bound_test_as_the_full_matrix():
                 z[g, i, k] += 10.0 ** rng.uniform(-9, -7) * (1j if rng.uniform() < 0.5 else 1)
         if rng.uniform() < 0.2:
             z[rng.integers(G), rng.integers(M), rng.integers(n)] = np.nan
-        plain = np.abs(z[:, :, None] - z[:, None]).max(axis=3)
-        bound = 1e-8 * (1.0 + np.abs(z).max(axis=2))[:, None, :]
-        got = pair_distances(z, bound)
-        np.testing.assert_array_equal(got <= bound, plain <= bound)
-        finite = np.isfinite(got)
-        np.testing.assert_array_equal(got[finite], plain[finite])
-        # NaN where computed, else inf (a pair surely apart by its first coordinate)
-        assert (np.isnan(got) <= np.isnan(plain)).all()
-        assert np.isinf(got[np.isnan(plain)]).sum() + np.isnan(got).sum() == np.isnan(plain).sum()
+        for x in (z, np.ascontiguousarray(z.real)):  # complex, and real rows
+            plain = np.abs(x[:, :, None] - x[:, None]).max(axis=3)
+            bound = 1e-8 * (1.0 + np.abs(x).max(axis=2))[:, None, :]
+            got = pair_distances(x, bound)
+            np.testing.assert_array_equal(got <= bound, plain <= bound)
+            finite = np.isfinite(got)
+            np.testing.assert_array_equal(got[finite], plain[finite])
+            # NaN where computed, else inf (a pair surely apart by its first coordinate)
+            assert (np.isnan(got) <= np.isnan(plain)).all()
+            nan = np.isnan(plain)
+            assert np.isinf(got[nan]).sum() + np.isnan(got).sum() == nan.sum()

@@ -196,8 +196,9 @@ EPS = float(np.finfo(float).eps)
 
 
 def pair_distances(z: np.ndarray, bound: np.ndarray | float) -> np.ndarray:
-    """``max_k |z[g, i, k] - z[g, j, k]|`` (G, M, M) of complex rows ``z`` (G, M, n) wherever
-    it may be at most ``bound`` (broadcast to (G, M, M)); ``inf`` where it is surely above.
+    """``max_k |z[g, i, k] - z[g, j, k]|`` (G, M, M) of complex (or real) rows ``z``
+    (G, M, n) wherever it may be at most ``bound`` (broadcast to (G, M, M)); ``inf`` where it
+    is surely above.
 
     The full moduli are computed only for the pairs whose first coordinates' real parts, a
     lower bound of the distance, are not already farther apart than ``bound``; those pairs
@@ -391,7 +392,8 @@ def dedup_groups(xs: list[np.ndarray], tol: float, block: int = 1 << 20) -> list
             x = np.stack([xs[g] for g in rows])  # (G, M, n)
             scale = 1.0 + np.abs(x).max(axis=2)
             with np.errstate(invalid="ignore"):
-                d = np.abs(x[:, :, None] - x[:, None]).max(axis=3)
+                # the distances only where a pair may be near (margin: the division)
+                d = pair_distances(x, tol * (1.0 + 1e-9) * scale[:, None, :])
                 close = d / scale[:, None, :] <= tol  # as dedup: relative to the column's row
             diag = np.arange(M)
             close[:, diag, diag] = False
