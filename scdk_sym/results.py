@@ -5,12 +5,14 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
 if TYPE_CHECKING:
     from .model.model import Model
+
+_T = TypeVar("_T")
 
 
 def frozen_array(a: np.ndarray) -> np.ndarray:
@@ -53,6 +55,16 @@ class JointValues(Mapping[str, float]):
 
     def __repr__(self) -> str:
         return f"JointValues({dict(self)!r})"
+
+
+def unchecked(cls: type[_T], **fields: object) -> _T:
+    """An instance of the frozen dataclass ``cls`` from every field in its final form
+    (read-only float arrays whose memory nothing writes, immutable maps, Python scalars):
+    ``__init__`` and the copies and checks of ``__post_init__`` skipped. For the package's
+    batch paths, which build many results from arrays they own."""
+    obj: _T = object.__new__(cls)
+    obj.__dict__.update(fields)
+    return obj
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,9 @@
 """Model loading, validation, square reduction, inverse kinematics (scdk_sym.robot.model)."""
 
+import dataclasses
 import math
 import shutil
+from collections.abc import Mapping
 
 import numpy as np
 import pytest
@@ -104,6 +106,19 @@ def test_batch_configurations_joints_are_the_named_values_read_only():
             cfg.joints["mot1_rod1"] = 0.0  # type: ignore[index]
         with pytest.raises(KeyError):
             cfg.joints["no_such_joint"]
+        # built without __init__: the same fields as the checked constructor makes them
+        checked = sc.Configuration(cfg.theta, cfg.y, cfg.x, cfg.platform_pose, expected,
+                                   cfg.residual)  # fmt: skip
+        for f in dataclasses.fields(sc.Configuration):
+            a, b = getattr(cfg, f.name), getattr(checked, f.name)
+            assert type(a) is type(b) or isinstance(a, Mapping) and isinstance(b, Mapping)
+            if isinstance(a, np.ndarray):
+                assert a.dtype == b.dtype and not a.flags.writeable and not b.flags.writeable
+                np.testing.assert_array_equal(a, b)
+            else:
+                assert dict(a) == dict(b) if isinstance(a, Mapping) else a == b
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            cfg.residual = 0.0  # type: ignore[misc]
 
 
 def test_save_and_load_round_trip(tmp_path):

@@ -48,7 +48,7 @@ from ..errors import InputError
 from ..kernels.fastcall import Buffered
 from ..model.rotations import gibbs, rot_exp
 from ..products import CLOSURE_FUNCTION
-from ..results import frozen_array
+from ..results import frozen_array, unchecked
 from .ckrawczyk import IntervalKrawczyk, interval_krawczyk
 from .interval import FunctionCache, IntervalFunction, as_sx_function, interval_function
 
@@ -382,23 +382,25 @@ def _fast(
     domain = np.stack([np.nextafter(ms - r, np.inf), np.nextafter(ms + r, -np.inf)], axis=2)
     radius = np.max((box[:, :, 1] - box[:, :, 0]) / 2, axis=1)
     radius = np.where(np.isfinite(radius), radius, np.inf)
-    r_max = np.max(r, axis=1)
+    r_max = np.max(r, axis=1).tolist()
+    radius = radius.tolist()
     box, ms = np.array(box), np.array(ms)  # owned, then read-only: the rows are not copied
     for a in (box, domain, ms):
         a.setflags(write=False)
     return [
-        Certificate(
+        unchecked(
+            Certificate,
             proven=True,
             box=box[i],
             domain=domain[i],  # inside X = [m - r, m + r] rounded outward
-            radius=float(radius[i]),
+            radius=radius[i],
             reason=f"K(X) lies in the interior of X (radius {r_max[i]:.1e}): exactly one zero in X",
             x=ms[i],
             tries=1,
         )
-        if proven[i]
+        if ok
         else None
-        for i in range(len(ms))
+        for i, ok in enumerate(proven.tolist())
     ]
 
 

@@ -37,7 +37,7 @@ from ..model.rotations import rot_exp, rot_log, rpy_matrix
 from ..model.spec import Spec
 from ..model.urdf import Tree, slides_along_carrier, tree_to_urdf
 from ..products import Products
-from ..results import Configuration, JointValues
+from ..results import Configuration, JointValues, unchecked
 from ..symbolic.kinematics import link_placements
 from ..symbolic.system import Symbolic, build_symbolic
 from . import assembly
@@ -887,14 +887,16 @@ class Model:
             a.setflags(write=False)
         values = self._joint_table(ys_c, ths)
         columns = self._joint_columns
+        res = np.asarray(residuals, dtype=float).tolist()
         return [
-            Configuration(
-                ths[i],
-                ys_c[i],
-                xs[i],
-                poses[i],
-                JointValues(columns, values[i]),
-                float(residuals[i]),
+            unchecked(
+                Configuration,
+                theta=ths[i],
+                y=ys_c[i],
+                x=xs[i],
+                platform_pose=poses[i],
+                joints=JointValues(columns, values[i]),
+                residual=res[i],
             )  # fmt: skip
             for i in range(N)
         ]
