@@ -67,21 +67,30 @@ def _exact_range(op, a: tuple[float, float], b: tuple[float, float]) -> tuple[ar
         return _hull([_OPS[op](x, y) for x in pa for y in pb])
 
 
+@pytest.mark.parametrize("lanes", [False, True])
 @pytest.mark.parametrize("op", sorted(_OPS))
-def test_each_operation_encloses_its_exact_range_within_a_few_ulps(op):
+def test_each_operation_encloses_its_exact_range_within_a_few_ulps(op, lanes):
+    """Point by point, and in the lanes of the test (each lane checked against the point by
+    point evaluation of its own inputs, bit for bit)."""
     a, b = ca.SX.sym("a"), ca.SX.sym("b")
     t = tape(ca.Function("f", [a, b], [_OPS[op](a, b)]))
     assert t is not None
     rng = np.random.default_rng(21)
-    for _ in range(200):
+    for i in range(400):
         # endpoints with many significant bits, of mixed signs and magnitudes
         ca_, cb = rng.uniform(-3, 3, 2) * 10.0 ** rng.integers(-5, 6, 2)
         ra, rb = np.abs(rng.normal(size=2)) * 10.0 ** rng.integers(-12, 0, 2) * np.abs([ca_, cb])
         A, B = (ca_ - ra, ca_ + ra), (cb - rb, cb + rb)
+        if i % 4 == 1:  # intervals holding 0 (the branches of sq, fabs and sign)
+            A = (-abs(ca_) * rng.uniform(0.1, 2), abs(cb) * rng.uniform(0.1, 2))
+        elif i % 4 == 2:  # sums and differences with an end exactly 0
+            B = (-A[0], -A[0] + rb) if rng.uniform() < 0.5 else (A[1] - rb, A[1])
+        elif i % 4 == 3:  # an end exactly 0 (products and quotients of 0)
+            A = (0.0, abs(ca_)) if rng.uniform() < 0.5 else (-abs(ca_), 0.0)
         if op in ("div", "inv") and B[0] <= 0 <= B[1]:
-            assert replay(t, np.array([A]), np.array([B])) is None  # a divisor holding 0
+            assert replay(t, np.array([A]), np.array([B]), lanes) is None  # divisor holds 0
             continue
-        out = replay(t, np.array([A]), np.array([B]))[0]
+        out = replay(t, np.array([A]), np.array([B]), lanes)[0]
         lo, hi = _exact_range(op, A, B)
         assert arb(out[0]) <= lo and hi <= arb(out[1]), (op, A, B, out)
         # two outward steps at most per bound (a few more for a sum's cancellation)
@@ -102,10 +111,12 @@ def _exact_trig_range(fn: str, lo: float, hi: float) -> tuple[arb, arb]:
         return _hull(values)
 
 
+@pytest.mark.parametrize("lanes", [False, True])
 @pytest.mark.parametrize("fn", ["sin", "cos"])
-def test_sin_and_cos_enclose_their_exact_range_within_a_few_ulps(fn):
+def test_sin_and_cos_enclose_their_exact_range_within_a_few_ulps(fn, lanes):
     """Points and intervals of widths up to 1, near and far from the multiples of pi/2
-    (where the reduction and the extrema matter), up to |x| = 1e5; the hull past 2^20."""
+    (where the reduction and the extrema matter), up to |x| = 1e5; the hull past 2^20; point
+    by point and in the lanes."""
     x, p = ca.SX.sym("x"), ca.SX.sym("p")
     t = tape(ca.Function("f", [x, p], [getattr(ca, fn)(x)]))
     assert t is not None
@@ -119,12 +130,12 @@ def test_sin_and_cos_enclose_their_exact_range_within_a_few_ulps(fn):
             c = rng.uniform(-1, 1) * 10.0 ** rng.integers(-8, 6)
         w = 0.0 if i % 2 else rng.uniform(0, 1) * 10.0 ** rng.integers(-15, 1)
         lo, hi = c, c + w
-        out = replay(t, np.array([[lo, hi]]), np.zeros((1, 2)))[0]
+        out = replay(t, np.array([[lo, hi]]), np.zeros((1, 2)), lanes)[0]
         low, high = _exact_trig_range(fn, lo, hi)
         assert arb(out[0]) <= low and high <= arb(out[1]), (fn, lo, hi, out)
         # a few ulps, and the reduction's rounding: one ulp of x per step of pi/2
         assert out[1] - out[0] <= float(high - low) + 16 * EPS * (1 + abs(c)), (fn, lo, hi, out)
-    far = replay(t, np.array([[2.0**21, 2.0**21]]), np.zeros((1, 2)))[0]
+    far = replay(t, np.array([[2.0**21, 2.0**21]]), np.zeros((1, 2)), lanes)[0]
     np.testing.assert_array_equal(far, [-1.0, 1.0])
 
 
@@ -294,3 +305,44 @@ def test_tightening_near_a_singular_zero_holds_it_and_stops_on_its_own(arithmeti
         assert c.radius * 10 <= rough.radius
         assert c.radius <= k * EPS * (1 + float(np.max(np.abs(zero))))
         assert np.array_equal(c.box, more.box)
+
+
+def test_the_lane_width_changes_no_outcome():
+    """The library tests 2, 4 or 8 points at once (one register of doubles: the baseline
+    instruction set, AVX2, AVX-512, each where the processor has it); on 37 points of the
+    6-6 closure system (rotations through sin and cos) -- Dietmaier's 40 modes less three,
+    three of them moved off their zero, one to a NaN and one with a parameter box per point
+    -- every build gives the same statuses, radii and boxes to the bit, and the proven boxes
+    hold the Arb test's."""
+    from scdk_sym.algebraic.ctracker import _cpu_flags
+
+    model = sc.builders.stewart_gough(DIETMAIER_BASE, DIETMAIER_PLATFORM)
+    sols = sc.assembly_modes(model, DIETMAIER_LENGTHS)
+    ys = np.vstack([s.y for s in sols])[:37]
+    q = np.concatenate([DIETMAIER_LENGTHS, model.chart.to_local(ys[0])[1]])
+    f = closure_function(model)
+    fast = certify_configurations(model, ys, DIETMAIER_LENGTHS)
+    local = np.array(np.vstack([c.x for c in fast.certificates]))
+    local[[3, 17, 30]] += np.array([1e-3, -1e-2, 0.5])[:, None]  # no zero close enough
+    local[22, 1] = np.nan
+    sq = certify_module._SQUARES(f)
+    _, bounds, _ = certify_module._parameters(list(q), sq.n_params)
+    boxes = np.repeat(bounds[None], 37, axis=0)
+    boxes[5] = bounds + np.array([-1e-12, 1e-12])  # a box of parameters for one point
+    cpu = _cpu_flags()
+    builds = [()]
+    if "avx2" in cpu:
+        builds.append(("-mavx2",))
+    if "avx512f" in cpu:
+        builds.append(("-mavx2", "-mavx512f"))
+    outs = [sq.fast.test(local, boxes, certify_module.TIGHTEN, certify_module.TINY,
+                         certify_module.MAX_CONDITION, simd=b) for b in builds]  # fmt: skip
+    proven = outs[0][0]
+    assert proven.sum() == 33 and not proven[[3, 17, 22, 30]].any()
+    for other in outs[1:]:
+        for a, b in zip(outs[0], other, strict=True):
+            np.testing.assert_array_equal(a, b)
+    slow = certify_configurations(model, ys, DIETMAIER_LENGTHS, arithmetic="arb")
+    for i in np.flatnonzero(proven)[::8]:
+        a, b = outs[0][2][i], slow.certificates[i].box
+        assert np.all(a[:, 0] <= b[:, 1]) and np.all(b[:, 0] <= a[:, 1])

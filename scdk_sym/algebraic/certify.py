@@ -679,8 +679,11 @@ def _certificate_set(certs: tuple, disjoint: bool = False) -> CertificateSet:
             inside_i = np.all((di[:, 0] <= bj[:, 0]) & (bj[:, 1] <= di[:, 1]))
             if inside_i or inside_j:
                 duplicates.append((i, j))
-    roots = _components(len(certs), overlaps)
-    count = len({roots[i] for i in proven})
+    if overlaps:
+        roots = _components(len(certs), overlaps)
+        count = len({roots[i] for i in proven})
+    else:  # every proven zero its own component
+        count = len(proven)
     failed = [i for i, c in enumerate(certs) if not c.proven]
     parts = [f"{len(proven)} of {len(certs)} solutions proven"]
     if failed:

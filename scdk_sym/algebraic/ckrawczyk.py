@@ -28,7 +28,7 @@ import numpy as np
 
 from ..errors import BuildError, InputError
 from ..symbolic.instructions import instructions
-from .ctracker import source_library
+from .ctracker import simd_flags, source_library
 
 #: Flags of the interval library (warnings are errors; ISO C without fused multiply-adds or
 #: other value-changing optimisations: -O3 inlines and unrolls, every operation still rounds
@@ -122,12 +122,16 @@ def tape(f: ca.Function) -> Tape | None:
     return Tape(struct, (ops, ia, ib, io, consts), (f.numel_in(0), f.numel_in(1)))
 
 
-_LIBRARY: list[ctypes.CDLL] = []
+_LIBRARIES: dict[tuple[str, ...], ctypes.CDLL] = {}
 
 
-def _library() -> ctypes.CDLL:
-    if not _LIBRARY:
-        lib = ctypes.CDLL(str(source_library("ikrawczyk", IKRAWCZYK_CFLAGS)))
+def _library(simd: tuple[str, ...] | None = None) -> ctypes.CDLL:
+    """The interval library, compiled once per instruction-set flags (default
+    :func:`~scdk_sym.algebraic.ctracker.simd_flags`; the points tested at once are the doubles
+    of one register of that set, and each point's outcome does not depend on it)."""
+    simd = simd_flags() if simd is None else simd
+    if simd not in _LIBRARIES:
+        lib = ctypes.CDLL(str(source_library("ikrawczyk", (*IKRAWCZYK_CFLAGS, *simd))))
         f = lib.scdk_ikrawczyk
         dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
         i64 = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
@@ -137,19 +141,25 @@ def _library() -> ctypes.CDLL:
                       I, D, D, i64, dbl, dbl]  # fmt: skip
         f.restype = ctypes.c_int
         g = lib.scdk_ireplay
-        g.argtypes = [ctypes.POINTER(_Tape), I, I, dbl, dbl, dbl]
+        g.argtypes = [ctypes.POINTER(_Tape), I, I, dbl, dbl, dbl, I]
         g.restype = ctypes.c_int
-        _LIBRARY.append(lib)
-    return _LIBRARY[0]
+        _LIBRARIES[simd] = lib
+    return _LIBRARIES[simd]
 
 
-def replay(t: Tape, x: np.ndarray, p: np.ndarray) -> np.ndarray | None:
+def replay(
+    t: Tape, x: np.ndarray, p: np.ndarray, lanes: bool = False, simd: tuple[str, ...] | None = None
+) -> np.ndarray | None:
     """One interval evaluation of a tape (the operations the test uses).
 
     Args:
         t: the tape of ``(x, p) -> out``.
         x: (n, 2) ``[lo, hi]`` of the first input.
         p: (k, 2) ``[lo, hi]`` of the second input.
+        lanes: evaluate in the lanes the test runs its points in (lane 0 on ``x`` and ``p``,
+            the others on them scaled by ``1 + l 2^-10``), each lane checked against the
+            point-by-point evaluation of its inputs.
+        simd: the library's instruction-set flags (default: this processor's).
 
     Returns:
         (n_out, 2) ``[lo, hi]`` enclosing every value of ``out`` over the boxes, or ``None``
@@ -157,6 +167,8 @@ def replay(t: Tape, x: np.ndarray, p: np.ndarray) -> np.ndarray | None:
 
     Raises:
         InputError: ``x`` or ``p`` do not have the tape's sizes.
+        BuildError: with ``lanes``, a lane's value differs from the point-by-point one (the
+            library is miscompiled).
     """
     x = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, 2)
     p = np.ascontiguousarray(p, dtype=np.float64).reshape(-1, 2)
@@ -166,7 +178,13 @@ def replay(t: Tape, x: np.ndarray, p: np.ndarray) -> np.ndarray | None:
             f"{len(p)}; pass (n, 2) and (k, 2) [lo, hi] arrays"
         )
     out = np.empty((t.struct.n_out, 2))
-    rc = _library().scdk_ireplay(ctypes.byref(t.struct), len(x), len(p), x, p, out)
+    rc = _library(simd).scdk_ireplay(ctypes.byref(t.struct), len(x), len(p), x, p, out,
+                                     int(lanes))  # fmt: skip
+    if rc == 4:
+        raise BuildError(
+            f"the interval library's lanes {simd_flags() if simd is None else simd} differ from "
+            "its point-by-point replay; rebuild it with other flags or report the compiler"
+        )
     return None if rc else out
 
 
@@ -193,6 +211,7 @@ class IntervalKrawczyk:
         tighten: int,
         tiny: float,
         max_condition: float,
+        simd: tuple[str, ...] | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Test ``N`` points in one call.
 
@@ -203,6 +222,7 @@ class IntervalKrawczyk:
             tighten: most Krawczyk steps that shrink a proven enclosure.
             tiny: smallest box radius.
             max_condition: no test where the condition estimate of ``J(m)`` is not below.
+            simd: the library's instruction-set flags (default: this processor's).
 
         Returns:
             ``(proven (N,) bool, r (N, n) radii of the boxes X, box (N, n, 2) enclosures)``;
@@ -216,7 +236,7 @@ class IntervalKrawczyk:
         stride = self.n_params if p_bounds.ndim == 3 else 0
         lo = np.ascontiguousarray(p_bounds[..., 0], dtype=np.float64)
         hi = np.ascontiguousarray(p_bounds[..., 1], dtype=np.float64)
-        rc = _library().scdk_ikrawczyk(
+        rc = _library(simd).scdk_ikrawczyk(
             ctypes.byref(self.value.struct), ctypes.byref(self.jacobian.struct), self.n,
             self.n_params, N, m, lo, hi, stride, int(tighten), float(tiny),
             float(max_condition), status, r, box,

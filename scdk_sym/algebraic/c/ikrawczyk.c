@@ -265,6 +265,173 @@ static void replay_float(const scdk_tape *t, const double *x, const double *p, d
     }
 }
 
+/* ---- Lanes: the replays of KL points at once, one per lane of a GCC vector of doubles. Each
+ * lane computes exactly what the scalar replay computes for its point (the same operations
+ * in the same order: the bounds of a branch are all computed and the lane's taken), and a
+ * lane whose scalar replay would have stopped (a bound not finite, a divisor holding 0) is
+ * marked bad. */
+#ifndef SCDK_KLANES /* one register of doubles of the instruction set compiled for */
+#if defined(__AVX512F__)
+#define SCDK_KLANES 8
+#elif defined(__AVX__)
+#define SCDK_KLANES 4
+#else
+#define SCDK_KLANES 2
+#endif
+#endif
+#define KL SCDK_KLANES
+typedef double kvd __attribute__((vector_size(8 * KL)));
+typedef long long kvl __attribute__((vector_size(8 * KL)));
+typedef struct {
+    kvd lo, hi;
+} vival;
+
+#define KSEL(m, a, b) ((kvd)(((kvl)(a) & (m)) | ((kvl)(b) & ~(m))))
+#define KSPLAT(x) ((kvd){0} + (x))
+
+static inline kvd vdown(kvd x) { /* down() lane by lane */
+    const kvl pos = x > 0.0, neg = x < 0.0, zero = x == 0.0;
+    kvl u;
+    memcpy(&u, &x, sizeof u);
+    u = u + pos - neg; /* masks are -1: u - 1 where x > 0, u + 1 where x < 0; NaN unchanged */
+    kvd r;
+    memcpy(&r, &u, sizeof r);
+    return KSEL(zero, KSPLAT(-4.9406564584124654e-324), r);
+}
+
+static inline kvd vup(kvd x) { return -vdown(-x); }
+static inline kvd vmin2(kvd a, kvd b) { return KSEL(a < b, a, b); }
+static inline kvd vmax2(kvd a, kvd b) { return KSEL(a > b, a, b); }
+static inline kvl vfinite(vival a) { return (a.lo - a.lo == 0.0) & (a.hi - a.hi == 0.0); }
+
+static inline vival vadd(vival a, vival b) {
+    vival r = {vdown(a.lo + b.lo), vup(a.hi + b.hi)};
+    return r;
+}
+
+static inline vival vsub(vival a, vival b) {
+    vival r = {vdown(a.lo - b.hi), vup(a.hi - b.lo)};
+    return r;
+}
+
+static inline vival vmul(vival a, vival b) {
+    const kvd p1 = a.lo * b.lo, p2 = a.lo * b.hi, p3 = a.hi * b.lo, p4 = a.hi * b.hi;
+    vival r = {vdown(vmin2(vmin2(p1, p2), vmin2(p3, p4))),
+               vup(vmax2(vmax2(p1, p2), vmax2(p3, p4)))};
+    return r;
+}
+
+static inline vival vdiv(vival a, vival b) {
+    const kvd q1 = a.lo / b.lo, q2 = a.lo / b.hi, q3 = a.hi / b.lo, q4 = a.hi / b.hi;
+    vival r = {vdown(vmin2(vmin2(q1, q2), vmin2(q3, q4))),
+               vup(vmax2(vmax2(q1, q2), vmax2(q3, q4)))};
+    return r;
+}
+
+static inline vival vsq(vival a) {
+    const kvd ll = a.lo * a.lo, hh = a.hi * a.hi;
+    const kvl m1 = a.lo >= 0.0, m2 = ~m1 & (a.hi <= 0.0);
+    vival r = {KSEL(m1, vdown(ll), KSEL(m2, vdown(hh), KSPLAT(0.0))),
+               KSEL(m1, vup(hh), KSEL(m2, vup(ll), vup(KSEL(ll > hh, ll, hh))))};
+    return r;
+}
+
+static inline vival vabs(vival a) {
+    const kvl m1 = a.lo >= 0.0, m2 = ~m1 & (a.hi <= 0.0);
+    vival r = {KSEL(m1, a.lo, KSEL(m2, -a.hi, KSPLAT(0.0))),
+               KSEL(m1, a.hi, KSEL(m2, -a.lo, KSEL(-a.lo > a.hi, -a.lo, a.hi)))};
+    return r;
+}
+
+static inline vival vsign(vival a) {
+    vival r = {KSEL(a.lo > 0.0, KSPLAT(1.0), KSEL(a.lo < 0.0, KSPLAT(-1.0), KSPLAT(0.0))),
+               KSEL(a.hi < 0.0, KSPLAT(-1.0), KSEL(a.hi > 0.0, KSPLAT(1.0), KSPLAT(0.0)))};
+    return r;
+}
+
+static inline kvl vholds_zero(vival a) { return (a.lo <= 0.0) & (a.hi >= 0.0); }
+
+/* replay() of KL points; the lanes whose replay failed are set in the returned mask. */
+static kvl vreplay(const scdk_tape *t, const vival *x, const vival *p, vival *w, vival *out) {
+    kvl bad = (kvl){0};
+    for (int64_t i = 0; i < t->n_out; ++i) out[i].lo = out[i].hi = KSPLAT(0.0);
+    for (int64_t s = 0; s < t->L; ++s) {
+        const int64_t a = t->a[s], b = t->b[s], o = t->o[s];
+        vival r;
+        switch (t->op[s]) {
+        case SCDK_I_CONST: r.lo = r.hi = KSPLAT(t->c[s]); break;
+        case SCDK_I_INPUT: r = a == 0 ? x[b] : p[b]; break;
+        case SCDK_I_OUTPUT: out[o] = w[a]; continue;
+        case SCDK_I_ASSIGN: r = w[a]; break;
+        case SCDK_I_NEG: r.lo = -w[a].hi; r.hi = -w[a].lo; break;
+        case SCDK_I_SQ: r = vsq(w[a]); break;
+        case SCDK_I_TWICE: r = vadd(w[a], w[a]); break;
+        case SCDK_I_INV: {
+            const vival one = {KSPLAT(1.0), KSPLAT(1.0)};
+            bad |= vholds_zero(w[a]);
+            r = vdiv(one, w[a]);
+            break;
+        }
+        case SCDK_I_FABS: r = vabs(w[a]); break;
+        case SCDK_I_SIGN: r = vsign(w[a]); break;
+        case SCDK_I_SIN:
+        case SCDK_I_COS:
+            for (int l = 0; l < KL; ++l) {
+                const ival v = {w[a].lo[l], w[a].hi[l]};
+                const ival y = itrig(v, t->op[s] == SCDK_I_COS);
+                r.lo[l] = y.lo;
+                r.hi[l] = y.hi;
+            }
+            break;
+        case SCDK_I_ADD: r = vadd(w[a], w[b]); break;
+        case SCDK_I_SUB: r = vsub(w[a], w[b]); break;
+        case SCDK_I_MUL: r = vmul(w[a], w[b]); break;
+        case SCDK_I_DIV:
+            bad |= vholds_zero(w[b]);
+            r = vdiv(w[a], w[b]);
+            break;
+        default: return (kvl){0} - 1;
+        }
+        bad |= ~vfinite(r);
+        w[o] = r;
+    }
+    return bad;
+}
+
+/* replay_float() of KL points. */
+static void vreplay_float(const scdk_tape *t, const kvd *x, const kvd *p, kvd *w, kvd *out) {
+    for (int64_t i = 0; i < t->n_out; ++i) out[i] = KSPLAT(0.0);
+    for (int64_t s = 0; s < t->L; ++s) {
+        const int64_t a = t->a[s], b = t->b[s], o = t->o[s];
+        kvd r;
+        switch (t->op[s]) {
+        case SCDK_I_CONST: r = KSPLAT(t->c[s]); break;
+        case SCDK_I_INPUT: r = a == 0 ? x[b] : p[b]; break;
+        case SCDK_I_OUTPUT: out[o] = w[a]; continue;
+        case SCDK_I_ASSIGN: r = w[a]; break;
+        case SCDK_I_NEG: r = -w[a]; break;
+        case SCDK_I_SQ: r = w[a] * w[a]; break;
+        case SCDK_I_TWICE: r = w[a] + w[a]; break;
+        case SCDK_I_INV: r = 1.0 / w[a]; break;
+        case SCDK_I_FABS: r = (kvd)((kvl)w[a] & ((kvl){0} + 0x7fffffffffffffffLL)); break;
+        case SCDK_I_SIGN:
+            r = KSEL(w[a] > 0.0, KSPLAT(1.0), KSEL(w[a] < 0.0, KSPLAT(-1.0), KSPLAT(0.0)));
+            break;
+        case SCDK_I_SIN:
+        case SCDK_I_COS:
+            for (int l = 0; l < KL; ++l)
+                r[l] = t->op[s] == SCDK_I_SIN ? sin(w[a][l]) : cos(w[a][l]);
+            break;
+        case SCDK_I_ADD: r = w[a] + w[b]; break;
+        case SCDK_I_SUB: r = w[a] - w[b]; break;
+        case SCDK_I_MUL: r = w[a] * w[b]; break;
+        case SCDK_I_DIV: r = w[a] / w[b]; break;
+        default: r = KSPLAT(NAN);
+        }
+        w[o] = r;
+    }
+}
+
 /* Y ~ A^-1 (n x n row-major) from the package's LU with partial pivoting (scdk_lu.h; piv:
  * n ints), and the infinity-norm condition estimate |A| |Y|; 0 on success. A is overwritten. */
 static int invert(double *A, double *Y, int64_t n, int *piv, double *cond) {
@@ -297,21 +464,24 @@ typedef struct {
     int *piv;
 } work;
 
-/* Y ~ J(c)^-1 (the Jacobian at the point c and the parameters' midpoints, in binary64);
- * 0 on success. */
-static int inverse_at(work *s, const double *c, double max_cond) {
-    const int64_t n = s->n;
-    replay_float(s->jacobian, c, s->pm, s->fw, s->A);
+/* Y ~ A^-1 from the Jacobian in s->A (overwritten); 0 on success (the condition estimate
+ * below max_cond). */
+static int inverse_of(work *s, double max_cond) {
     double cond;
-    if (invert(s->A, s->Y, n, s->piv, &cond)) return 1;
+    if (invert(s->A, s->Y, s->n, s->piv, &cond)) return 1;
     return cond < max_cond ? 0 : 1;
 }
 
-/* newton = c - Y f(c) into s->newton; 0 on success. */
-static int newton_point(work *s, const double *c) {
+/* Y ~ J(c)^-1 (the Jacobian at the point c and the parameters' midpoints, in binary64);
+ * 0 on success. */
+static int inverse_at(work *s, const double *c, double max_cond) {
+    replay_float(s->jacobian, c, s->pm, s->fw, s->A);
+    return inverse_of(s, max_cond);
+}
+
+/* newton = c - Y f(c) into s->newton from f(c) in s->out; 0 on success. */
+static int newton_tail(work *s, const double *c) {
     const int64_t n = s->n;
-    for (int64_t i = 0; i < n; ++i) s->mid[i] = point(c[i]);
-    if (replay(s->value, s->mid, s->P, s->w, s->out)) return 1;
     for (int64_t i = 0; i < n; ++i) {
         ival acc = point(c[i]);
         for (int64_t j = 0; j < n; ++j) acc = isub(acc, pmul(s->Y[i * n + j], s->out[j]));
@@ -321,10 +491,16 @@ static int newton_point(work *s, const double *c) {
     return 0;
 }
 
-/* K = newton + (I - Y J(B)) (B - c) over the box B into s->K; 0 on success. */
-static int krawczyk_operator(work *s, const ival *B, const double *c) {
+/* newton = c - Y f(c) into s->newton; 0 on success. */
+static int newton_point(work *s, const double *c) {
+    for (int64_t i = 0; i < s->n; ++i) s->mid[i] = point(c[i]);
+    if (replay(s->value, s->mid, s->P, s->w, s->out)) return 1;
+    return newton_tail(s, c);
+}
+
+/* K = newton + (I - Y J(B)) (B - c) into s->K from J(B) in s->out; 0 on success. */
+static int krawczyk_tail(work *s, const ival *B, const double *c) {
     const int64_t n = s->n;
-    if (replay(s->jacobian, B, s->P, s->w, s->out)) return 1;
     for (int64_t i = 0; i < n; ++i)
         for (int64_t j = 0; j < n; ++j) {
             ival acc = point(i == j ? 1.0 : 0.0);
@@ -344,6 +520,12 @@ static int krawczyk_operator(work *s, const ival *B, const double *c) {
         s->K[i] = acc;
     }
     return 0;
+}
+
+/* K = newton + (I - Y J(B)) (B - c) over the box B into s->K; 0 on success. */
+static int krawczyk_operator(work *s, const ival *B, const double *c) {
+    if (replay(s->jacobian, B, s->P, s->w, s->out)) return 1;
+    return krawczyk_tail(s, B, c);
 }
 
 static double largest_radius(const ival *B, int64_t n) {
@@ -414,6 +596,25 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
         free(s.piv);
         return SCDK_K_NO_MEMORY;
     }
+    /* the lanes' buffers (64-byte aligned) and each lane's Y, Newton point and box X */
+    const size_t nv = (size_t)(W + 1 + n * n + 2 * n + k + 1), nf = (size_t)(W + 1 + n * n + n + k + 1);
+    char *vraw = malloc(nv * sizeof(vival) + nf * sizeof(kvd) + 64);
+    double *Yl = malloc((size_t)(KL * n * n) * sizeof(double));
+    ival *Nl = malloc((size_t)(2 * KL * n) * sizeof(ival));
+    if (!vraw || !Yl || !Nl) {
+        free(P);
+        free(iv);
+        free(dv);
+        free(s.piv);
+        free(vraw);
+        free(Yl);
+        free(Nl);
+        return SCDK_K_NO_MEMORY;
+    }
+    vival *vw = (vival *)(vraw + (64 - (uintptr_t)vraw % 64) % 64);
+    vival *vout = vw + W + 1, *vm = vout + n * n, *vx = vm + n, *vp = vx + n;
+    kvd *fw = (kvd *)(vp + k + 1), *fa = fw + W + 1, *fx = fa + n * n, *fp = fx + n;
+    ival *Xl = Nl + KL * n;
     s.P = P;
     s.w = iv;
     s.out = s.w + W + 1;
@@ -429,44 +630,93 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
     double *c = s.Y + n * n;
     s.fw = c + n;
     s.pm = s.fw + W + 1;
-    for (int64_t q = 0; q < N; ++q) {
-        const double *mq = m + q * n;
-        double *rq = r + q * n, *bq = box + 2 * q * n;
-        status[q] = SCDK_K_NOT_PROVEN;
-        for (int64_t i = 0; i < k; ++i) {
-            P[i].lo = p_lo[q * p_stride + i];
-            P[i].hi = p_hi[q * p_stride + i];
-            s.pm[i] = 0.5 * P[i].lo + 0.5 * P[i].hi;
+    /* KL points at a time: their three tape replays in the lanes, the rest point by point;
+     * each point's outcome is the one the point alone gets (the lanes compute its values) */
+    for (int64_t q0 = 0; q0 < N; q0 += KL) {
+        const int cnt = N - q0 < KL ? (int)(N - q0) : KL;
+        int ok[KL];
+        for (int l = 0; l < KL; ++l) { /* a short last group repeats its last point */
+            const int64_t q = q0 + (l < cnt ? l : cnt - 1);
+            for (int64_t i = 0; i < k; ++i) {
+                vp[i].lo[l] = p_lo[q * p_stride + i];
+                vp[i].hi[l] = p_hi[q * p_stride + i];
+                fp[i][l] = 0.5 * vp[i].lo[l] + 0.5 * vp[i].hi[l];
+            }
+            for (int64_t i = 0; i < n; ++i) vm[i].lo[l] = vm[i].hi[l] = fx[i][l] = m[q * n + i];
         }
-        for (int64_t i = 0; i < n; ++i) {
-            rq[i] = NAN;
-            bq[2 * i] = bq[2 * i + 1] = NAN;
+        vreplay_float(jacobian, fx, fp, fw, fa);          /* J(m) for Y (inverse_at) */
+        const kvl bad_f = vreplay(value, vm, vp, vw, vout); /* f(m) (newton_point) */
+        for (int l = 0; l < KL; ++l) {
+            const int64_t q = q0 + l;
+            ok[l] = 0;
+            for (int64_t i = 0; i < n; ++i) vx[i].lo[l] = vx[i].hi[l] = vm[i].lo[l];
+            if (l >= cnt) continue;
+            const double *mq = m + q * n;
+            double *rq = r + q * n, *bq = box + 2 * q * n;
+            status[q] = SCDK_K_NOT_PROVEN;
+            for (int64_t i = 0; i < n; ++i) {
+                rq[i] = NAN;
+                bq[2 * i] = bq[2 * i + 1] = NAN;
+            }
+            for (int64_t i = 0; i < n * n; ++i) s.A[i] = fa[i][l];
+            if (inverse_of(&s, max_cond) || bad_f[l]) continue;
+            for (int64_t i = 0; i < n; ++i) {
+                s.out[i].lo = vout[i].lo[l];
+                s.out[i].hi = vout[i].hi[l];
+            }
+            if (newton_tail(&s, mq)) continue;
+            double delta = 0.0;
+            for (int64_t i = 0; i < n; ++i) {
+                const double d = fabs(0.5 * s.newton[i].lo + 0.5 * s.newton[i].hi - mq[i]);
+                if (d > delta) delta = d;
+            }
+            for (int64_t i = 0; i < n; ++i) {
+                const double ri = 2 * delta + 4 * (0.5 * (s.newton[i].hi - s.newton[i].lo));
+                rq[i] = ri > tiny ? ri : tiny;
+                Xl[l * n + i].lo = vx[i].lo[l] = down(mq[i] - rq[i]);
+                Xl[l * n + i].hi = vx[i].hi[l] = up(mq[i] + rq[i]);
+                Nl[l * n + i] = s.newton[i];
+            }
+            memcpy(Yl + l * n * n, s.Y, (size_t)(n * n) * sizeof(double));
+            ok[l] = 1;
         }
-        if (inverse_at(&s, mq, max_cond) || newton_point(&s, mq)) continue;
-        double delta = 0.0;
-        for (int64_t i = 0; i < n; ++i) {
-            const double d = fabs(0.5 * s.newton[i].lo + 0.5 * s.newton[i].hi - mq[i]);
-            if (d > delta) delta = d;
-        }
-        for (int64_t i = 0; i < n; ++i) {
-            const double ri = 2 * delta + 4 * (0.5 * (s.newton[i].hi - s.newton[i].lo));
-            rq[i] = ri > tiny ? ri : tiny;
-            s.X[i].lo = down(mq[i] - rq[i]);
-            s.X[i].hi = up(mq[i] + rq[i]);
-        }
-        if (krawczyk_operator(&s, s.X, mq)) continue;
-        int inside = 1;
-        for (int64_t i = 0; i < n; ++i)
-            inside = inside && s.K[i].lo > s.X[i].lo && s.K[i].hi < s.X[i].hi;
-        if (!inside) continue;
-        for (int64_t i = 0; i < n; ++i) B[i] = s.K[i];
-        tighten_box(&s, B, c, tighten);
-        status[q] = SCDK_K_PROVEN;
-        for (int64_t i = 0; i < n; ++i) {
-            bq[2 * i] = B[i].lo;
-            bq[2 * i + 1] = B[i].hi;
+        const kvl bad_j = vreplay(jacobian, vx, vp, vw, vout); /* J(X) (krawczyk_operator) */
+        for (int l = 0; l < cnt; ++l) {
+            if (!ok[l] || bad_j[l]) continue;
+            const int64_t q = q0 + l;
+            const double *mq = m + q * n;
+            double *bq = box + 2 * q * n;
+            for (int64_t i = 0; i < k; ++i) { /* the point's own state, for the steps below */
+                P[i].lo = vp[i].lo[l];
+                P[i].hi = vp[i].hi[l];
+                s.pm[i] = fp[i][l];
+            }
+            memcpy(s.Y, Yl + l * n * n, (size_t)(n * n) * sizeof(double));
+            for (int64_t i = 0; i < n; ++i) {
+                s.newton[i] = Nl[l * n + i];
+                s.X[i] = Xl[l * n + i];
+            }
+            for (int64_t i = 0; i < n * n; ++i) {
+                s.out[i].lo = vout[i].lo[l];
+                s.out[i].hi = vout[i].hi[l];
+            }
+            if (krawczyk_tail(&s, s.X, mq)) continue;
+            int inside = 1;
+            for (int64_t i = 0; i < n; ++i)
+                inside = inside && s.K[i].lo > s.X[i].lo && s.K[i].hi < s.X[i].hi;
+            if (!inside) continue;
+            for (int64_t i = 0; i < n; ++i) B[i] = s.K[i];
+            tighten_box(&s, B, c, tighten);
+            status[q] = SCDK_K_PROVEN;
+            for (int64_t i = 0; i < n; ++i) {
+                bq[2 * i] = B[i].lo;
+                bq[2 * i + 1] = B[i].hi;
+            }
         }
     }
+    free(vraw);
+    free(Yl);
+    free(Nl);
     free(P);
     free(iv);
     free(dv);
@@ -475,24 +725,54 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
 }
 
 int scdk_ireplay(const scdk_tape *t, int64_t n, int64_t k, const double *x, const double *p,
-                 double *out) {
+                 double *out, int64_t lanes) {
     if (n < 0 || k < 0 || t->W < 0 || t->n_out < 0) return SCDK_K_BAD_SIZE;
     ival *buf = malloc((size_t)(n + k + t->W + t->n_out + 1) * sizeof(ival));
-    if (!buf) return SCDK_K_NO_MEMORY;
+    const size_t nv = (size_t)(n + k + t->W + t->n_out + 1);
+    char *vraw = lanes ? malloc(nv * sizeof(vival) + 64) : NULL;
+    if (!buf || (lanes && !vraw)) {
+        free(buf);
+        free(vraw);
+        return SCDK_K_NO_MEMORY;
+    }
     ival *X = buf, *P = X + n, *w = P + k, *o = w + t->W;
-    for (int64_t i = 0; i < n; ++i) {
-        X[i].lo = x[2 * i];
-        X[i].hi = x[2 * i + 1];
+    int differ = 0, failed = 0;
+    for (int l = lanes ? KL - 1 : 0; l >= 0; --l) { /* lane 0 last: its output is returned */
+        const double scale = 1.0 + l * 0.0009765625;
+        for (int64_t i = 0; i < n; ++i) {
+            X[i].lo = x[2 * i] * scale;
+            X[i].hi = x[2 * i + 1] * scale;
+        }
+        for (int64_t i = 0; i < k; ++i) {
+            P[i].lo = p[2 * i] * scale;
+            P[i].hi = p[2 * i + 1] * scale;
+        }
+        failed = replay(t, X, P, w, o);
+        if (!lanes) break;
+        vival *vw = (vival *)(vraw + (64 - (uintptr_t)vraw % 64) % 64);
+        vival *VX = vw + t->W, *VP = VX + n, *vo = VP + k;
+        for (int64_t i = 0; i < n; ++i)
+            for (int j = 0; j < KL; ++j) {
+                VX[i].lo[j] = x[2 * i] * (1.0 + j * 0.0009765625);
+                VX[i].hi[j] = x[2 * i + 1] * (1.0 + j * 0.0009765625);
+            }
+        for (int64_t i = 0; i < k; ++i)
+            for (int j = 0; j < KL; ++j) {
+                VP[i].lo[j] = p[2 * i] * (1.0 + j * 0.0009765625);
+                VP[i].hi[j] = p[2 * i + 1] * (1.0 + j * 0.0009765625);
+            }
+        const kvl bad = vreplay(t, VX, VP, vw, vo);
+        differ |= (bad[l] != 0) != (failed != 0);
+        for (int64_t i = 0; i < t->n_out && !failed; ++i)
+            differ |= memcmp(&o[i].lo, &vo[i].lo[l], sizeof(double)) != 0 ||
+                      memcmp(&o[i].hi, &vo[i].hi[l], sizeof(double)) != 0;
     }
-    for (int64_t i = 0; i < k; ++i) {
-        P[i].lo = p[2 * i];
-        P[i].hi = p[2 * i + 1];
-    }
-    const int failed = replay(t, X, P, w, o);
     for (int64_t i = 0; i < t->n_out; ++i) {
         out[2 * i] = failed ? NAN : o[i].lo;
         out[2 * i + 1] = failed ? NAN : o[i].hi;
     }
     free(buf);
+    free(vraw);
+    if (differ) return SCDK_K_LANES_DIFFER;
     return failed ? SCDK_K_FAILED : SCDK_K_OK;
 }

@@ -49,7 +49,13 @@ typedef struct {
 enum { SCDK_K_NOT_PROVEN = 0, SCDK_K_PROVEN = 1 };
 
 /* Return codes of scdk_ikrawczyk. */
-enum { SCDK_K_OK = 0, SCDK_K_NO_MEMORY = 1, SCDK_K_BAD_SIZE = 2, SCDK_K_FAILED = 3 };
+enum {
+    SCDK_K_OK = 0,
+    SCDK_K_NO_MEMORY = 1,
+    SCDK_K_BAD_SIZE = 2,
+    SCDK_K_FAILED = 3,
+    SCDK_K_LANES_DIFFER = 4
+};
 
 /* The Krawczyk test of N points m (N x n) for the parameters in [p_lo, p_hi] (k each):
  * Y ~ J(m)^-1 in binary64 (the Jacobian tape replayed in plain binary64 at m and the
@@ -75,10 +81,13 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
                    int64_t *status, double *r, double *box);
 
 /* The tape replayed once on x (n x 2) and p (k x 2) intervals [lo, hi] into out (n_out x 2).
- * Returns SCDK_K_OK, SCDK_K_FAILED (a bound not finite or a divisor holding 0: out is NaN) or
- * an error code. */
+ * lanes != 0: replayed in the lanes scdk_ikrawczyk uses, lane 0 on x and p and lane l on
+ * them scaled by 1 + l 2^-10, each lane checked against the scalar replay of its inputs (the
+ * same failure, the same bits); out is lane 0's.
+ * Returns SCDK_K_OK, SCDK_K_FAILED (a bound not finite or a divisor holding 0: out is NaN),
+ * SCDK_K_LANES_DIFFER or an error code. */
 int scdk_ireplay(const scdk_tape *t, int64_t n, int64_t k, const double *x, const double *p,
-                 double *out);
+                 double *out, int64_t lanes);
 
 #ifdef __cplusplus
 }
