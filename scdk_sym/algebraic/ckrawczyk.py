@@ -13,9 +13,13 @@ Newton correction at the point, the same operator and tightening), so a point pr
 proven by the same theorem; a point it does not prove (or a Function with other operations,
 or no C compiler) goes to the ``arb`` test, which tries more boxes and says why it fails.
 
-The library is compiled once and cached (:func:`~scdk_sym.algebraic.ctracker.source_library`)
-with flags that keep every operation as written: no contraction into fused multiply-adds, no
-value-changing optimisations; the rounding mode is the default round-to-nearest.
+The replays of 2, 4 or 8 points run at once, one per lane of a register of doubles (SSE2,
+AVX2, AVX-512): each lane makes the operations of its point alone, so a point's outcome does
+not depend on the width (:func:`replay` with ``lanes=True`` checks a lane against the point
+by point replay). The library is compiled once and cached
+(:func:`~scdk_sym.algebraic.ctracker.source_library`) with flags that keep every operation as
+written: no contraction into fused multiply-adds, no value-changing optimisations; the
+rounding mode is the default round-to-nearest.
 """
 
 from __future__ import annotations
