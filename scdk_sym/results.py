@@ -63,7 +63,8 @@ def unchecked(cls: type[_T], **fields: object) -> _T:
     ``__init__`` and the copies and checks of ``__post_init__`` skipped. For the package's
     batch paths, which build many results from arrays they own."""
     obj: _T = object.__new__(cls)
-    obj.__dict__.update(fields)
+    for name, value in fields.items():
+        object.__setattr__(obj, name, value)
     return obj
 
 

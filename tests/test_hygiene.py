@@ -147,6 +147,7 @@ PROCESS_MEMOS = {
     "atlases/chunk.py:_MODELS": "a worker's models, rebuilt from their sources once per process",
     "algebraic/certify.py:_SQUARES": "square systems of CasADi Functions, by Function identity",
     "algebraic/interval.py:_CACHE": "interval translations of CasADi Functions, by identity",
+    "algebraic/ckrawczyk.py:_LIBRARIES": "the loaded interval library, per instruction-set flags",
     "cli/common.py:COMMANDS": "the subcommands' registry, filled as their modules import",
 }
 
