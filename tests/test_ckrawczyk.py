@@ -70,8 +70,8 @@ def _exact_range(op, a: tuple[float, float], b: tuple[float, float]) -> tuple[ar
 @pytest.mark.parametrize("lanes", [False, True])
 @pytest.mark.parametrize("op", sorted(_OPS))
 def test_each_operation_encloses_its_exact_range_within_a_few_ulps(op, lanes):
-    """Point by point, and in the lanes of the test (each lane checked against the point by
-    point evaluation of its own inputs, bit for bit)."""
+    """Every lane on the operands, and each lane on operands of its own (each lane checked,
+    bit for bit, against an evaluation with its operands in every lane)."""
     a, b = ca.SX.sym("a"), ca.SX.sym("b")
     t = tape(ca.Function("f", [a, b], [_OPS[op](a, b)]))
     assert t is not None

@@ -15,8 +15,8 @@ or no C compiler) goes to the ``arb`` test, which tries more boxes and says why 
 
 The replays of 2, 4 or 8 points run at once, one per lane of a register of doubles (SSE2,
 AVX2, AVX-512): each lane makes the operations of its point alone, so a point's outcome does
-not depend on the width (:func:`replay` with ``lanes=True`` checks a lane against the point
-by point replay). The library is compiled once and cached
+not depend on the width (:func:`replay` with ``lanes=True`` checks that a lane's values do
+not depend on its neighbours). The library is compiled once and cached
 (:func:`~scdk_sym.algebraic.ctracker.source_library`) with flags that keep every operation as
 written: no contraction into fused multiply-adds, no value-changing optimisations; the
 rounding mode is the default round-to-nearest.
@@ -160,9 +160,9 @@ def replay(
         t: the tape of ``(x, p) -> out``.
         x: (n, 2) ``[lo, hi]`` of the first input.
         p: (k, 2) ``[lo, hi]`` of the second input.
-        lanes: evaluate in the lanes the test runs its points in (lane 0 on ``x`` and ``p``,
-            the others on them scaled by ``1 + l 2^-10``), each lane checked against the
-            point-by-point evaluation of its inputs.
+        lanes: lane 0 on ``x`` and ``p`` and the other lanes of the evaluation on them
+            scaled by ``1 + l 2^-10``, each lane checked against an evaluation with its
+            inputs in every lane (else every lane on ``x`` and ``p``).
         simd: the library's instruction-set flags (default: this processor's).
 
     Returns:
@@ -171,8 +171,8 @@ def replay(
 
     Raises:
         InputError: ``x`` or ``p`` do not have the tape's sizes.
-        BuildError: with ``lanes``, a lane's value differs from the point-by-point one (the
-            library is miscompiled).
+        BuildError: with ``lanes``, a lane's value depends on its lane or its neighbours
+            (the library is miscompiled).
     """
     x = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, 2)
     p = np.ascontiguousarray(p, dtype=np.float64).reshape(-1, 2)
@@ -186,8 +186,8 @@ def replay(
                                      int(lanes))  # fmt: skip
     if rc == 4:
         raise BuildError(
-            f"the interval library's lanes {simd_flags() if simd is None else simd} differ from "
-            "its point-by-point replay; rebuild it with other flags or report the compiler"
+            f"the interval library's lanes {simd_flags() if simd is None else simd} depend on "
+            "each other; rebuild it with other flags or report the compiler"
         )
     return None if rc else out
 

@@ -106,19 +106,6 @@ static ival isq(ival a) {
     return r;
 }
 
-static ival iabs(ival a) {
-    if (a.lo >= 0.0) return a;
-    if (a.hi <= 0.0) return ineg(a);
-    ival r = {0.0, -a.lo > a.hi ? -a.lo : a.hi};
-    return r;
-}
-
-/* The sign function over an interval: the hull of its values (exact). */
-static ival isign(ival a) {
-    ival r = {a.lo > 0.0 ? 1.0 : (a.lo < 0.0 ? -1.0 : 0.0), a.hi < 0.0 ? -1.0 : (a.hi > 0.0 ? 1.0 : 0.0)};
-    return r;
-}
-
 /* a / b for b not holding 0 (checked by the caller). */
 static ival idiv(ival a, ival b) {
     const double q1 = a.lo / b.lo, q2 = a.lo / b.hi, q3 = a.hi / b.lo, q4 = a.hi / b.hi;
@@ -196,80 +183,11 @@ static ival itrig(ival x, int shift) {
     return r;
 }
 
-/* Replay a tape on x (n) and p (k) intervals into out (n_out); 0 on success. */
-static int replay(const scdk_tape *t, const ival *x, const ival *p, ival *w, ival *out) {
-    for (int64_t i = 0; i < t->n_out; ++i) out[i] = point(0.0);
-    for (int64_t s = 0; s < t->L; ++s) {
-        const int64_t a = t->a[s], b = t->b[s], o = t->o[s];
-        ival r;
-        switch (t->op[s]) {
-        case SCDK_I_CONST: r = point(t->c[s]); break;
-        case SCDK_I_INPUT: r = a == 0 ? x[b] : p[b]; break;
-        case SCDK_I_OUTPUT: out[o] = w[a]; continue;
-        case SCDK_I_ASSIGN: r = w[a]; break;
-        case SCDK_I_NEG: r = ineg(w[a]); break;
-        case SCDK_I_SQ: r = isq(w[a]); break;
-        case SCDK_I_TWICE: r = iadd(w[a], w[a]); break;
-        case SCDK_I_INV:
-            if (w[a].lo <= 0.0 && w[a].hi >= 0.0) return 1;
-            r = idiv(point(1.0), w[a]);
-            break;
-        case SCDK_I_FABS: r = iabs(w[a]); break;
-        case SCDK_I_SIGN: r = isign(w[a]); break;
-        case SCDK_I_SIN: r = itrig(w[a], 0); break;
-        case SCDK_I_COS: r = itrig(w[a], 1); break;
-        case SCDK_I_ADD: r = iadd(w[a], w[b]); break;
-        case SCDK_I_SUB: r = isub(w[a], w[b]); break;
-        case SCDK_I_MUL: r = imul(w[a], w[b]); break;
-        case SCDK_I_DIV:
-            if (w[b].lo <= 0.0 && w[b].hi >= 0.0) return 1;
-            r = idiv(w[a], w[b]);
-            break;
-        default: return 1;
-        }
-        if (!finite(r)) return 1;
-        w[o] = r;
-    }
-    return 0;
-}
-
-/* Replay a tape in plain binary64 on x (n) and p (k) into out (n_out), for the
- * preconditioner only (any approximate inverse keeps the test sound): sin and cos from the C
- * library, no check (a value that is not finite fails the inversion). */
-static void replay_float(const scdk_tape *t, const double *x, const double *p, double *w,
-                         double *out) {
-    for (int64_t i = 0; i < t->n_out; ++i) out[i] = 0.0;
-    for (int64_t s = 0; s < t->L; ++s) {
-        const int64_t a = t->a[s], b = t->b[s], o = t->o[s];
-        double r;
-        switch (t->op[s]) {
-        case SCDK_I_CONST: r = t->c[s]; break;
-        case SCDK_I_INPUT: r = a == 0 ? x[b] : p[b]; break;
-        case SCDK_I_OUTPUT: out[o] = w[a]; continue;
-        case SCDK_I_ASSIGN: r = w[a]; break;
-        case SCDK_I_NEG: r = -w[a]; break;
-        case SCDK_I_SQ: r = w[a] * w[a]; break;
-        case SCDK_I_TWICE: r = w[a] + w[a]; break;
-        case SCDK_I_INV: r = 1.0 / w[a]; break;
-        case SCDK_I_FABS: r = fabs(w[a]); break;
-        case SCDK_I_SIGN: r = w[a] > 0.0 ? 1.0 : (w[a] < 0.0 ? -1.0 : 0.0); break;
-        case SCDK_I_SIN: r = sin(w[a]); break;
-        case SCDK_I_COS: r = cos(w[a]); break;
-        case SCDK_I_ADD: r = w[a] + w[b]; break;
-        case SCDK_I_SUB: r = w[a] - w[b]; break;
-        case SCDK_I_MUL: r = w[a] * w[b]; break;
-        case SCDK_I_DIV: r = w[a] / w[b]; break;
-        default: r = NAN;
-        }
-        w[o] = r;
-    }
-}
-
-/* ---- Lanes: the replays of KL points at once, one per lane of a GCC vector of doubles. Each
- * lane computes exactly what the scalar replay computes for its point (the same operations
- * in the same order: the bounds of a branch are all computed and the lane's taken), and a
- * lane whose scalar replay would have stopped (a bound not finite, a divisor holding 0) is
- * marked bad. */
+/* ---- The replays: KL points at once, one per lane of a GCC vector of doubles. Each lane
+ * makes the interval operations above on its own point, in the tape's order (a branch's
+ * bounds are all computed and the lane's taken), so a point's values do not depend on its
+ * lane or its neighbours; a lane whose evaluation meets a bound that is not finite or a
+ * divisor holding 0 is marked bad (its values are then not used). */
 #ifndef SCDK_KLANES /* one register of doubles of the instruction set compiled for */
 #if defined(__AVX512F__)
 #define SCDK_KLANES 8
@@ -351,7 +269,8 @@ static inline vival vsign(vival a) {
 
 static inline kvl vholds_zero(vival a) { return (a.lo <= 0.0) & (a.hi >= 0.0); }
 
-/* replay() of KL points; the lanes whose replay failed are set in the returned mask. */
+/* Replay a tape on x (n) and p (k) intervals of KL points into out (n_out); the lanes whose
+ * evaluation failed are set in the returned mask. */
 static kvl vreplay(const scdk_tape *t, const vival *x, const vival *p, vival *w, vival *out) {
     kvl bad = (kvl){0};
     for (int64_t i = 0; i < t->n_out; ++i) out[i].lo = out[i].hi = KSPLAT(0.0);
@@ -398,7 +317,9 @@ static kvl vreplay(const scdk_tape *t, const vival *x, const vival *p, vival *w,
     return bad;
 }
 
-/* replay_float() of KL points. */
+/* Replay a tape in plain binary64 on x (n) and p (k) of KL points into out (n_out), for the
+ * preconditioner only (any approximate inverse keeps the test sound): sin and cos from the C
+ * library, no check (a value that is not finite fails the inversion). */
 static void vreplay_float(const scdk_tape *t, const kvd *x, const kvd *p, kvd *w, kvd *out) {
     for (int64_t i = 0; i < t->n_out; ++i) out[i] = KSPLAT(0.0);
     for (int64_t s = 0; s < t->L; ++s) {
@@ -457,12 +378,41 @@ static int invert(double *A, double *Y, int64_t n, int *piv, double *cond) {
 
 typedef struct {
     const scdk_tape *value, *jacobian;
-    int64_t n;
+    int64_t n, k;
     const ival *P;
-    ival *w, *out, *X, *mid, *newton, *C, *K, *D; /* D = B - c */
-    double *A, *Y, *fw, *pm; /* fw: a float work vector; pm: the parameters' midpoints */
+    ival *out, *X, *mid, *newton, *C, *K, *D; /* D = B - c */
+    double *A, *Y, *pm;                       /* pm: the parameters' midpoints */
+    vival *v1w, *v1x, *v1p, *v1out;           /* one point's replays (every lane on it) */
+    kvd *f1w, *f1x, *f1p, *f1out;
     int *piv;
 } work;
+
+/* The tape at one point x (n intervals) and s->P (every lane on them, lane 0 read) into out
+ * (n_out); 0 on success. */
+static int replay(work *s, const scdk_tape *t, const ival *x, ival *out) {
+    for (int64_t i = 0; i < s->n; ++i) {
+        s->v1x[i].lo = KSPLAT(x[i].lo);
+        s->v1x[i].hi = KSPLAT(x[i].hi);
+    }
+    for (int64_t i = 0; i < s->k; ++i) {
+        s->v1p[i].lo = KSPLAT(s->P[i].lo);
+        s->v1p[i].hi = KSPLAT(s->P[i].hi);
+    }
+    const kvl bad = vreplay(t, s->v1x, s->v1p, s->v1w, s->v1out);
+    for (int64_t i = 0; i < t->n_out; ++i) {
+        out[i].lo = s->v1out[i].lo[0];
+        out[i].hi = s->v1out[i].hi[0];
+    }
+    return bad[0] != 0;
+}
+
+/* The tape in plain binary64 at one point x (n) and s->pm into out (n_out). */
+static void replay_float(work *s, const scdk_tape *t, const double *x, double *out) {
+    for (int64_t i = 0; i < s->n; ++i) s->f1x[i] = KSPLAT(x[i]);
+    for (int64_t i = 0; i < s->k; ++i) s->f1p[i] = KSPLAT(s->pm[i]);
+    vreplay_float(t, s->f1x, s->f1p, s->f1w, s->f1out);
+    for (int64_t i = 0; i < t->n_out; ++i) out[i] = s->f1out[i][0];
+}
 
 /* Y ~ A^-1 from the Jacobian in s->A (overwritten); 0 on success (the condition estimate
  * below max_cond). */
@@ -475,7 +425,7 @@ static int inverse_of(work *s, double max_cond) {
 /* Y ~ J(c)^-1 (the Jacobian at the point c and the parameters' midpoints, in binary64);
  * 0 on success. */
 static int inverse_at(work *s, const double *c, double max_cond) {
-    replay_float(s->jacobian, c, s->pm, s->fw, s->A);
+    replay_float(s, s->jacobian, c, s->A);
     return inverse_of(s, max_cond);
 }
 
@@ -494,7 +444,7 @@ static int newton_tail(work *s, const double *c) {
 /* newton = c - Y f(c) into s->newton; 0 on success. */
 static int newton_point(work *s, const double *c) {
     for (int64_t i = 0; i < s->n; ++i) s->mid[i] = point(c[i]);
-    if (replay(s->value, s->mid, s->P, s->w, s->out)) return 1;
+    if (replay(s, s->value, s->mid, s->out)) return 1;
     return newton_tail(s, c);
 }
 
@@ -524,7 +474,7 @@ static int krawczyk_tail(work *s, const ival *B, const double *c) {
 
 /* K = newton + (I - Y J(B)) (B - c) over the box B into s->K; 0 on success. */
 static int krawczyk_operator(work *s, const ival *B, const double *c) {
-    if (replay(s->jacobian, B, s->P, s->w, s->out)) return 1;
+    if (replay(s, s->jacobian, B, s->out)) return 1;
     return krawczyk_tail(s, B, c);
 }
 
@@ -585,39 +535,23 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
     s.value = value;
     s.jacobian = jacobian;
     s.n = n;
-    ival *P = malloc((size_t)(k + 1) * sizeof(ival));
-    ival *iv = malloc((size_t)(W + 1 + n * n + 6 * n + n * n) * sizeof(ival));
-    double *dv = malloc((size_t)(2 * n * n + n + W + 1 + k + 1) * sizeof(double));
+    s.k = k;
+    /* one block of intervals, one of doubles, one of vectors (64-byte aligned) */
+    const size_t ni = (size_t)(2 * n * n + 6 * n + k + 1 + 2 * KL * n);
+    const size_t nd = (size_t)(2 * n * n + n + k + 1 + KL * n * n);
+    const size_t nv = (size_t)(2 * (W + 1) + 2 * n * n + 3 * n + 2 * (k + 1));
+    ival *iv = malloc(ni * sizeof(ival));
+    double *dv = malloc(nd * sizeof(double));
+    char *vraw = malloc(nv * (sizeof(vival) + sizeof(kvd)) + 64);
     s.piv = malloc((size_t)n * sizeof(int));
-    if (!P || !iv || !dv || !s.piv) {
-        free(P);
+    if (!iv || !dv || !vraw || !s.piv) {
         free(iv);
         free(dv);
-        free(s.piv);
-        return SCDK_K_NO_MEMORY;
-    }
-    /* the lanes' buffers (64-byte aligned) and each lane's Y, Newton point and box X */
-    const size_t nv = (size_t)(W + 1 + n * n + 2 * n + k + 1), nf = (size_t)(W + 1 + n * n + n + k + 1);
-    char *vraw = malloc(nv * sizeof(vival) + nf * sizeof(kvd) + 64);
-    double *Yl = malloc((size_t)(KL * n * n) * sizeof(double));
-    ival *Nl = malloc((size_t)(2 * KL * n) * sizeof(ival));
-    if (!vraw || !Yl || !Nl) {
-        free(P);
-        free(iv);
-        free(dv);
-        free(s.piv);
         free(vraw);
-        free(Yl);
-        free(Nl);
+        free(s.piv);
         return SCDK_K_NO_MEMORY;
     }
-    vival *vw = (vival *)(vraw + (64 - (uintptr_t)vraw % 64) % 64);
-    vival *vout = vw + W + 1, *vm = vout + n * n, *vx = vm + n, *vp = vx + n;
-    kvd *fw = (kvd *)(vp + k + 1), *fa = fw + W + 1, *fx = fa + n * n, *fp = fx + n;
-    ival *Xl = Nl + KL * n;
-    s.P = P;
-    s.w = iv;
-    s.out = s.w + W + 1;
+    s.out = iv;
     s.X = s.out + n * n;
     s.mid = s.X + n;
     s.newton = s.mid + n;
@@ -625,13 +559,27 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
     ival *B = s.K + n;
     s.D = B + n;
     s.C = s.D + n;
+    ival *P = s.C + n * n;
+    ival *Nl = P + k + 1, *Xl = Nl + KL * n; /* each lane's Newton point and box X */
+    s.P = P;
     s.A = dv;
     s.Y = s.A + n * n;
     double *c = s.Y + n * n;
-    s.fw = c + n;
-    s.pm = s.fw + W + 1;
+    s.pm = c + n;
+    double *Yl = s.pm + k + 1; /* each lane's Y */
+    vival *vw = (vival *)(vraw + (64 - (uintptr_t)vraw % 64) % 64);
+    vival *vout = vw + W + 1, *vm = vout + n * n, *vx = vm + n, *vp = vx + n;
+    s.v1w = vp + k + 1;
+    s.v1out = s.v1w + W + 1;
+    s.v1x = s.v1out + n * n;
+    s.v1p = s.v1x + n;
+    kvd *fw = (kvd *)(s.v1p + k + 1), *fa = fw + W + 1, *fx = fa + n * n, *fp = fx + n;
+    s.f1w = fp + k + 1;
+    s.f1out = s.f1w + W + 1;
+    s.f1x = s.f1out + n * n;
+    s.f1p = s.f1x + n;
     /* KL points at a time: their three tape replays in the lanes, the rest point by point;
-     * each point's outcome is the one the point alone gets (the lanes compute its values) */
+     * each point's outcome is the one it gets in any lane, alone or not */
     for (int64_t q0 = 0; q0 < N; q0 += KL) {
         const int cnt = N - q0 < KL ? (int)(N - q0) : KL;
         int ok[KL];
@@ -714,64 +662,51 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
             }
         }
     }
-    free(vraw);
-    free(Yl);
-    free(Nl);
-    free(P);
     free(iv);
     free(dv);
+    free(vraw);
     free(s.piv);
     return SCDK_K_OK;
+}
+
+/* Lane `to` of X (n) and P (k) on x and p scaled by 1 + lane 2^-10 (lane 0: as given). */
+static void ireplay_lane(vival *X, vival *P, int64_t n, int64_t k, const double *x,
+                         const double *p, int to, int lane) {
+    const double scale = 1.0 + lane * 0.0009765625;
+    for (int64_t i = 0; i < n; ++i) {
+        X[i].lo[to] = x[2 * i] * scale;
+        X[i].hi[to] = x[2 * i + 1] * scale;
+    }
+    for (int64_t i = 0; i < k; ++i) {
+        P[i].lo[to] = p[2 * i] * scale;
+        P[i].hi[to] = p[2 * i + 1] * scale;
+    }
 }
 
 int scdk_ireplay(const scdk_tape *t, int64_t n, int64_t k, const double *x, const double *p,
                  double *out, int64_t lanes) {
     if (n < 0 || k < 0 || t->W < 0 || t->n_out < 0) return SCDK_K_BAD_SIZE;
-    ival *buf = malloc((size_t)(n + k + t->W + t->n_out + 1) * sizeof(ival));
-    const size_t nv = (size_t)(n + k + t->W + t->n_out + 1);
-    char *vraw = lanes ? malloc(nv * sizeof(vival) + 64) : NULL;
-    if (!buf || (lanes && !vraw)) {
-        free(buf);
-        free(vraw);
-        return SCDK_K_NO_MEMORY;
-    }
-    ival *X = buf, *P = X + n, *w = P + k, *o = w + t->W;
-    int differ = 0, failed = 0;
-    for (int l = lanes ? KL - 1 : 0; l >= 0; --l) { /* lane 0 last: its output is returned */
-        const double scale = 1.0 + l * 0.0009765625;
-        for (int64_t i = 0; i < n; ++i) {
-            X[i].lo = x[2 * i] * scale;
-            X[i].hi = x[2 * i + 1] * scale;
-        }
-        for (int64_t i = 0; i < k; ++i) {
-            P[i].lo = p[2 * i] * scale;
-            P[i].hi = p[2 * i + 1] * scale;
-        }
-        failed = replay(t, X, P, w, o);
-        if (!lanes) break;
-        vival *vw = (vival *)(vraw + (64 - (uintptr_t)vraw % 64) % 64);
-        vival *VX = vw + t->W, *VP = VX + n, *vo = VP + k;
-        for (int64_t i = 0; i < n; ++i)
-            for (int j = 0; j < KL; ++j) {
-                VX[i].lo[j] = x[2 * i] * (1.0 + j * 0.0009765625);
-                VX[i].hi[j] = x[2 * i + 1] * (1.0 + j * 0.0009765625);
-            }
-        for (int64_t i = 0; i < k; ++i)
-            for (int j = 0; j < KL; ++j) {
-                VP[i].lo[j] = p[2 * i] * (1.0 + j * 0.0009765625);
-                VP[i].hi[j] = p[2 * i + 1] * (1.0 + j * 0.0009765625);
-            }
-        const kvl bad = vreplay(t, VX, VP, vw, vo);
-        differ |= (bad[l] != 0) != (failed != 0);
-        for (int64_t i = 0; i < t->n_out && !failed; ++i)
-            differ |= memcmp(&o[i].lo, &vo[i].lo[l], sizeof(double)) != 0 ||
-                      memcmp(&o[i].hi, &vo[i].hi[l], sizeof(double)) != 0;
-    }
+    const size_t nv = (size_t)(n + k + t->W + 2 * t->n_out + 1);
+    char *vraw = malloc(nv * sizeof(vival) + 64);
+    if (!vraw) return SCDK_K_NO_MEMORY;
+    vival *X = (vival *)(vraw + (64 - (uintptr_t)vraw % 64) % 64);
+    vival *P = X + n, *w = P + k, *o = w + t->W, *first = o + t->n_out;
+    for (int l = 0; l < KL; ++l) ireplay_lane(X, P, n, k, x, p, l, lanes ? l : 0);
+    const kvl bad = vreplay(t, X, P, w, first);
+    const int failed = bad[0] != 0;
     for (int64_t i = 0; i < t->n_out; ++i) {
-        out[2 * i] = failed ? NAN : o[i].lo;
-        out[2 * i + 1] = failed ? NAN : o[i].hi;
+        out[2 * i] = failed ? NAN : first[i].lo[0];
+        out[2 * i + 1] = failed ? NAN : first[i].hi[0];
     }
-    free(buf);
+    int differ = 0; /* lane l against its inputs in every lane */
+    for (int l = 1; lanes && l < KL; ++l) {
+        for (int j = 0; j < KL; ++j) ireplay_lane(X, P, n, k, x, p, j, l);
+        const kvl alone = vreplay(t, X, P, w, o);
+        differ |= (alone[0] != 0) != (bad[l] != 0);
+        for (int64_t i = 0; i < t->n_out && !bad[l]; ++i)
+            differ |= memcmp(&o[i].lo[0], &first[i].lo[l], sizeof(double)) != 0 ||
+                      memcmp(&o[i].hi[0], &first[i].hi[l], sizeof(double)) != 0;
+    }
     free(vraw);
     if (differ) return SCDK_K_LANES_DIFFER;
     return failed ? SCDK_K_FAILED : SCDK_K_OK;

@@ -80,10 +80,10 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
                    int64_t p_stride, int64_t tighten, double tiny, double max_cond,
                    int64_t *status, double *r, double *box);
 
-/* The tape replayed once on x (n x 2) and p (k x 2) intervals [lo, hi] into out (n_out x 2).
- * lanes != 0: replayed in the lanes scdk_ikrawczyk uses, lane 0 on x and p and lane l on
- * them scaled by 1 + l 2^-10, each lane checked against the scalar replay of its inputs (the
- * same failure, the same bits); out is lane 0's.
+/* The tape replayed once on x (n x 2) and p (k x 2) intervals [lo, hi] into out (n_out x 2)
+ * (every lane of the replay on them). lanes != 0: lane 0 on x and p and lane l on them scaled
+ * by 1 + l 2^-10, each lane checked against a replay with its inputs in every lane (the same
+ * failure, the same bits: a point's values do not depend on its lane); out is lane 0's.
  * Returns SCDK_K_OK, SCDK_K_FAILED (a bound not finite or a divisor holding 0: out is NaN),
  * SCDK_K_LANES_DIFFER or an error code. */
 int scdk_ireplay(const scdk_tape *t, int64_t n, int64_t k, const double *x, const double *p,
