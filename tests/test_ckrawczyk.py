@@ -97,6 +97,29 @@ def test_each_operation_encloses_its_exact_range_within_a_few_ulps(op, lanes):
         assert out[1] - out[0] <= float(hi - lo) + 8 * EPS * max(abs(out[0]), abs(out[1]))
 
 
+@pytest.mark.parametrize("lanes", [False, True])
+def test_results_that_round_to_zero_are_still_enclosed(lanes):
+    """Products, squares and quotients whose exact value is below the smallest binary64
+    number round to 0: the bounds step past it (to the smallest subnormal on each side), so
+    the interval still holds the exact value (Arb, 300 bits)."""
+    a, b = ca.SX.sym("a"), ca.SX.sym("b")
+    cases = [
+        ("mul", (1e-200, 2e-200), (3e-200, 4e-200)),
+        ("mul", (-2e-200, -1e-200), (1e-200, 1e-200)),
+        ("sq", (1e-170, 1e-170), (0.0, 0.0)),
+        ("sq", (-1e-170, -1e-170), (0.0, 0.0)),
+        ("div", (1e-300, 1e-300), (1e100, 1e100)),
+        ("div", (-1e-300, -1e-300), (1e100, 2e100)),
+    ]
+    for op, A, B in cases:
+        t = tape(ca.Function("f", [a, b], [_OPS[op](a, b)]))
+        out = replay(t, np.array([A]), np.array([B]), lanes)[0]
+        lo, hi = _exact_range(op, A, B)
+        assert arb(out[0]) <= lo and hi <= arb(out[1]), (op, A, B, out)
+        assert out[0] < 0.0 or out[1] > 0.0  # a bound stepped off 0
+        assert max(abs(out[0]), abs(out[1])) <= 1e-300  # and only a few subnormals far
+
+
 def _exact_trig_range(fn: str, lo: float, hi: float) -> tuple[arb, arb]:
     """The exact range of sin or cos over [lo, hi] at 300 bits: the ends and every critical
     point (1 + 2 j) pi/2 (sin) or j pi (cos) inside."""
