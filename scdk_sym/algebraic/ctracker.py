@@ -15,6 +15,7 @@ here; the endgame's circles stay in numpy.
 from __future__ import annotations
 
 import ctypes
+import functools
 import hashlib
 import tempfile
 from importlib import resources
@@ -105,14 +106,16 @@ def source_library(
     return cached_file(target, build, "compiled library")
 
 
-def _cpu_flags() -> list[str]:
-    """The processor's feature flags (Linux ``/proc/cpuinfo``; none elsewhere)."""
+@functools.cache
+def _cpu_flags() -> tuple[str, ...]:
+    """The processor's feature flags (Linux ``/proc/cpuinfo``; none elsewhere), read once per
+    process (every interval test asks for its library's flags)."""
     try:
         info = Path("/proc/cpuinfo").read_text()
     except OSError:
-        return []
-    return next((ln.split(":", 1)[1].split() for ln in info.splitlines()
-                 if ln.startswith("flags")), [])  # fmt: skip
+        return ()
+    return tuple(next((ln.split(":", 1)[1].split() for ln in info.splitlines()
+                       if ln.startswith("flags")), []))  # fmt: skip
 
 
 def simd_flags() -> tuple[str, ...]:
