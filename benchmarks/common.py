@@ -1,15 +1,34 @@
-"""What several benchmarks share: a warmed local Dask cluster, an example script as a module."""
+"""What several benchmarks share: one BLAS thread, a warmed local Dask cluster, an example
+script or a test reference module as a module."""
 
 from __future__ import annotations
 
 import contextlib
+import importlib
 import importlib.util
+import os
+import sys
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import ModuleType
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def pin_blas_threads() -> None:
+    """One BLAS / OpenMP thread unless the environment says otherwise (oversubscribed threads
+    make numpy many times slower on a shared machine); call it before numpy is imported."""
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+
+def test_references(name: str) -> ModuleType:
+    """``tests/<name>.py``, the references the tests use (e.g. ``stewart``), as a module."""
+    tests = str(ROOT / "tests")
+    if tests not in sys.path:
+        sys.path.insert(0, tests)
+    return importlib.import_module(name)
 
 
 @contextlib.contextmanager

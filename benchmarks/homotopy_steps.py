@@ -15,13 +15,11 @@ from the disk cache.
 from __future__ import annotations
 
 import argparse
-import os
-import sys
 import time
-from pathlib import Path
 
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+from common import pin_blas_threads, test_references
+
+pin_blas_threads()  # before numpy is imported
 
 import numpy as np  # noqa: E402
 
@@ -31,13 +29,7 @@ from scdk_sym.algebraic.scaled import scaled_form  # noqa: E402
 from scdk_sym.algebraic.tracker import TrackerOptions  # noqa: E402
 from scdk_sym.solvers.homotopy_modes import model_start_system  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from stewart import (  # noqa: E402  (references shared with the tests)
-    DIETMAIER_BASE,
-    DIETMAIER_LENGTHS,
-    DIETMAIER_PLATFORM,
-    random_platform,
-)
+stewart = test_references("stewart")  # the references shared with the tests
 
 #: The rule before the third iteration: two Newton iterations, eta 1e-5, trust 1e-3.
 BASELINE = TrackerOptions(third=False, eta=1e-5, trust=1e-3)
@@ -45,9 +37,10 @@ BASELINE = TrackerOptions(third=False, eta=1e-5, trust=1e-3)
 
 def platforms(count: int):
     """Dietmaier's platform, then ``count - 1`` seeded random ones: (name, A, B, legs)."""
-    yield "Dietmaier", DIETMAIER_BASE, DIETMAIER_PLATFORM, DIETMAIER_LENGTHS
+    s = stewart
+    yield "Dietmaier", s.DIETMAIER_BASE, s.DIETMAIER_PLATFORM, s.DIETMAIER_LENGTHS
     for seed in range(1, count):
-        A, B, legs = random_platform(seed)
+        A, B, legs = stewart.random_platform(seed)
         yield f"random #{seed}", A, B, legs
 
 

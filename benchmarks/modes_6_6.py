@@ -35,25 +35,19 @@ import time
 import types
 from pathlib import Path
 
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+from common import pin_blas_threads, test_references
+
+pin_blas_threads()  # before numpy is imported
 
 import numpy as np  # noqa: E402
 
 import scdk_sym as sc  # noqa: E402
-from scdk_sym.algebraic import algebraic_form, certify_configurations, solve_homotopy
-from scdk_sym.algebraic import homotopy as homotopy_module
-from scdk_sym.algebraic.scaled import scaled_form
-from scdk_sym.solvers.homotopy_modes import model_start_system
+from scdk_sym.algebraic import algebraic_form, certify_configurations, solve_homotopy  # noqa: E402
+from scdk_sym.algebraic import homotopy as homotopy_module  # noqa: E402
+from scdk_sym.algebraic.scaled import scaled_form  # noqa: E402
+from scdk_sym.solvers.homotopy_modes import model_start_system  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from stewart import (  # noqa: E402  (references shared with the tests)
-    DIETMAIER_BASE,
-    DIETMAIER_LENGTHS,
-    DIETMAIER_PLATFORM,
-    random_platform,
-    stewart_reference,
-)
+stewart = test_references("stewart")  # the references shared with the tests
 
 
 def same_set(found, reference, tol: float = 1e-6) -> bool:
@@ -131,9 +125,15 @@ def main() -> None:
     args = parser.parse_args()
     solver66 = load_fksgp(args.fksgp) if args.fksgp else None
     np.random.seed(0)  # noqa: NPY002  (fkSGP draws its frame rotations from the global generator)
-    platforms = {"Dietmaier 1998": (DIETMAIER_BASE, DIETMAIER_PLATFORM, DIETMAIER_LENGTHS)}
+    platforms = {
+        "Dietmaier 1998": (
+            stewart.DIETMAIER_BASE,
+            stewart.DIETMAIER_PLATFORM,
+            stewart.DIETMAIER_LENGTHS,
+        )
+    }
     for seed in range(1, args.platforms + 1):
-        platforms[f"random #{seed}"] = random_platform(seed)
+        platforms[f"random #{seed}"] = stewart.random_platform(seed)
     summary = []
     print("load average (1, 5, 15 min): {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
     for name, (A, B, legs) in platforms.items():
@@ -163,7 +163,7 @@ def main() -> None:
         ys = np.vstack([c.y for c in sols]) if len(sols) else np.zeros((0, model.m))
         t_cert, _ = median_time(lambda m=model, y=ys, lg=legs: certify_configurations(m, y, lg), 3)
         t_lm, ref = median_time(
-            lambda a=A, b=B, lg=legs: stewart_reference(a, b, lg, args.lm_starts, 0), 3
+            lambda a=A, b=B, lg=legs: stewart.stewart_reference(a, b, lg, args.lm_starts, 0), 3
         )
         t_curves, curves = median_time(
             lambda m=model, lg=legs: sc.assembly_modes(m, lg, method="curves", backend="compiled"),
