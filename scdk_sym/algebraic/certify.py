@@ -649,14 +649,22 @@ def _sets_meeting(fast: list, sizes: list[int]) -> list[bool]:
                 by_size.setdefault(size, []).append(s)
     for size, group in by_size.items():
         B = np.stack([c.box for s in group for c in fast[starts[s] : starts[s + 1]]])
-        B = B.reshape(len(group), size, *B.shape[1:])  # (G, size, n, 2)
-        lo, hi = B[..., 0], B[..., 1]
-        meet = np.all((lo[:, :, None] <= hi[:, None]) & (lo[:, None] <= hi[:, :, None]), axis=3)
+        meet = _boxes_meet(B.reshape(len(group), size, *B.shape[1:]))  # (G, size, size)
         diag = np.arange(size)
         meet[:, diag, diag] = False
-        for s, m in zip(group, meet.any(axis=(1, 2)).tolist(), strict=True):
-            out[s] = m
+        for s, m in zip(group, np.any(meet, axis=(1, 2)).tolist(), strict=True):
+            out[s] = bool(m)
     return out
+
+
+def _boxes_meet(box: np.ndarray) -> np.ndarray:
+    """Which boxes of ``box`` (..., P, n, 2) ``[lo, hi]`` intersect: (..., P, P) bool, ``[i,
+    j]`` true when every coordinate's intervals of boxes i and j meet (the diagonal true)."""
+    lo, hi = box[..., 0], box[..., 1]
+    return np.all(
+        (lo[..., :, None, :] <= hi[..., None, :, :]) & (lo[..., None, :, :] <= hi[..., :, None, :]),
+        axis=-1,
+    )
 
 
 def _certificate_set(certs: tuple, disjoint: bool = False) -> CertificateSet:
@@ -667,10 +675,7 @@ def _certificate_set(certs: tuple, disjoint: bool = False) -> CertificateSet:
     if len(proven) > 1 and not disjoint:
         box = np.array([certs[i].box for i in proven])  # (P, n, 2)
         dom = np.array([certs[i].domain for i in proven])
-        meet = np.all(
-            (box[:, None, :, 0] <= box[None, :, :, 1]) & (box[None, :, :, 0] <= box[:, None, :, 1]),
-            axis=2,
-        )
+        meet = _boxes_meet(box)
         for a, b in zip(*np.nonzero(np.triu(meet, 1)), strict=True):
             i, j = proven[a], proven[b]
             overlaps.append((i, j))
