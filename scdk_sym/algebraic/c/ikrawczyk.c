@@ -379,12 +379,19 @@ static int invert(double *A, double *Y, int64_t n, int *piv, double *cond) {
 typedef struct {
     const scdk_tape *value, *jacobian;
     int64_t n, k;
-    const ival *P;
-    ival *out, *X, *mid, *newton, *C, *K, *D; /* D = B - c */
-    double *A, *Y, *pm;                       /* pm: the parameters' midpoints */
-    vival *v1w, *v1x, *v1p, *v1out;           /* one point's replays (every lane on it) */
+    ival *P;
+    ival *out, *X, *mid, *newton, *C, *K, *D, *B; /* D = B - c, B: the proven enclosure */
+    double *A, *Y, *pm, *c;                       /* pm: the parameters' midpoints */
+    vival *v1w, *v1x, *v1p, *v1out;               /* one point's replays (every lane on it) */
     kvd *f1w, *f1x, *f1p, *f1out;
+    vival *vw, *vout, *vm, *vx, *vp; /* a group's replays, one point per lane */
+    kvd *fw, *fa, *fx, *fp;
+    ival *Nl, *Xl; /* each lane's Newton point and box X */
+    double *Yl;    /* each lane's Y */
     int *piv;
+    ival *iv; /* the blocks the pointers above point into */
+    double *dv;
+    char *vraw;
 } work;
 
 /* The tape at one point x (n intervals) and s->P (every lane on them, lane 0 read) into out
@@ -524,60 +531,136 @@ static void tighten_box(work *s, ival *B, double *c, int64_t steps) {
     }
 }
 
+/* The work space of scdk_ikrawczyk: one block of intervals, one of doubles, one of vectors
+ * (64-byte aligned); 0 on success. */
+static int work_new(work *s, const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
+                    int64_t k) {
+    const int64_t W = value->W > jacobian->W ? value->W : jacobian->W;
+    s->value = value;
+    s->jacobian = jacobian;
+    s->n = n;
+    s->k = k;
+    const size_t ni = (size_t)(2 * n * n + 6 * n + k + 1 + 2 * KL * n);
+    const size_t nd = (size_t)(2 * n * n + n + k + 1 + KL * n * n);
+    const size_t nv = (size_t)(2 * (W + 1) + 2 * n * n + 3 * n + 2 * (k + 1));
+    s->iv = malloc(ni * sizeof(ival));
+    s->dv = malloc(nd * sizeof(double));
+    s->vraw = malloc(nv * (sizeof(vival) + sizeof(kvd)) + 64);
+    s->piv = malloc((size_t)n * sizeof(int));
+    if (!s->iv || !s->dv || !s->vraw || !s->piv) return 1;
+    s->out = s->iv;
+    s->X = s->out + n * n;
+    s->mid = s->X + n;
+    s->newton = s->mid + n;
+    s->K = s->newton + n;
+    s->B = s->K + n;
+    s->D = s->B + n;
+    s->C = s->D + n;
+    s->P = s->C + n * n;
+    s->Nl = s->P + k + 1;
+    s->Xl = s->Nl + KL * n;
+    s->A = s->dv;
+    s->Y = s->A + n * n;
+    s->c = s->Y + n * n;
+    s->pm = s->c + n;
+    s->Yl = s->pm + k + 1;
+    s->vw = (vival *)(s->vraw + (64 - (uintptr_t)s->vraw % 64) % 64);
+    s->vout = s->vw + W + 1;
+    s->vm = s->vout + n * n;
+    s->vx = s->vm + n;
+    s->vp = s->vx + n;
+    s->v1w = s->vp + k + 1;
+    s->v1out = s->v1w + W + 1;
+    s->v1x = s->v1out + n * n;
+    s->v1p = s->v1x + n;
+    s->fw = (kvd *)(s->v1p + k + 1);
+    s->fa = s->fw + W + 1;
+    s->fx = s->fa + n * n;
+    s->fp = s->fx + n;
+    s->f1w = s->fp + k + 1;
+    s->f1out = s->f1w + W + 1;
+    s->f1x = s->f1out + n * n;
+    s->f1p = s->f1x + n;
+    return 0;
+}
+
+static void work_free(work *s) {
+    free(s->iv);
+    free(s->dv);
+    free(s->vraw);
+    free(s->piv);
+}
+
+/* Lane l's point mq after the group's J(m) and f(m) replays (bad_f: the lanes where f(m)
+ * failed): Y, the Newton point and the box X (radii into rq), kept for the lane; 1 when the
+ * point can go on to the Krawczyk operator. */
+static int lane_box(work *s, int l, const double *mq, double *rq, double tiny, double max_cond,
+                    kvl bad_f) {
+    const int64_t n = s->n;
+    for (int64_t i = 0; i < n * n; ++i) s->A[i] = s->fa[i][l];
+    if (inverse_of(s, max_cond) || bad_f[l]) return 0;
+    for (int64_t i = 0; i < n; ++i) {
+        s->out[i].lo = s->vout[i].lo[l];
+        s->out[i].hi = s->vout[i].hi[l];
+    }
+    if (newton_tail(s, mq)) return 0;
+    double delta = 0.0;
+    for (int64_t i = 0; i < n; ++i) {
+        const double d = fabs(0.5 * s->newton[i].lo + 0.5 * s->newton[i].hi - mq[i]);
+        if (d > delta) delta = d;
+    }
+    for (int64_t i = 0; i < n; ++i) {
+        const double ri = 2 * delta + 4 * (0.5 * (s->newton[i].hi - s->newton[i].lo));
+        rq[i] = ri > tiny ? ri : tiny;
+        s->Xl[l * n + i].lo = s->vx[i].lo[l] = down(mq[i] - rq[i]);
+        s->Xl[l * n + i].hi = s->vx[i].hi[l] = up(mq[i] + rq[i]);
+        s->Nl[l * n + i] = s->newton[i];
+    }
+    memcpy(s->Yl + l * n * n, s->Y, (size_t)(n * n) * sizeof(double));
+    return 1;
+}
+
+/* Lane l's point mq after the group's J(X) replay: the Krawczyk operator, the inside test
+ * and the tightening, from the lane's own state; 1 when proven (the enclosure into bq). */
+static int lane_test(work *s, int l, const double *mq, double *bq, int64_t tighten) {
+    const int64_t n = s->n;
+    for (int64_t i = 0; i < s->k; ++i) { /* the point's own state, for the steps below */
+        s->P[i].lo = s->vp[i].lo[l];
+        s->P[i].hi = s->vp[i].hi[l];
+        s->pm[i] = s->fp[i][l];
+    }
+    memcpy(s->Y, s->Yl + l * n * n, (size_t)(n * n) * sizeof(double));
+    for (int64_t i = 0; i < n; ++i) {
+        s->newton[i] = s->Nl[l * n + i];
+        s->X[i] = s->Xl[l * n + i];
+    }
+    for (int64_t i = 0; i < n * n; ++i) {
+        s->out[i].lo = s->vout[i].lo[l];
+        s->out[i].hi = s->vout[i].hi[l];
+    }
+    if (krawczyk_tail(s, s->X, mq)) return 0;
+    for (int64_t i = 0; i < n; ++i)
+        if (!(s->K[i].lo > s->X[i].lo && s->K[i].hi < s->X[i].hi)) return 0;
+    for (int64_t i = 0; i < n; ++i) s->B[i] = s->K[i];
+    tighten_box(s, s->B, s->c, tighten);
+    for (int64_t i = 0; i < n; ++i) {
+        bq[2 * i] = s->B[i].lo;
+        bq[2 * i + 1] = s->B[i].hi;
+    }
+    return 1;
+}
+
 int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n, int64_t k,
                    int64_t N, const double *m, const double *p_lo, const double *p_hi,
                    int64_t p_stride, int64_t tighten, double tiny, double max_cond,
                    int64_t *status, double *r, double *box) {
     if (n <= 0 || k < 0 || N < 0 || value->n_out != n || jacobian->n_out != n * n)
         return SCDK_K_BAD_SIZE;
-    const int64_t W = value->W > jacobian->W ? value->W : jacobian->W;
     work s;
-    s.value = value;
-    s.jacobian = jacobian;
-    s.n = n;
-    s.k = k;
-    /* one block of intervals, one of doubles, one of vectors (64-byte aligned) */
-    const size_t ni = (size_t)(2 * n * n + 6 * n + k + 1 + 2 * KL * n);
-    const size_t nd = (size_t)(2 * n * n + n + k + 1 + KL * n * n);
-    const size_t nv = (size_t)(2 * (W + 1) + 2 * n * n + 3 * n + 2 * (k + 1));
-    ival *iv = malloc(ni * sizeof(ival));
-    double *dv = malloc(nd * sizeof(double));
-    char *vraw = malloc(nv * (sizeof(vival) + sizeof(kvd)) + 64);
-    s.piv = malloc((size_t)n * sizeof(int));
-    if (!iv || !dv || !vraw || !s.piv) {
-        free(iv);
-        free(dv);
-        free(vraw);
-        free(s.piv);
+    if (work_new(&s, value, jacobian, n, k)) {
+        work_free(&s);
         return SCDK_K_NO_MEMORY;
     }
-    s.out = iv;
-    s.X = s.out + n * n;
-    s.mid = s.X + n;
-    s.newton = s.mid + n;
-    s.K = s.newton + n;
-    ival *B = s.K + n;
-    s.D = B + n;
-    s.C = s.D + n;
-    ival *P = s.C + n * n;
-    ival *Nl = P + k + 1, *Xl = Nl + KL * n; /* each lane's Newton point and box X */
-    s.P = P;
-    s.A = dv;
-    s.Y = s.A + n * n;
-    double *c = s.Y + n * n;
-    s.pm = c + n;
-    double *Yl = s.pm + k + 1; /* each lane's Y */
-    vival *vw = (vival *)(vraw + (64 - (uintptr_t)vraw % 64) % 64);
-    vival *vout = vw + W + 1, *vm = vout + n * n, *vx = vm + n, *vp = vx + n;
-    s.v1w = vp + k + 1;
-    s.v1out = s.v1w + W + 1;
-    s.v1x = s.v1out + n * n;
-    s.v1p = s.v1x + n;
-    kvd *fw = (kvd *)(s.v1p + k + 1), *fa = fw + W + 1, *fx = fa + n * n, *fp = fx + n;
-    s.f1w = fp + k + 1;
-    s.f1out = s.f1w + W + 1;
-    s.f1x = s.f1out + n * n;
-    s.f1p = s.f1x + n;
     /* KL points at a time: their three tape replays in the lanes, the rest point by point;
      * each point's outcome is the one it gets in any lane, alone or not */
     for (int64_t q0 = 0; q0 < N; q0 += KL) {
@@ -586,86 +669,35 @@ int scdk_ikrawczyk(const scdk_tape *value, const scdk_tape *jacobian, int64_t n,
         for (int l = 0; l < KL; ++l) { /* a short last group repeats its last point */
             const int64_t q = q0 + (l < cnt ? l : cnt - 1);
             for (int64_t i = 0; i < k; ++i) {
-                vp[i].lo[l] = p_lo[q * p_stride + i];
-                vp[i].hi[l] = p_hi[q * p_stride + i];
-                fp[i][l] = 0.5 * vp[i].lo[l] + 0.5 * vp[i].hi[l];
+                s.vp[i].lo[l] = p_lo[q * p_stride + i];
+                s.vp[i].hi[l] = p_hi[q * p_stride + i];
+                s.fp[i][l] = 0.5 * s.vp[i].lo[l] + 0.5 * s.vp[i].hi[l];
             }
-            for (int64_t i = 0; i < n; ++i) vm[i].lo[l] = vm[i].hi[l] = fx[i][l] = m[q * n + i];
+            for (int64_t i = 0; i < n; ++i)
+                s.vm[i].lo[l] = s.vm[i].hi[l] = s.fx[i][l] = m[q * n + i];
         }
-        vreplay_float(jacobian, fx, fp, fw, fa);          /* J(m) for Y (inverse_at) */
-        const kvl bad_f = vreplay(value, vm, vp, vw, vout); /* f(m) (newton_point) */
+        vreplay_float(jacobian, s.fx, s.fp, s.fw, s.fa);              /* J(m) for Y */
+        const kvl bad_f = vreplay(value, s.vm, s.vp, s.vw, s.vout); /* f(m) */
         for (int l = 0; l < KL; ++l) {
             const int64_t q = q0 + l;
             ok[l] = 0;
-            for (int64_t i = 0; i < n; ++i) vx[i].lo[l] = vx[i].hi[l] = vm[i].lo[l];
+            for (int64_t i = 0; i < n; ++i) s.vx[i].lo[l] = s.vx[i].hi[l] = s.vm[i].lo[l];
             if (l >= cnt) continue;
-            const double *mq = m + q * n;
-            double *rq = r + q * n, *bq = box + 2 * q * n;
             status[q] = SCDK_K_NOT_PROVEN;
             for (int64_t i = 0; i < n; ++i) {
-                rq[i] = NAN;
-                bq[2 * i] = bq[2 * i + 1] = NAN;
+                r[q * n + i] = NAN;
+                box[2 * q * n + 2 * i] = box[2 * q * n + 2 * i + 1] = NAN;
             }
-            for (int64_t i = 0; i < n * n; ++i) s.A[i] = fa[i][l];
-            if (inverse_of(&s, max_cond) || bad_f[l]) continue;
-            for (int64_t i = 0; i < n; ++i) {
-                s.out[i].lo = vout[i].lo[l];
-                s.out[i].hi = vout[i].hi[l];
-            }
-            if (newton_tail(&s, mq)) continue;
-            double delta = 0.0;
-            for (int64_t i = 0; i < n; ++i) {
-                const double d = fabs(0.5 * s.newton[i].lo + 0.5 * s.newton[i].hi - mq[i]);
-                if (d > delta) delta = d;
-            }
-            for (int64_t i = 0; i < n; ++i) {
-                const double ri = 2 * delta + 4 * (0.5 * (s.newton[i].hi - s.newton[i].lo));
-                rq[i] = ri > tiny ? ri : tiny;
-                Xl[l * n + i].lo = vx[i].lo[l] = down(mq[i] - rq[i]);
-                Xl[l * n + i].hi = vx[i].hi[l] = up(mq[i] + rq[i]);
-                Nl[l * n + i] = s.newton[i];
-            }
-            memcpy(Yl + l * n * n, s.Y, (size_t)(n * n) * sizeof(double));
-            ok[l] = 1;
+            ok[l] = lane_box(&s, l, m + q * n, r + q * n, tiny, max_cond, bad_f);
         }
-        const kvl bad_j = vreplay(jacobian, vx, vp, vw, vout); /* J(X) (krawczyk_operator) */
+        const kvl bad_j = vreplay(jacobian, s.vx, s.vp, s.vw, s.vout); /* J(X) */
         for (int l = 0; l < cnt; ++l) {
-            if (!ok[l] || bad_j[l]) continue;
             const int64_t q = q0 + l;
-            const double *mq = m + q * n;
-            double *bq = box + 2 * q * n;
-            for (int64_t i = 0; i < k; ++i) { /* the point's own state, for the steps below */
-                P[i].lo = vp[i].lo[l];
-                P[i].hi = vp[i].hi[l];
-                s.pm[i] = fp[i][l];
-            }
-            memcpy(s.Y, Yl + l * n * n, (size_t)(n * n) * sizeof(double));
-            for (int64_t i = 0; i < n; ++i) {
-                s.newton[i] = Nl[l * n + i];
-                s.X[i] = Xl[l * n + i];
-            }
-            for (int64_t i = 0; i < n * n; ++i) {
-                s.out[i].lo = vout[i].lo[l];
-                s.out[i].hi = vout[i].hi[l];
-            }
-            if (krawczyk_tail(&s, s.X, mq)) continue;
-            int inside = 1;
-            for (int64_t i = 0; i < n; ++i)
-                inside = inside && s.K[i].lo > s.X[i].lo && s.K[i].hi < s.X[i].hi;
-            if (!inside) continue;
-            for (int64_t i = 0; i < n; ++i) B[i] = s.K[i];
-            tighten_box(&s, B, c, tighten);
-            status[q] = SCDK_K_PROVEN;
-            for (int64_t i = 0; i < n; ++i) {
-                bq[2 * i] = B[i].lo;
-                bq[2 * i + 1] = B[i].hi;
-            }
+            if (ok[l] && !bad_j[l] && lane_test(&s, l, m + q * n, box + 2 * q * n, tighten))
+                status[q] = SCDK_K_PROVEN;
         }
     }
-    free(iv);
-    free(dv);
-    free(vraw);
-    free(s.piv);
+    work_free(&s);
     return SCDK_K_OK;
 }
 
