@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import TYPE_CHECKING, TypeVar
@@ -56,16 +56,30 @@ class JointValues(Mapping[str, float]):
     def __repr__(self) -> str:
         return f"JointValues({dict(self)!r})"
 
+    @classmethod
+    def rows(cls, columns: Mapping[str, int], table: np.ndarray) -> list[JointValues]:
+        """One map per row of ``table`` (N, C), a read-only array whose memory nothing writes
+        (the rows are views, not checked again)."""
+        out = [object.__new__(cls) for _ in range(len(table))]
+        for obj, row in zip(out, table, strict=True):
+            obj._columns, obj._row = columns, row
+        return out
 
-def unchecked(cls: type[_T], **fields: object) -> _T:
-    """An instance of the frozen dataclass ``cls`` from every field in its final form
+
+def unchecked_many(cls: type[_T], count: int, **columns: Iterable[object]) -> list[_T]:
+    """``count`` instances of the frozen dataclass ``cls``, field ``name`` of instance ``i``
+    the ``i``-th item of ``columns[name]`` (each column: at least ``count`` items, e.g. the
+    rows of an array, a list or ``itertools.repeat``), every field in its final form
     (read-only float arrays whose memory nothing writes, immutable maps, Python scalars):
-    ``__init__`` and the copies and checks of ``__post_init__`` skipped. For the package's
-    batch paths, which build many results from arrays they own."""
-    obj: _T = object.__new__(cls)
-    for name, value in fields.items():
-        object.__setattr__(obj, name, value)
-    return obj
+    ``__init__`` and the copies and checks of ``__post_init__`` skipped, the fields set one
+    by one over all instances. For the package's batch paths, which build many results from
+    arrays they own."""
+    out: list[_T] = [object.__new__(cls) for _ in range(count)]
+    put = object.__setattr__
+    for name, column in columns.items():
+        for obj, value in zip(out, column, strict=False):
+            put(obj, name, value)
+    return out
 
 
 @dataclass(frozen=True)

@@ -390,3 +390,32 @@ def test_configuration_sets_at_once_equal_set_by_set():
             assert a.box.tobytes() == b.box.tobytes() and a.x.tobytes() == b.x.tobytes()
         plain = cm._certificate_set(got.certificates)  # every pair compared again
         assert plain.reason == got.reason and plain.overlaps == got.overlaps
+
+
+def test_first_coordinate_screen_agrees_with_the_pairwise_box_test():
+    """``_apart_in_first`` (a sort of the first coordinates) says "pairwise disjoint" only for
+    sets whose every pair is apart in the first coordinate, checked pair by pair; sets where
+    only the first coordinates are tested must include touching ends and NaN bounds."""
+    from scdk_sym.algebraic.certify import _apart_in_first
+
+    rng = np.random.default_rng(11)
+    seen = {True: 0, False: 0}
+    for trial in range(400):
+        P = int(rng.integers(0, 12))
+        lo = rng.uniform(0, 1, P).round(int(rng.integers(1, 4)))  # ties and touching ends
+        hi = lo + rng.choice([0.0, 0.001, 0.01, 0.2], P)
+        first = np.stack([lo, hi], axis=1)
+        if trial % 37 == 0 and P:
+            first[rng.integers(P), rng.integers(2)] = np.nan
+        # independent reference: every pair, [a, b] and [c, d] meet when a <= d and c <= b
+        apart = (
+            all(
+                not (first[i, 0] <= first[j, 1] and first[j, 0] <= first[i, 1])
+                for i in range(P)
+                for j in range(i + 1, P)
+            )
+            and not np.isnan(first).any()
+        )
+        assert _apart_in_first(first) == (apart or P < 2), first
+        seen[apart] += 1
+    assert min(seen.values()) > 50  # both answers exercised

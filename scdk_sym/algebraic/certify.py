@@ -37,6 +37,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import repeat
 from typing import TYPE_CHECKING
 
 import casadi as ca
@@ -48,7 +49,7 @@ from ..errors import InputError
 from ..kernels.fastcall import Buffered
 from ..model.rotations import gibbs, rot_exp
 from ..products import CLOSURE_FUNCTION
-from ..results import frozen_array, unchecked
+from ..results import frozen_array, unchecked_many
 from .ckrawczyk import IntervalKrawczyk, interval_krawczyk
 from .interval import FunctionCache, IntervalFunction, as_sx_function, interval_function
 
@@ -382,26 +383,23 @@ def _fast(
     domain = np.stack([np.nextafter(ms - r, np.inf), np.nextafter(ms + r, -np.inf)], axis=2)
     radius = np.max((box[:, :, 1] - box[:, :, 0]) / 2, axis=1)
     radius = np.where(np.isfinite(radius), radius, np.inf)
-    r_max = np.max(r, axis=1).tolist()
-    radius = radius.tolist()
     box, ms = np.array(box), np.array(ms)  # owned, then read-only: the rows are not copied
     for a in (box, domain, ms):
         a.setflags(write=False)
-    return [
-        unchecked(
-            Certificate,
-            proven=True,
-            box=box[i],
-            domain=domain[i],  # inside X = [m - r, m + r] rounded outward
-            radius=radius[i],
-            reason=f"K(X) lies in the interior of X (radius {r_max[i]:.1e}): exactly one zero in X",
-            x=ms[i],
-            tries=1,
-        )
-        if ok
-        else None
-        for i, ok in enumerate(proven.tolist())
-    ]
+    rows = np.flatnonzero(proven).tolist()
+    r_max, radius = np.max(r, axis=1).tolist(), radius.tolist()
+    certs = unchecked_many(
+        Certificate, len(rows), proven=repeat(True), box=[box[i] for i in rows],
+        domain=[domain[i] for i in rows],  # inside X = [m - r, m + r] rounded outward
+        radius=[radius[i] for i in rows],
+        reason=[f"K(X) lies in the interior of X (radius {r_max[i]:.1e}): exactly one zero in X"
+                for i in rows],
+        x=[ms[i] for i in rows], tries=repeat(1),
+    )  # fmt: skip
+    out: list = [None] * len(ms)
+    for i, cert in zip(rows, certs, strict=True):
+        out[i] = cert
+    return out
 
 
 def krawczyk(
@@ -637,7 +635,9 @@ def _sets_meeting(fast: list, sizes: list[int]) -> list[bool]:
     when every point of the set is proven there and its boxes are pairwise disjoint), the
     sets of one size compared at once."""
     out = [True] * len(sizes)
-    if len(sizes) < 2:  # one set: its own pairwise comparison is as cheap
+    if len(sizes) < 2:  # one set: apart in the first coordinate, else its own comparison
+        if sizes and all(c is not None for c in fast):
+            out[0] = not _apart_in_first(np.array([c.box[0] for c in fast]).reshape(-1, 2))
         return out
     starts = np.concatenate([[0], np.cumsum(sizes)]).astype(int).tolist()
     by_size: dict[int, list[int]] = {}
@@ -655,6 +655,19 @@ def _sets_meeting(fast: list, sizes: list[int]) -> list[bool]:
         for s, m in zip(group, np.any(meet, axis=(1, 2)).tolist(), strict=True):
             out[s] = bool(m)
     return out
+
+
+def _apart_in_first(first: np.ndarray) -> bool:
+    """Whether the intervals ``first`` (P, 2) ``[lo, hi]`` (the boxes' first coordinates)
+    are pairwise disjoint, so that the boxes are: sorted by ``lo``, each starts above every
+    one before it ends (False where a bound is NaN)."""
+    if len(first) < 2:
+        return True
+    if np.isnan(first).any():
+        return False
+    order = np.argsort(first[:, 0], kind="stable")
+    lo, hi = first[order, 0], first[order, 1]
+    return bool(np.all(lo[1:] > np.maximum.accumulate(hi)[:-1]))
 
 
 def _boxes_meet(box: np.ndarray) -> np.ndarray:

@@ -37,7 +37,7 @@ from ..model.rotations import rot_exp, rot_log, rpy_matrix
 from ..model.spec import Spec
 from ..model.urdf import Tree, slides_along_carrier, tree_to_urdf
 from ..products import Products
-from ..results import Configuration, JointValues, unchecked
+from ..results import Configuration, JointValues, unchecked_many
 from ..symbolic.kinematics import link_placements
 from ..symbolic.system import Symbolic, build_symbolic
 from . import assembly
@@ -885,21 +885,11 @@ class Model:
         ys_c = np.array(canonical)
         for a in (ths, xs, poses, ys_c):
             a.setflags(write=False)
-        values = self._joint_table(ys_c, ths)
-        columns = self._joint_columns
-        res = np.asarray(residuals, dtype=float).tolist()
-        return [
-            unchecked(
-                Configuration,
-                theta=ths[i],
-                y=ys_c[i],
-                x=xs[i],
-                platform_pose=poses[i],
-                joints=JointValues(columns, values[i]),
-                residual=res[i],
-            )  # fmt: skip
-            for i in range(N)
-        ]
+        joints = JointValues.rows(self._joint_columns, self._joint_table(ys_c, ths))
+        return unchecked_many(
+            Configuration, N, theta=ths, y=ys_c, x=xs, platform_pose=poses, joints=joints,
+            residual=np.asarray(residuals, dtype=float).tolist(),
+        )  # fmt: skip
 
     @cached_property
     def _placements(self) -> ca.Function:
