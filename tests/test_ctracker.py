@@ -227,3 +227,37 @@ def test_c_newton_equals_the_numpy_newton(dietmaier):
     np.testing.assert_array_equal(zn, zc)
     np.testing.assert_array_equal(nun, nuc)
     assert hzn is None and bn is None
+
+
+@pytest.mark.parametrize("max_steps", [2000, 12, 25])
+def test_one_split_call_tracks_as_two_calls(dietmaier, max_steps):
+    """``track_split`` (each path to t = 0.99 and, from there, on to 1 in its lane) gives the
+    bits of two ``track`` calls, the second from the first's reached times and step sizes:
+    points at the split and at the end, statuses, times, step sizes and step counts; with
+    few allowed steps some paths stop in either part."""
+    _, form, start = dietmaier
+    ct = c_tracker(form, "c")
+    M = len(start.solutions)
+    idx = np.zeros(M, dtype=int)
+    options = TrackerOptions(max_steps=max_steps)
+    for gamma in (1.0, np.exp(2j * np.pi * 0.3)):
+        p0 = form.params(DIETMAIER_LENGTHS)
+        hom = ParameterHomotopy(form, start.p[None], p0[None], start.b[None], np.zeros((1, 8)),
+                                [gamma])  # fmt: skip
+        first = ct(hom, start.solutions, idx, np.zeros(M), np.full(M, 0.99), options)
+        ok = np.flatnonzero(first.status == DONE)
+        second = ct(hom, first.z[ok], idx[ok], first.tau[ok], np.ones(ok.size), options,
+                    first.h[ok])  # fmt: skip
+        end, reached, z_split = ct.split(hom, start.solutions, idx, 0.99, options)
+        np.testing.assert_array_equal(reached, ok)
+        np.testing.assert_array_equal(z_split, first.z[ok])
+        rest = np.setdiff1d(np.arange(M), ok)
+        for name in ("z", "tau", "h", "status", "steps", "accepted"):
+            got, one, two = getattr(end, name), getattr(first, name), getattr(second, name)
+            np.testing.assert_array_equal(got[rest], one[rest])
+            want = two + (one[ok] if name in ("steps", "accepted") else 0)
+            np.testing.assert_array_equal(got[ok], want)
+        if max_steps < 2000:
+            assert 0 < ok.size < M or (second.status != DONE).any()  # stops in a part
+        else:
+            assert (end.status == DONE).sum() >= 38

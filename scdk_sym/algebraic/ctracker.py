@@ -197,7 +197,8 @@ class CTracker:
         i64 = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
         I = ctypes.c_int64  # noqa: E741
         f.argtypes = [I, I, dbl, cdbl, cdbl, cdbl, cdbl, cdbl, I, i64,
-                      cdbl, dbl, dbl, dbl, ctypes.POINTER(_Options), i64, i64, i64]  # fmt: skip
+                      cdbl, dbl, dbl, dbl, ctypes.POINTER(_Options), i64, i64, i64,
+                      ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]  # fmt: skip
         f.restype = ctypes.c_int
         g = lib.scdk_pnewton
         g.argtypes = [I, I, dbl, cdbl, cdbl, cdbl, cdbl, cdbl, I, i64,
@@ -294,6 +295,44 @@ class CTracker:
         Raises:
             HomotopyError: the C tracker reported a failure.
         """
+        return self._run(homotopy, z0, idx, tau0, tau1, weights, options, h0, None)[0]
+
+    def track_split(
+        self,
+        homotopy,
+        z0: np.ndarray,
+        idx: np.ndarray,
+        split: float,
+        weights: np.ndarray,
+        options: TrackerOptions | None = None,
+    ) -> tuple[TrackOutcome, np.ndarray, np.ndarray]:
+        """Track every path from ``t = 0`` to ``split``, and each that gets there on to
+        ``t = 1`` in the same lane: the values of :meth:`track` to ``split`` followed by
+        :meth:`track` of the paths that reached it from there (``tau0`` and ``h0`` their
+        reached times and last steps), in one C call.
+
+        Args:
+            homotopy: as :meth:`track`'s.
+            z0: (M, n) complex start points.
+            idx: (M,) int, each path's datum in the homotopy.
+            split: the time of the first stop, in (0, 1).
+            weights: (n,) row weights of the system.
+            options: step control (defaults to :class:`TrackerOptions`).
+
+        Returns:
+            ``(outcome, reached, z_split)``: the :class:`~scdk_sym.algebraic.tracker.
+            TrackOutcome` of every path at its last stop (``steps`` and ``accepted`` count
+            both parts); (K,) int the paths that reached ``split``; (K, n) their points there.
+
+        Raises:
+            HomotopyError: the C tracker reported a failure.
+        """
+        M = len(z0)
+        return self._run(homotopy, z0, idx, np.zeros(M), np.ones(M), weights, options, None,
+                         np.full(M, float(split)))  # fmt: skip
+
+    def _run(self, homotopy, z0, idx, tau0, tau1, weights, options, h0, split) -> tuple:
+        """The C call of :meth:`track` (``split`` None) and :meth:`track_split`."""
         o = options or TrackerOptions()
         M = len(z0)
         z = np.array(z0, dtype=np.complex128, order="C").reshape(M, self.n)
@@ -304,16 +343,24 @@ class CTracker:
         status, steps, accepted = (np.zeros(M, dtype=np.int64) for _ in range(3))
         opt = _Options(o.h0, o.h_min, o.h_max, o.eta, o.trust, o.theta, o.tol, o.floor,
                        o.noise, int(o.max_steps), o.max_norm, int(o.third))  # fmt: skip
+        # the first stop: its time, the points there and the steps to it (-1: not reached)
+        z_mid, mid = np.zeros((M, self.n), dtype=np.complex128), np.full(M, -1, dtype=np.int64)
+        extra = (None, None, None) if split is None else (split, z_mid, mid)
         rc = self._track(
             self.n, self.k, *self._data(homotopy, weights), M, ix, z, tau, t1, h,
             ctypes.byref(opt), status, steps, accepted,
+            *(None if a is None else a.ctypes.data for a in extra),
         )  # fmt: skip
         if rc:
             raise HomotopyError(
                 f"C path tracker failed ({_ERRORS.get(rc, rc)}) on {M} paths of an "
                 f"{self.n}-unknown system; rerun with tracker='python'"
             )
-        return TrackOutcome(z=z, tau=tau, status=status, steps=steps, accepted=accepted, h=h)
+        out = TrackOutcome(z=z, tau=tau, status=status, steps=steps, accepted=accepted, h=h)
+        if split is None:
+            return out, None, None
+        reached = np.flatnonzero(mid >= 0)
+        return out, reached, z_mid[reached]
 
 
 class BoundTracker:
@@ -327,6 +374,10 @@ class BoundTracker:
     def __call__(self, homotopy, z0, idx, tau0, tau1, options=None, h0=None) -> TrackOutcome:
         """``CTracker.track`` with the system's weights."""
         return self._tracker.track(homotopy, z0, idx, tau0, tau1, self._weights, options, h0)
+
+    def split(self, homotopy, z0, idx, split: float, options=None) -> tuple:
+        """``CTracker.track_split`` with the system's weights."""
+        return self._tracker.track_split(homotopy, z0, idx, split, self._weights, options)
 
     def newton(self, homotopy, z, t, idx, iterations: int, condition: bool = True):
         """``CTracker.newton`` with the system's weights: ``(z, nu, H_z, cond bound)``."""

@@ -162,28 +162,38 @@ def track_parameter_homotopy(
             return ctrack(homotopy, z0, ix, tau0, tau1, options, h0)
         return track(homotopy, tmap, z0, ix, tau0, tau1, options, h0)
 
-    first = segment(z, idx, np.zeros(M), np.full(M, t_split))
-    steps = first.steps.copy()
-    # before t = 1 a path only diverges by passing close to a solution's escape (probability
-    # zero for a random start): "failed", so that the caller may retry with another gamma
-    if not endgame:
-        status[first.status == DIVERGED] = "at_infinity"
-    ok1 = np.flatnonzero(first.status == DONE)
     if endgame:
-        second = segment(first.z[ok1], idx[ok1], first.tau[ok1], np.ones(ok1.size), first.h[ok1])
-        steps[ok1] += second.steps
-        arrived = second.status == DONE
-        zr, reg = _regular(system, homotopy, second.z[arrived], idx[ok1][arrived], cond_max, ctrack)
-        good = ok1[arrived][reg]
+        if ctrack is not None:  # both parts in one call, a path's second in its lane
+            end, ok1, z_split = ctrack.split(homotopy, z, idx, t_split, options)
+            steps, z_end, s_end = end.steps, end.z[ok1], end.status[ok1]
+        else:
+            first = segment(z, idx, np.zeros(M), np.full(M, t_split))
+            ok1 = np.flatnonzero(first.status == DONE)
+            z_split = first.z[ok1]
+            second = segment(z_split, idx[ok1], first.tau[ok1], np.ones(ok1.size), first.h[ok1])
+            steps, z_end, s_end = first.steps.copy(), second.z, second.status
+            steps[ok1] += second.steps
+        arrived = np.flatnonzero(s_end == DONE)
+        zr, reg = _regular(system, homotopy, z_end[arrived], idx[ok1[arrived]], cond_max, ctrack)
+        good = ok1[arrived[reg]]
         out[good], status[good], winding[good] = zr[reg], "success", 1
-        rest = np.setdiff1d(ok1, good)
+        left = np.ones(ok1.size, dtype=bool)  # reached 1 - r0, not ended regular
+        left[arrived[reg]] = False
+        rest = ok1[left]
         if rest.size:
-            eg = cauchy_endgame(homotopy, first.z[rest], idx[rest], r0, options)
+            eg = cauchy_endgame(homotopy, z_split[left], idx[rest], r0, options)
             sing = eg.verdict == EG_SINGULAR
             out[rest[sing]], status[rest[sing]] = eg.z[sing], "singular"
             status[rest[eg.verdict == EG_INFINITY]] = "at_infinity"
             winding[rest] = eg.winding
     else:
+        first = segment(z, idx, np.zeros(M), np.full(M, t_split))
+        steps = first.steps.copy()
+        # before t = 1 a path only diverges by passing close to a solution's escape
+        # (probability zero for a random start): "failed", so that the caller may retry with
+        # another gamma
+        status[first.status == DIVERGED] = "at_infinity"
+        ok1 = np.flatnonzero(first.status == DONE)
         zr, reg = _regular(system, homotopy, first.z[ok1], idx[ok1], cond_max, ctrack)
         good = ok1[reg]
         out[good], status[good], winding[good] = zr[reg], "success", 1

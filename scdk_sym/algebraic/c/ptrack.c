@@ -286,7 +286,25 @@ typedef struct {
     int rejected;
     double tau, tau1, h;
     int64_t steps, accepted, status;
+    int first;                      /* on its first part, towards split[j] */
+    int64_t before, before_accepted; /* step attempts and accepted steps of its first part */
 } lane_state;
+
+/* Start a part of the path of s that ends at time `end` (its counters, rejection flag and
+ * status reset, its velocity to be computed afresh, its step size kept); 0 when the part is
+ * over at once (status DONE, or STEP_LIMIT without steps), as a call of its own reports it. */
+static int begin_part(lane_state *s, const scdk_options *o, double end) {
+    s->fresh = 1;
+    s->rejected = 0;
+    s->tau1 = end;
+    s->steps = s->accepted = 0;
+    s->status = SCDK_RUNNING;
+    if (s->tau >= end || o->max_steps <= 0) {
+        s->status = s->tau >= end ? SCDK_DONE : SCDK_STEP_LIMIT;
+        return 0;
+    }
+    return 1;
+}
 
 static void store(const lanes *c, int l, double *z) {
     for (int i = 0; i < N; ++i) {
@@ -337,12 +355,80 @@ static int advance(lanes *c, lane_state *s, const scdk_options *o, double hh, do
     return s->status != SCDK_RUNNING;
 }
 
+/* The path of lane l stopped its part: the end of a first part that reached split[j] is kept
+ * (z_mid, mid_steps) and the path goes on in the lane (1); otherwise its outputs are stored
+ * and the lane is free (0). */
+static int stopped(lanes *c, lane_state *s, int l, const scdk_options *opt, const double *tau1,
+                   double *z, double *z_mid, int64_t *mid_steps, double *tau, double *h,
+                   int64_t *status, int64_t *steps, int64_t *accepted) {
+    const int64_t j = s->j;
+    if (s->first && s->status == SCDK_DONE) {
+        store(c, l, z_mid + 2 * N * j);
+        mid_steps[j] = s->steps;
+        s->before = s->steps;
+        s->before_accepted = s->accepted;
+        s->first = 0;
+        if (begin_part(s, opt, tau1[j])) return 1;
+    }
+    store(c, l, z + 2 * N * j);
+    tau[j] = s->tau;
+    h[j] = s->h;
+    status[j] = s->status;
+    steps[j] = s->before + s->steps;
+    accepted[j] = s->before_accepted + s->accepted;
+    s->j = -1;
+    return 0;
+}
+
+/* Load the next paths into the idle lanes (a path over at once stored as it is); the number
+ * of busy lanes and of those whose velocity is to be computed. */
+static void fill(lanes *c, lane_state *s, int64_t *next, int64_t M, const int64_t *idx,
+                 const double *p_from, const double *dp, const double *b_from, const double *db,
+                 const double *gamma, const double *split, double *z, double *z_mid,
+                 int64_t *mid_steps, double *tau, const double *tau1, double *h,
+                 const scdk_options *opt, int64_t *status, int64_t *steps, int64_t *accepted,
+                 int *active, int *fresh) {
+    *active = *fresh = 0;
+    for (int l = 0; l < L; ++l) {
+        while (s[l].j < 0 && *next < M) {
+            const int64_t j = (*next)++;
+            s[l] = (lane_state){j, 1, 0, tau[j], tau1[j], h[j], 0, 0, SCDK_RUNNING, 0, 0, 0};
+            if (split) {
+                mid_steps[j] = -1;
+                s[l].first = 1;
+                if (!begin_part(&s[l], opt, split[j])) { /* at split[j] already, or no steps */
+                    if (s[l].status == SCDK_DONE) {
+                        memcpy(z_mid + 2 * N * j, z + 2 * N * j, 2 * N * sizeof(double));
+                        mid_steps[j] = 0;
+                        s[l].first = 0;
+                        if (begin_part(&s[l], opt, tau1[j])) goto run;
+                    }
+                    steps[j] = accepted[j] = 0;
+                    status[j] = s[l].status;
+                    s[l].j = -1;
+                    continue;
+                }
+            } else if (!begin_part(&s[l], opt, tau1[j])) {
+                steps[j] = accepted[j] = 0;
+                status[j] = s[l].status;
+                s[l].j = -1;
+                continue;
+            }
+        run:
+            load(c, l, idx[j], p_from, dp, b_from, db, gamma, z + 2 * N * j);
+        }
+        *active += s[l].j >= 0;
+        *fresh += s[l].j >= 0 && s[l].fresh;
+    }
+}
+
 int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_from,
                 const double *dp, const double *b_from, const double *db, const double *gamma,
                 int64_t M, const int64_t *idx, double *z, double *tau, const double *tau1,
                 double *h, const scdk_options *opt, int64_t *status, int64_t *steps,
-                int64_t *accepted) {
+                int64_t *accepted, const double *split, double *z_mid, int64_t *mid_steps) {
     if (n != N || k != K || M < 0) return SCDK_BAD_SIZE;
+    if (split && (!z_mid || !mid_steps)) return SCDK_BAD_SIZE;
     char *raw;
     lanes *c = new_lanes(&raw);
     if (!c) return SCDK_NO_MEMORY;
@@ -350,25 +436,13 @@ int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_fro
     int64_t next = 0;
     for (int l = 0; l < L; ++l) s[l].j = -1;
     for (;;) {
-        int active = 0, fresh = 0;
-        for (int l = 0; l < L; ++l) {
-            while (s[l].j < 0 && next < M) {
-                const int64_t j = next++;
-                steps[j] = accepted[j] = 0;
-                if (tau[j] >= tau1[j] || opt->max_steps <= 0) {
-                    status[j] = tau[j] >= tau1[j] ? SCDK_DONE : SCDK_STEP_LIMIT;
-                    continue;
-                }
-                load(c, l, idx[j], p_from, dp, b_from, db, gamma, z + 2 * N * j);
-                s[l] = (lane_state){j, 1, 0, tau[j], tau1[j], h[j], 0, 0, SCDK_RUNNING};
-            }
-            active += s[l].j >= 0;
-            fresh += s[l].j >= 0 && s[l].fresh;
-        }
+        int active, fresh;
+        fill(c, s, &next, M, idx, p_from, dp, b_from, db, gamma, split, z, z_mid, mid_steps,
+             tau, tau1, h, opt, status, steps, accepted, &active, &fresh);
         if (!active) break;
         double t[L], hh[L], nu1[L], nu2[L];
         for (int l = 0; l < L; ++l) t[l] = s[l].tau;
-        if (fresh) { /* the velocity at the start of the paths just loaded */
+        if (fresh) { /* the velocity at the start of the paths (or parts) just begun */
             velocity(c, weights, &c->z, t, &c->zt);
             for (int l = 0; l < L; ++l) {
                 if (s[l].j < 0 || !s[l].fresh) continue;
@@ -398,18 +472,10 @@ int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_fro
             t[l] = t[l] + hh[l]; /* the step's end, as step() takes it */
         }
         if (any) third(c, weights, t, more, nu3);
-        for (int l = 0; l < L; ++l) {
-            if (s[l].j < 0 || !advance(c, &s[l], opt, hh[l], nu1[l], nu2[l], nu3[l], l))
-                continue;
-            const int64_t j = s[l].j;
-            store(c, l, z + 2 * N * j);
-            tau[j] = s[l].tau;
-            h[j] = s[l].h;
-            status[j] = s[l].status;
-            steps[j] = s[l].steps;
-            accepted[j] = s[l].accepted;
-            s[l].j = -1;
-        }
+        for (int l = 0; l < L; ++l)
+            if (s[l].j >= 0 && advance(c, &s[l], opt, hh[l], nu1[l], nu2[l], nu3[l], l))
+                stopped(c, &s[l], l, opt, tau1, z, z_mid, mid_steps, tau, h, status, steps,
+                        accepted);
     }
     free(raw);
     return SCDK_OK;
