@@ -36,6 +36,7 @@ from scdk_sym.algebraic.homotopy import (
     ParameterHomotopy,
     dedup,
     pair_distances,
+    pairs_apart,
     solve_homotopies,
     track_parameter_homotopy,
 )
@@ -568,3 +569,35 @@ def test_pair_distances_answer_every_bound_test_as_the_full_matrix():
             assert (np.isnan(got) <= np.isnan(plain)).all()
             nan = np.isnan(plain)
             assert np.isinf(got[nan]).sum() + np.isnan(got).sum() == nan.sum()
+
+
+def test_pairs_apart_only_where_no_pair_is_within_the_bound():
+    """``pairs_apart`` (sorted first coordinates) against the plain (G, M, M) matrix of
+    first-coordinate gaps on 600 seeded batches with ties, gaps just above and below the
+    bound, inf and NaN entries: it says "apart" only when every off-diagonal gap times
+    ``1 - 4 eps`` exceeds the bound, and then the full distances are all above it too; it
+    says "not apart" whenever some finite gap is at most the bound."""
+    rng = np.random.default_rng(23)
+    eps = np.finfo(float).eps
+    answers = {True: 0, False: 0}
+    for _ in range(600):
+        G, M, n = rng.integers(1, 4), rng.integers(1, 10), rng.integers(1, 4)
+        z = rng.normal(size=(G, M, n)) + 1j * rng.normal(size=(G, M, n))
+        bound = float(10.0 ** rng.uniform(-3, 0))
+        if M > 1 and rng.uniform() < 0.5:  # two first coordinates about the bound apart
+            g, i, j = rng.integers(G), rng.integers(M), rng.integers(M)
+            if i != j:
+                z[g, i, 0] = z[g, j, 0].real + bound * rng.choice([0.0, 0.5, 1.0, 1.0 + 1e-15, 2.0])
+        if rng.uniform() < 0.1:
+            z[rng.integers(G), rng.integers(M), 0] = rng.choice([np.nan, np.inf])
+        x = z[..., 0].real
+        with np.errstate(invalid="ignore"):
+            gap = np.abs(x[:, :, None] - x[:, None])
+            off = ~np.eye(M, dtype=bool)
+            want = bool((gap[:, off] * (1.0 - 4.0 * eps) > bound).all())
+        got = pairs_apart(z, bound)
+        assert got == want, (x, bound)
+        if got:
+            assert (pair_distances(z, bound)[:, off] > bound).all()
+        answers[got] += 1
+    assert min(answers.values()) > 100

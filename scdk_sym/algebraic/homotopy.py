@@ -226,6 +226,16 @@ def pair_distances(z: np.ndarray, bound: np.ndarray | float) -> np.ndarray:
     return out
 
 
+def pairs_apart(z: np.ndarray, bound: float) -> bool:
+    """Whether every two rows of each group of ``z`` (G, M, n) are surely farther apart than
+    ``bound``: their first coordinates' real parts are (sorted, neighbours compared; False
+    where one is NaN). :func:`pair_distances` with any bound up to ``bound`` is then
+    ``inf`` off the diagonal."""
+    x = np.sort(z[..., 0].real, axis=-1)
+    with np.errstate(invalid="ignore"):  # a NaN gap (a NaN entry, inf - inf): not apart
+        return bool(((x[..., 1:] - x[..., :-1]) * (1.0 - 4.0 * EPS) > bound).all())
+
+
 def _fail_jumps(out: np.ndarray, status: np.ndarray, idx: np.ndarray) -> None:
     """A regular solution ends exactly one path: two paths at one regular endpoint of the same
     target (datum) mean a path jump, and both fail (``status`` and ``out`` changed in place).
@@ -252,6 +262,8 @@ def _fail_jumps(out: np.ndarray, status: np.ndarray, idx: np.ndarray) -> None:
         zs = out[rows]  # (G, size, n)
         # the scale of the column's end, as one datum's (size, size) takes it
         bound = 1e-8 * (1.0 + np.abs(zs).max(axis=2))[:, None, :]
+        if pairs_apart(zs, bound.max()):  # no two ends meet
+            continue
         close = pair_distances(zs, bound) <= bound
         jumped = rows[close.sum(axis=2) > 1]
         status[jumped], out[jumped] = "failed", np.nan
@@ -401,6 +413,10 @@ def dedup_groups(xs: list[np.ndarray], tol: float, block: int = 1 << 20) -> list
             rows = groups[a : a + step]
             x = np.stack([xs[g] for g in rows])  # (G, M, n)
             scale = 1.0 + np.abs(x).max(axis=2)
+            if pairs_apart(x, tol * (1.0 + 1e-9) * scale.max()):  # no two rows meet
+                for g, xg in zip(rows, x, strict=True):
+                    out[g] = xg[np.lexsort(xg.real.T[::-1])]
+                continue
             with np.errstate(invalid="ignore"):
                 # the distances only where a pair may be near (margin: the division)
                 d = pair_distances(x, tol * (1.0 + 1e-9) * scale[:, None, :])
@@ -492,14 +508,18 @@ def solve_homotopy(
             f"start system of shape {start.solutions.shape} does not fit a system with "
             f"n = {system.n}; recompute it with start_system(system)"
         )
-    rng = np.random.default_rng(seed)
+    rng = None  # made on the first retry
     attempt = 0
     while attempt < attempts:
         attempt += 1
         # a path that fails on the way passed close to a point where its solution escapes to
         # infinity; an arc with a random gamma moves every path away from it (all paths are
         # rerun, so the endpoints stay one arc's complete set)
-        g = complex(gamma) if attempt == 1 else complex(np.exp(2j * np.pi * rng.uniform()))
+        if attempt == 1:
+            g = complex(gamma)
+        else:
+            rng = rng or np.random.default_rng(seed)
+            g = complex(np.exp(2j * np.pi * rng.uniform()))
         ends = _track_all(system, start.p[None], start.b[None], start.solutions[None],
                           p0[None], g, options, tracker)  # fmt: skip
         if not (ends.status == "failed").any():
