@@ -230,11 +230,13 @@ def test_c_newton_equals_the_numpy_newton(dietmaier):
 
 
 @pytest.mark.parametrize("max_steps", [2000, 12, 25])
-def test_one_split_call_tracks_as_two_calls(dietmaier, max_steps):
-    """``track_split`` (each path to t = 0.99 and, from there, on to 1 in its lane) gives the
-    bits of two ``track`` calls, the second from the first's reached times and step sizes:
-    points at the split and at the end, statuses, times, step sizes and step counts; with
-    few allowed steps some paths stop in either part."""
+def test_one_split_call_tracks_and_refines_as_separate_calls(dietmaier, max_steps):
+    """``track_split`` (each path to t = 0.99 and, from there, on to 1 in its lane, then
+    Newton at t = 1 on the arrived ends) gives the bits of two ``track`` calls, the second
+    from the first's reached times and step sizes, and of a ``newton`` call on the arrived
+    ends: points at the split and at the end, statuses, times, step sizes, step counts,
+    Newton iterates, update norms and condition bounds; with few allowed steps some paths
+    stop in either part."""
     _, form, start = dietmaier
     ct = c_tracker(form, "c")
     M = len(start.solutions)
@@ -248,16 +250,47 @@ def test_one_split_call_tracks_as_two_calls(dietmaier, max_steps):
         ok = np.flatnonzero(first.status == DONE)
         second = ct(hom, first.z[ok], idx[ok], first.tau[ok], np.ones(ok.size), options,
                     first.h[ok])  # fmt: skip
-        end, reached, z_split = ct.split(hom, start.solutions, idx, 0.99, options)
-        np.testing.assert_array_equal(reached, ok)
-        np.testing.assert_array_equal(z_split, first.z[ok])
+        arrived = ok[second.status == DONE]
+        z, nu, _, bound = ct.newton(hom, second.z[second.status == DONE],
+                                    np.ones(arrived.size), idx[arrived], 2)  # fmt: skip
+        sp = ct.split(hom, start.solutions, idx, 0.99, options)
+        np.testing.assert_array_equal(sp.reached, ok)
+        np.testing.assert_array_equal(sp.z_split, first.z[ok])
         rest = np.setdiff1d(np.arange(M), ok)
         for name in ("z", "tau", "h", "status", "steps", "accepted"):
-            got, one, two = getattr(end, name), getattr(first, name), getattr(second, name)
+            got, one, two = getattr(sp.end, name), getattr(first, name), getattr(second, name)
             np.testing.assert_array_equal(got[rest], one[rest])
             want = two + (one[ok] if name in ("steps", "accepted") else 0)
             np.testing.assert_array_equal(got[ok], want)
+        np.testing.assert_array_equal(sp.arrived, arrived)
+        for got, want in ((sp.z_newton, z), (sp.nu, nu), (sp.bound, bound)):
+            np.testing.assert_array_equal(got, want)
         if max_steps < 2000:
-            assert 0 < ok.size < M or (second.status != DONE).any()  # stops in a part
+            assert 0 < ok.size < M or arrived.size < ok.size  # stops in a part
         else:
-            assert (end.status == DONE).sum() >= 38
+            assert arrived.size >= 38 and (sp.nu[:, -1] < 1e-10).sum() >= 38
+
+
+def test_regular_from_the_split_calls_newton_decides_as_its_own_newton(dietmaier):
+    """``_regular`` given the split call's Newton outcome (H_z recomputed only where the
+    condition bound does not decide) gives the ends and verdicts of ``_regular`` making its
+    own Newton steps, with ``cond_max`` set so that the bound leaves half the ends open (and
+    the SVD of a recomputed H_z decides them)."""
+    from scdk_sym.algebraic.homotopy import _regular
+
+    _, form, start = dietmaier
+    ct = c_tracker(form, "c")
+    M = len(start.solutions)
+    idx = np.zeros(M, dtype=int)
+    p0 = form.params(DIETMAIER_LENGTHS)
+    hom = ParameterHomotopy(form, start.p[None], p0[None], start.b[None], np.zeros((1, 8)), [1])
+    sp = ct.split(hom, start.solutions, idx, 0.99)
+    z_end, ix = sp.end.z[sp.arrived], idx[sp.arrived]
+    for cond_max in (2.0 * np.median(sp.bound), 1e13):
+        open_ = sp.bound > 0.5 * cond_max
+        z1, ok1 = _regular(form, hom, z_end, ix, cond_max, ct, (sp.z_newton, sp.nu, sp.bound))
+        z2, ok2 = _regular(form, hom, z_end, ix, cond_max, ct)
+        np.testing.assert_array_equal(z1, z2)
+        np.testing.assert_array_equal(ok1, ok2)
+        if cond_max < 1e13:
+            assert 5 <= open_.sum() <= M - 5 and ok1[open_].sum() > 0  # the SVD decided some

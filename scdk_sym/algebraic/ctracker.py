@@ -18,6 +18,7 @@ import ctypes
 import functools
 import hashlib
 import tempfile
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
@@ -25,7 +26,7 @@ import numpy as np
 
 from ..errors import BuildError, HomotopyError, InputError
 from ..products import HOMOTOPY_TRACKER
-from .tracker import TrackerOptions, TrackOutcome
+from .tracker import DONE, TrackerOptions, TrackOutcome
 
 #: Tracker choices of :func:`~scdk_sym.algebraic.solve_homotopy`.
 TRACKERS = ("auto", "c", "python")
@@ -177,6 +178,37 @@ def _form_and_weights(system) -> tuple[object, np.ndarray] | None:
     return None
 
 
+def _options(o: TrackerOptions) -> _Options:
+    """The C structure of step control options."""
+    return _Options(o.h0, o.h_min, o.h_max, o.eta, o.trust, o.theta, o.tol, o.floor, o.noise,
+                    int(o.max_steps), o.max_norm, int(o.third))  # fmt: skip
+
+
+@dataclass(frozen=True)
+class SplitOutcome:
+    """What :meth:`CTracker.track_split` returns.
+
+    Attributes:
+        end: the :class:`~scdk_sym.algebraic.tracker.TrackOutcome` of every path (M paths)
+            at its last stop (``steps`` and ``accepted`` count both parts).
+        reached: (K,) int, the paths that reached the split time.
+        z_split: (K, n) complex, their points there.
+        arrived: (A,) int, those of them that arrived at t = 1 (status ``DONE``).
+        z_newton: (A, n) complex, their ends after the Newton steps at t = 1.
+        nu: (A, iterations) the relative norm of each Newton update.
+        bound: (A,) an upper bound of the scaled condition number of ``H_z`` at
+            ``z_newton`` (as :meth:`CTracker.newton` returns it).
+    """
+
+    end: TrackOutcome
+    reached: np.ndarray
+    z_split: np.ndarray
+    arrived: np.ndarray
+    z_newton: np.ndarray
+    nu: np.ndarray
+    bound: np.ndarray
+
+
 class CTracker:
     """The C tracker bound to one algebraic form's generated ``G`` (see the module docs).
 
@@ -204,7 +236,12 @@ class CTracker:
         g.argtypes = [I, I, dbl, cdbl, cdbl, cdbl, cdbl, cdbl, I, i64,
                       cdbl, dbl, I, dbl, ctypes.c_void_p, ctypes.c_void_p]  # fmt: skip
         g.restype = ctypes.c_int
-        self._lib, self._track, self._newton = lib, f, g
+        s = lib.scdk_psolve
+        s.argtypes = [I, I, dbl, cdbl, cdbl, cdbl, cdbl, cdbl, I, i64, cdbl, dbl, dbl,
+                      ctypes.POINTER(_Options), i64, i64, i64, ctypes.c_double, cdbl, i64, I,
+                      cdbl, dbl, dbl]  # fmt: skip
+        s.restype = ctypes.c_int
+        self._lib, self._track, self._newton, self._solve = lib, f, g, s
 
     def _data(self, homotopy, weights: np.ndarray) -> tuple:
         """The homotopy's per-datum arrays as the C functions take them."""
@@ -295,7 +332,24 @@ class CTracker:
         Raises:
             HomotopyError: the C tracker reported a failure.
         """
-        return self._run(homotopy, z0, idx, tau0, tau1, weights, options, h0, None)[0]
+        o = options or TrackerOptions()
+        M = len(z0)
+        z = np.array(z0, dtype=np.complex128, order="C").reshape(M, self.n)
+        tau = np.array(np.broadcast_to(tau0, (M,)), dtype=np.float64)
+        t1 = np.ascontiguousarray(np.broadcast_to(tau1, (M,)), dtype=np.float64)
+        h = np.full(M, o.h0) if h0 is None else np.array(h0, dtype=np.float64)
+        ix = np.ascontiguousarray(idx, dtype=np.int64)
+        status, steps, accepted = (np.zeros(M, dtype=np.int64) for _ in range(3))
+        rc = self._track(
+            self.n, self.k, *self._data(homotopy, weights), M, ix, z, tau, t1, h,
+            ctypes.byref(_options(o)), status, steps, accepted, None, None, None,
+        )  # fmt: skip
+        if rc:
+            raise HomotopyError(
+                f"C path tracker failed ({_ERRORS.get(rc, rc)}) on {M} paths of an "
+                f"{self.n}-unknown system; rerun with tracker='python'"
+            )
+        return TrackOutcome(z=z, tau=tau, status=status, steps=steps, accepted=accepted, h=h)
 
     def track_split(
         self,
@@ -305,11 +359,13 @@ class CTracker:
         split: float,
         weights: np.ndarray,
         options: TrackerOptions | None = None,
-    ) -> tuple[TrackOutcome, np.ndarray, np.ndarray]:
-        """Track every path from ``t = 0`` to ``split``, and each that gets there on to
-        ``t = 1`` in the same lane: the values of :meth:`track` to ``split`` followed by
-        :meth:`track` of the paths that reached it from there (``tau0`` and ``h0`` their
-        reached times and last steps), in one C call.
+        iterations: int = 2,
+    ) -> SplitOutcome:
+        """Track every path from ``t = 0`` to ``split``, each that gets there on to ``t = 1``
+        in the same lane, and refine the ends of those that arrive by Newton steps at
+        ``t = 1``, in one C call: the values of :meth:`track` to ``split``, of :meth:`track`
+        of the paths that reached it from there (``tau0`` and ``h0`` their reached times
+        and last steps), and of :meth:`newton` at ``t = 1`` of the arrived ends.
 
         Args:
             homotopy: as :meth:`track`'s.
@@ -318,49 +374,39 @@ class CTracker:
             split: the time of the first stop, in (0, 1).
             weights: (n,) row weights of the system.
             options: step control (defaults to :class:`TrackerOptions`).
+            iterations: Newton steps at ``t = 1``.
 
         Returns:
-            ``(outcome, reached, z_split)``: the :class:`~scdk_sym.algebraic.tracker.
-            TrackOutcome` of every path at its last stop (``steps`` and ``accepted`` count
-            both parts); (K,) int the paths that reached ``split``; (K, n) their points there.
+            A :class:`SplitOutcome`.
 
         Raises:
-            HomotopyError: the C tracker reported a failure.
+            HomotopyError: the C call reported a failure.
         """
-        M = len(z0)
-        return self._run(homotopy, z0, idx, np.zeros(M), np.ones(M), weights, options, None,
-                         np.full(M, float(split)))  # fmt: skip
-
-    def _run(self, homotopy, z0, idx, tau0, tau1, weights, options, h0, split) -> tuple:
-        """The C call of :meth:`track` (``split`` None) and :meth:`track_split`."""
         o = options or TrackerOptions()
         M = len(z0)
         z = np.array(z0, dtype=np.complex128, order="C").reshape(M, self.n)
-        tau = np.array(np.broadcast_to(tau0, (M,)), dtype=np.float64)
-        t1 = np.ascontiguousarray(np.broadcast_to(tau1, (M,)), dtype=np.float64)
-        h = np.full(M, o.h0) if h0 is None else np.array(h0, dtype=np.float64)
-        ix = np.ascontiguousarray(idx, dtype=np.int64)
+        tau, h = np.zeros(M), np.full(M, o.h0)
         status, steps, accepted = (np.zeros(M, dtype=np.int64) for _ in range(3))
-        opt = _Options(o.h0, o.h_min, o.h_max, o.eta, o.trust, o.theta, o.tol, o.floor,
-                       o.noise, int(o.max_steps), o.max_norm, int(o.third))  # fmt: skip
-        # the first stop: its time, the points there and the steps to it (-1: not reached)
         z_mid, mid = np.zeros((M, self.n), dtype=np.complex128), np.full(M, -1, dtype=np.int64)
-        extra = (None, None, None) if split is None else (split, z_mid, mid)
-        rc = self._track(
-            self.n, self.k, *self._data(homotopy, weights), M, ix, z, tau, t1, h,
-            ctypes.byref(opt), status, steps, accepted,
-            *(None if a is None else a.ctypes.data for a in extra),
+        z_end = np.zeros((M, self.n), dtype=np.complex128)
+        nu, bound = np.zeros((M, iterations)), np.zeros(M)
+        rc = self._solve(
+            self.n, self.k, *self._data(homotopy, weights), M,
+            np.ascontiguousarray(idx, dtype=np.int64), z, tau, h, ctypes.byref(_options(o)),
+            status, steps, accepted, float(split), z_mid, mid, iterations, z_end, nu, bound,
         )  # fmt: skip
         if rc:
             raise HomotopyError(
                 f"C path tracker failed ({_ERRORS.get(rc, rc)}) on {M} paths of an "
                 f"{self.n}-unknown system; rerun with tracker='python'"
             )
-        out = TrackOutcome(z=z, tau=tau, status=status, steps=steps, accepted=accepted, h=h)
-        if split is None:
-            return out, None, None
         reached = np.flatnonzero(mid >= 0)
-        return out, reached, z_mid[reached]
+        arrived = reached[status[reached] == DONE]
+        return SplitOutcome(
+            end=TrackOutcome(z=z, tau=tau, status=status, steps=steps, accepted=accepted, h=h),
+            reached=reached, z_split=z_mid[reached], arrived=arrived, z_newton=z_end[arrived],
+            nu=nu[arrived], bound=bound[arrived],
+        )  # fmt: skip
 
 
 class BoundTracker:
@@ -375,7 +421,7 @@ class BoundTracker:
         """``CTracker.track`` with the system's weights."""
         return self._tracker.track(homotopy, z0, idx, tau0, tau1, self._weights, options, h0)
 
-    def split(self, homotopy, z0, idx, split: float, options=None) -> tuple:
+    def split(self, homotopy, z0, idx, split: float, options=None) -> SplitOutcome:
         """``CTracker.track_split`` with the system's weights."""
         return self._tracker.track_split(homotopy, z0, idx, split, self._weights, options)
 

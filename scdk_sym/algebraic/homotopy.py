@@ -95,16 +95,26 @@ def scaled_cond(J: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(c), c, np.inf)
 
 
-def _regular(system, homotopy, z, idx, cond_max, ctrack=None) -> tuple[np.ndarray, np.ndarray]:
+def _regular(system, homotopy, z, idx, cond_max, ctrack=None, refined=None) -> tuple:
     """Newton-refine endpoints at t = 1; regular where it converges and J is well conditioned
-    (the Newton steps in C with the C tracker ``ctrack``, else in numpy)."""
+    (the Newton steps in C with the C tracker ``ctrack``, else in numpy; ``refined``: the C
+    steps' ``(z, nu, bound)`` already made, as :meth:`CTracker.track_split` gives them)."""
     if ctrack is not None:
-        z, nu, Hz, bound = ctrack.newton(homotopy, z, np.ones(len(z)), idx, 2)
+        if refined is None:
+            z_new, nu, Hz, bound = ctrack.newton(homotopy, z, np.ones(len(z)), idx, 2)
+        else:
+            (z_new, nu, bound), Hz = refined, None
         # the 2-norm condition number is at most the bound (Frobenius norms): the SVD only
         # where the bound does not decide (half of cond_max: room for rounding)
         well = bound <= 0.5 * cond_max
         if not well.all():
-            well[~well] = scaled_cond(Hz[~well]) <= cond_max
+            open_ = np.flatnonzero(~well)
+            if Hz is None:  # the same steps again (the same values) for their H_z
+                Hz_open = ctrack.newton(homotopy, z[open_], np.ones(open_.size), idx[open_], 2)[2]
+            else:
+                Hz_open = Hz[open_]
+            well[open_] = scaled_cond(Hz_open) <= cond_max
+        z = z_new
     else:
         t1 = np.ones(len(z), dtype=complex)
         z, nu = newton(homotopy, z, t1, idx, 2)
@@ -163,9 +173,12 @@ def track_parameter_homotopy(
         return track(homotopy, tmap, z0, ix, tau0, tau1, options, h0)
 
     if endgame:
-        if ctrack is not None:  # both parts in one call, a path's second in its lane
-            end, ok1, z_split = ctrack.split(homotopy, z, idx, t_split, options)
-            steps, z_end, s_end = end.steps, end.z[ok1], end.status[ok1]
+        refined = None
+        if ctrack is not None:  # one call: both parts (a path's second in its lane), Newton
+            sp = ctrack.split(homotopy, z, idx, t_split, options)
+            ok1, z_split, steps = sp.reached, sp.z_split, sp.end.steps
+            z_end, s_end = sp.end.z[ok1], sp.end.status[ok1]
+            refined = (sp.z_newton, sp.nu, sp.bound)
         else:
             first = segment(z, idx, np.zeros(M), np.full(M, t_split))
             ok1 = np.flatnonzero(first.status == DONE)
@@ -174,7 +187,8 @@ def track_parameter_homotopy(
             steps, z_end, s_end = first.steps.copy(), second.z, second.status
             steps[ok1] += second.steps
         arrived = np.flatnonzero(s_end == DONE)
-        zr, reg = _regular(system, homotopy, z_end[arrived], idx[ok1[arrived]], cond_max, ctrack)
+        zr, reg = _regular(system, homotopy, z_end[arrived], idx[ok1[arrived]], cond_max, ctrack,
+                           refined)  # fmt: skip
         good = ok1[arrived[reg]]
         out[good], status[good], winding[good] = zr[reg], "success", 1
         left = np.ones(ok1.size, dtype=bool)  # reached 1 - r0, not ended regular

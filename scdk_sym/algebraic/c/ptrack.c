@@ -531,21 +531,23 @@ static double cond_bound(const lanes *c, int l) {
     return sqrt(fro) * sqrt(inv);
 }
 
-int scdk_pnewton(int64_t n, int64_t k, const double *weights, const double *p_from,
-                 const double *dp, const double *b_from, const double *db, const double *gamma,
-                 int64_t M, const int64_t *idx, double *z, const double *t, int64_t iterations,
-                 double *nu, double *hz, double *cond) {
-    if (n != N || k != K || M < 0 || iterations < 0) return SCDK_BAD_SIZE;
-    char *raw;
-    lanes *c = new_lanes(&raw);
-    if (!c) return SCDK_NO_MEMORY;
+/* Newton's method (as scdk_pnewton) on the M points z_in[sel[j]] (j < M; sel NULL: j), at
+ * times t[sel[j]], L at a time: results into z_out[sel[j]], nu[sel[j] * iterations + it],
+ * hz and cond (each NULL or indexed by sel[j]). */
+static void newton_points(lanes *c, const double *weights, const double *p_from,
+                          const double *dp, const double *b_from, const double *db,
+                          const double *gamma, int64_t M, const int64_t *sel,
+                          const int64_t *idx, const double *z_in, double *z_out,
+                          const double *t, int64_t iterations, double *nu, double *hz,
+                          double *cond) {
     for (int64_t j0 = 0; j0 < M; j0 += L) {
         int64_t path[L];
         double tl[L];
-        for (int l = 0; l < L; ++l) { /* a short last group repeats its last path */
-            path[l] = j0 + l < M ? j0 + l : M - 1;
+        for (int l = 0; l < L; ++l) { /* a short last group repeats its last point */
+            const int64_t j = j0 + l < M ? j0 + l : M - 1;
+            path[l] = sel ? sel[j] : j;
             tl[l] = t[path[l]];
-            load(c, l, idx[path[l]], p_from, dp, b_from, db, gamma, z + 2 * N * path[l]);
+            load(c, l, idx[path[l]], p_from, dp, b_from, db, gamma, z_in + 2 * N * path[l]);
         }
         for (int64_t it = 0; it < iterations; ++it) {
             homotopy(c, weights, &c->z, tl);
@@ -560,7 +562,7 @@ int scdk_pnewton(int64_t n, int64_t k, const double *weights, const double *p_fr
         }
         if (hz || cond) homotopy(c, weights, &c->z, tl);
         for (int l = 0; l < L && j0 + l < M; ++l) {
-            store(c, l, z + 2 * N * path[l]);
+            store(c, l, z_out + 2 * N * path[l]);
             if (cond) cond[path[l]] = cond_bound(c, l);
             if (!hz) continue;
             double *out = hz + 2 * N * N * path[l];
@@ -571,6 +573,53 @@ int scdk_pnewton(int64_t n, int64_t k, const double *weights, const double *p_fr
                 }
         }
     }
+}
+
+int scdk_pnewton(int64_t n, int64_t k, const double *weights, const double *p_from,
+                 const double *dp, const double *b_from, const double *db, const double *gamma,
+                 int64_t M, const int64_t *idx, double *z, const double *t, int64_t iterations,
+                 double *nu, double *hz, double *cond) {
+    if (n != N || k != K || M < 0 || iterations < 0) return SCDK_BAD_SIZE;
+    char *raw;
+    lanes *c = new_lanes(&raw);
+    if (!c) return SCDK_NO_MEMORY;
+    newton_points(c, weights, p_from, dp, b_from, db, gamma, M, NULL, idx, z, z, t, iterations,
+                  nu, hz, cond);
     free(raw);
     return SCDK_OK;
+}
+
+int scdk_psolve(int64_t n, int64_t k, const double *weights, const double *p_from,
+                const double *dp, const double *b_from, const double *db, const double *gamma,
+                int64_t M, const int64_t *idx, double *z, double *tau, double *h,
+                const scdk_options *opt, int64_t *status, int64_t *steps, int64_t *accepted,
+                double split, double *z_mid, int64_t *mid_steps, int64_t iterations,
+                double *z_end, double *nu, double *cond) {
+    if (n != N || k != K || M < 0 || iterations < 0) return SCDK_BAD_SIZE;
+    double *times = calloc((size_t)(2 * M + 1), sizeof(double));
+    int64_t *sel = calloc((size_t)(M + 1), sizeof(int64_t));
+    int rc = times && sel ? SCDK_OK : SCDK_NO_MEMORY;
+    char *raw = NULL;
+    lanes *c = rc == SCDK_OK ? new_lanes(&raw) : NULL;
+    if (rc == SCDK_OK && !c) rc = SCDK_NO_MEMORY;
+    if (rc == SCDK_OK) {
+        double *tau1 = times, *at = times + M;
+        for (int64_t j = 0; j < M; ++j) {
+            tau1[j] = 1.0;
+            at[j] = split;
+        }
+        rc = scdk_ptrack(n, k, weights, p_from, dp, b_from, db, gamma, M, idx, z, tau, tau1, h,
+                         opt, status, steps, accepted, at, z_mid, mid_steps);
+    }
+    if (rc == SCDK_OK) { /* Newton at t = 1 from the ends of the paths that got there */
+        int64_t count = 0;
+        for (int64_t j = 0; j < M; ++j)
+            if (mid_steps[j] >= 0 && status[j] == SCDK_DONE) sel[count++] = j;
+        newton_points(c, weights, p_from, dp, b_from, db, gamma, count, sel, idx, z, z_end,
+                      times, iterations, nu, NULL, cond);
+    }
+    free(raw);
+    free(sel);
+    free(times);
+    return rc;
 }

@@ -61,6 +61,19 @@ int scdk_pnewton(int64_t n, int64_t k, const double *weights, const double *p_fr
                  int64_t M, const int64_t *idx, double *z, const double *t, int64_t iterations,
                  double *nu, double *hz, double *cond);
 
+/* The paths of a query in one call: scdk_ptrack of every path from tau[j] to 1 with the
+ * first stop at `split` (z_mid, mid_steps as there), then scdk_pnewton's `iterations` steps
+ * at t = 1 with the condition bound (no H_z) from the end of each path that got past the
+ * split and arrived (status DONE): into z_end (M x n), nu (M x iterations) and cond (M) at
+ * that path's rows (other rows untouched). Other arguments as scdk_ptrack's (tau1 = 1).
+ * Returns SCDK_OK or an error code. */
+int scdk_psolve(int64_t n, int64_t k, const double *weights, const double *p_from,
+                const double *dp, const double *b_from, const double *db, const double *gamma,
+                int64_t M, const int64_t *idx, double *z, double *tau, double *h,
+                const scdk_options *opt, int64_t *status, int64_t *steps, int64_t *accepted,
+                double split, double *z_mid, int64_t *mid_steps, int64_t iterations,
+                double *z_end, double *nu, double *cond);
+
 #ifdef __cplusplus
 }
 #endif
