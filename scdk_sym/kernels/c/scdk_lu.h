@@ -205,8 +205,9 @@ typedef long long scdk_vl __attribute__((vector_size(8 * SCDK_LANES)));
 #define SCDK_VABS(x) ((scdk_vd)((scdk_vl)(x) & ((scdk_vl){0} + 0x7fffffffffffffffLL)))
 
 /* Solve A X = B lane by lane: A the complex n x n matrix in the first n columns of the row-major
- * (ar, ai) with row stride rs, B its nrhs columns after them (X replaces B; A is overwritten by
- * its factors). A lane with a zero or NaN pivot gets NaN solutions. */
+ * (ar, ai) with row stride rs, B its nrhs columns after them (X replaces B; A is overwritten:
+ * U on and above the diagonal, below it nothing of use, as the multipliers are not kept). A
+ * lane with a zero or NaN pivot gets NaN solutions. */
 SCDK_LU_FN void scdk_lu_solve_lanes(scdk_vd *ar, scdk_vd *ai, int n, int nrhs, int rs) {
     const int w = n + nrhs;
     scdk_vl good = (scdk_vl){0} - 1;
@@ -229,7 +230,7 @@ SCDK_LU_FN void scdk_lu_solve_lanes(scdk_vd *ar, scdk_vd *ai, int n, int nrhs, i
             int any = 0;
             for (j = 0; j < SCDK_LANES; ++j) any |= m[j] != 0;
             if (!any) continue;
-            for (j = 0; j < w; ++j) {
+            for (j = k; j < w; ++j) { /* the multipliers left of column k: never read */
                 scdk_vd t = ar[k * rs + j];
                 ar[k * rs + j] = SCDK_SELECT(m, ar[i * rs + j], t);
                 ar[i * rs + j] = SCDK_SELECT(m, t, ar[i * rs + j]);
@@ -243,9 +244,7 @@ SCDK_LU_FN void scdk_lu_solve_lanes(scdk_vd *ar, scdk_vd *ai, int n, int nrhs, i
         SCDK_UNROLL
         for (i = k + 1; i < n; ++i) {
             const scdk_vd xr = ar[i * rs + k], xi = ai[i * rs + k];
-            const scdk_vd lr = xr * rr - xi * ri, li = xr * ri + xi * rr;
-            ar[i * rs + k] = lr;
-            ai[i * rs + k] = li;
+            const scdk_vd lr = xr * rr - xi * ri, li = xr * ri + xi * rr; /* not stored */
             SCDK_UNROLL
             for (j = k + 1; j < w; ++j) {
                 const scdk_vd ur = ar[k * rs + j], ui = ai[k * rs + j];
