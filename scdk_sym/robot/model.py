@@ -860,6 +860,22 @@ class Model:
             cs: (N, chart size) the chart of each row of ``ys``.
             residuals: (N,) each point's :meth:`residual` when already known.
         """
+        return self.configuration_table(ys, theta, cs, residuals)[0]
+
+    def configuration_table(
+        self,
+        ys: np.ndarray,
+        theta: ArrayLike,
+        cs: np.ndarray,
+        residuals: np.ndarray | None = None,
+    ) -> tuple[list[Configuration], np.ndarray, np.ndarray]:
+        """:meth:`configurations` and their stacked fields.
+
+        Returns:
+            ``(configurations, y, x)``: the N configurations, their canonical unknowns
+            (N, m) and workspace coordinates (N, n), read-only arrays whose rows the
+            configurations hold.
+        """
         ys = np.asarray(ys, dtype=float).reshape(-1, self.m)
         N = len(ys)
         if np.ndim(theta) == 2:
@@ -871,7 +887,7 @@ class Model:
             arg = as_vector(theta, self.k, "theta")
             thetas = np.broadcast_to(arg, (N, self.k))
         if not N:
-            return []
+            return [], np.zeros((0, self.m)), np.zeros((0, len(self.workspace)))
         cs = np.asarray(cs, dtype=float).reshape(N, self.chart.size)
         canonical = self.chart.to_canonical_many(ys, cs)
         calls = model_calls(self)
@@ -886,10 +902,11 @@ class Model:
         for a in (ths, xs, poses, ys_c):
             a.setflags(write=False)
         joints = JointValues.rows(self._joint_columns, self._joint_table(ys_c, ths))
-        return unchecked_many(
+        cfgs = unchecked_many(
             Configuration, N, theta=ths, y=ys_c, x=xs, platform_pose=poses, joints=joints,
             residual=np.asarray(residuals, dtype=float).tolist(),
         )  # fmt: skip
+        return cfgs, ys_c, xs
 
     @cached_property
     def _placements(self) -> ca.Function:

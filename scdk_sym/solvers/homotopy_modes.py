@@ -709,7 +709,7 @@ def _modes_many(
             )
     half_turns = _path_reasons_many(form, results, thetas, reasons)
     found = _real_modes(model, form, results, thetas, reasons)
-    certs = _certificates_many(model, [cfgs for cfgs, _ in found], thetas, reasons)
+    certs = _certificates_many(model, [ys for _, _, ys in found], thetas, reasons)
     out = []
     for w in range(W):
         modes = _assembly_modes(start, found[w], certs[w], reasons[w], half_turns[w],
@@ -730,7 +730,7 @@ def _certifier(model: Model, theta0: np.ndarray):
 
 def _assembly_modes(start, found, certs, reasons, half_turns, continued) -> AssemblyModes:
     """The :class:`AssemblyModes` of one point from its chain's outcomes."""
-    cfgs, spurious = found
+    cfgs, spurious, _ = found
     certified = not reasons
     if certified:
         source = (
@@ -822,8 +822,9 @@ def _path_reasons(form, res, theta0: np.ndarray, reasons: list[str]) -> int:
 
 def _real_modes(model, form, results, thetas: np.ndarray, reasons: list[list[str]]) -> list:
     """Each point's real endpoints as distinct model configurations polished on ``g``, sorted,
-    and the number of real roots of the form that are no closures of the model (all points'
-    kernels in common calls; a failure appended to the point's ``reasons``)."""
+    the number of real roots of the form that are no closures of the model and the
+    configurations' canonical unknowns (N_w, m) (all points' kernels in common calls; a
+    failure appended to the point's ``reasons``)."""
     scale = max(1.0, model.length_scale)
     Zs = [np.asarray(res.real_solutions, dtype=float) for res in results]
     finite = [np.isfinite(Z).all(axis=1) for Z in Zs]
@@ -844,14 +845,13 @@ def _real_modes(model, form, results, thetas: np.ndarray, reasons: list[list[str
             spurious[w] += 1  # a root of the form that is no closure of the model
         else:
             dropped[w] += 1
-    polished = model.configurations(Y[good], Th[good], C[good], R[good])
+    polished, ys, xs = model.configuration_table(Y[good], Th[good], C[good], R[good])
     # distinct endpoints of the homotopy are distinct roots; only images of one configuration
     # (polished to the same point) are merged: two real solutions next to a singular surface
     # may lie 1e-5 model sizes apart, and the Krawczyk boxes below decide (they must be
     # pairwise disjoint)
-    ys = np.vstack([cfg.y for cfg in polished] or [np.zeros((0, model.m))])
     feats = features(model, ys)
-    keys = mode_orders(np.vstack([cfg.x for cfg in polished] or [np.zeros((0, 0))]), ys)
+    keys = mode_orders(xs if len(xs) else np.zeros((0, 0)), ys)
     per_point: list[list[int]] = [[] for _ in Zs]
     for i, w in enumerate(owner[good].tolist()):
         per_point[w].append(i)
@@ -863,7 +863,7 @@ def _real_modes(model, form, results, thetas: np.ndarray, reasons: list[list[str
                 f"{dropped[w]} real endpoint(s) did not polish to max |g| <= {RESIDUAL:.0e}"
             )
         kept.sort(key=keys.__getitem__)  # stable, as sorting the configurations by mode_order
-        out.append(([polished[i] for i in kept], spurious[w]))
+        out.append(([polished[i] for i in kept], spurious[w], ys[kept]))
     return out
 
 
@@ -896,19 +896,19 @@ def _first_of_images(feats: np.ndarray, tol: float) -> list[int]:
 def _certificates(model, cfgs, theta0: np.ndarray, reasons: list[str]) -> tuple:
     """Krawczyk certificates of the real configurations in one common chart (a failure
     appended to ``reasons``)."""
-    return _certificates_many(model, [cfgs], theta0[None], [reasons])[0]
+    ys = np.vstack([c.y for c in cfgs] or [np.zeros((0, model.m))])
+    return _certificates_many(model, [ys], theta0[None], [reasons])[0]
 
 
-def _certificates_many(model, cfg_lists, thetas: np.ndarray, reasons: list[list[str]]) -> list:
-    """:func:`_certificates` of several points' configurations, the C tests of all in one
-    call."""
+def _certificates_many(model, ys_list, thetas: np.ndarray, reasons: list[list[str]]) -> list:
+    """:func:`_certificates` of several points' configurations, each point's canonical
+    unknowns (N_w, m) in ``ys_list``, the C tests of all in one call."""
     from ..algebraic import CertificateSet, certify_configuration_sets
 
-    out: list[tuple] = [() for _ in cfg_lists]
+    out: list[tuple] = [() for _ in ys_list]
     todo, sets = [], []
-    for w, cfgs in enumerate(cfg_lists):
-        if cfgs:
-            ys = np.vstack([c.y for c in cfgs])
+    for w, ys in enumerate(ys_list):
+        if len(ys):
             todo.append(w)
             sets.append((ys, thetas[w], _common_chart(model, ys)))
     done: list[CertificateSet | None]
