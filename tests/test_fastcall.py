@@ -105,6 +105,13 @@ def test_mapped_calls_equal_single_calls_and_configurations_equal_configuration(
         assert cfg.joints.keys() == one.joints.keys()
         assert max(abs(cfg.joints[j] - one.joints[j]) for j in one.joints) <= 1e-14
     assert model.configurations(np.zeros((0, model.m)), theta, np.zeros((0, c0.size))) == []
+    # the table's stacked fields: the configurations' own rows, read-only
+    table, y_all, x_all = model.configuration_table(ys, theta, cs)
+    one_by_one = [model.configuration(y, theta, c).y for y, c in zip(ys, cs, strict=True)]
+    np.testing.assert_allclose(y_all, np.array(one_by_one), rtol=0, atol=1e-14)
+    np.testing.assert_array_equal(x_all, np.array([cfg.x for cfg in many]))
+    assert not (y_all.flags.writeable or x_all.flags.writeable)
+    assert all(cfg.y.base is y_all and cfg.x.base is x_all for cfg in table)
     # one theta per point
     thetas = theta * (1 + 0.01 * rng.normal(size=(7, model.k)))
     for cfg, y, th, c in zip(model.configurations(ys, thetas, cs), ys, thetas, cs, strict=True):
