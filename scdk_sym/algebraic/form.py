@@ -330,9 +330,9 @@ class AlgebraicForm:
             elif s.kind == "length":
                 y[:, s.y[0]] = z[:, s.z[0]]
             else:
-                u, _, vt = np.linalg.svd(quaternion_matrix(z[:, list(s.z[3:7])]))
+                R = quaternion_matrix(z[:, list(s.z[3:7])])  # orthonormal to rounding
                 i = m.chart.rotations.index(tuple(s.y[3:]))
-                c[:, 9 * i : 9 * i + 9] = (u @ vt).transpose(0, 2, 1).reshape(len(z), 9)
+                c[:, 9 * i : 9 * i + 9] = R.transpose(0, 2, 1).reshape(len(z), 9)
                 y[:, list(s.y[:3])] = z[:, list(s.z[:3])]
         return (y[0], c[0]) if single else (y, c)
 
