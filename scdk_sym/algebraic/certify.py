@@ -388,14 +388,18 @@ def _fast(
         a.setflags(write=False)
     rows = np.flatnonzero(proven).tolist()
     r_max, radius = np.max(r, axis=1).tolist(), radius.tolist()
+    every = len(rows) == len(ms)  # the usual case: the arrays' rows as they are
     certs = unchecked_many(
-        Certificate, len(rows), proven=repeat(True), box=[box[i] for i in rows],
-        domain=[domain[i] for i in rows],  # inside X = [m - r, m + r] rounded outward
-        radius=[radius[i] for i in rows],
+        Certificate, len(rows), proven=repeat(True), box=box if every else [box[i] for i in rows],
+        # inside X = [m - r, m + r] rounded outward
+        domain=domain if every else [domain[i] for i in rows],
+        radius=radius if every else [radius[i] for i in rows],
         reason=[f"K(X) lies in the interior of X (radius {r_max[i]:.1e}): exactly one zero in X"
                 for i in rows],
-        x=[ms[i] for i in rows], tries=repeat(1),
+        x=ms if every else [ms[i] for i in rows], tries=repeat(1),
     )  # fmt: skip
+    if every:
+        return certs
     out: list = [None] * len(ms)
     for i, cert in zip(rows, certs, strict=True):
         out[i] = cert
