@@ -258,17 +258,10 @@ def _fail_jumps(out: np.ndarray, status: np.ndarray, idx: np.ndarray) -> None:
     if ends.size < 2:
         return
     ie = idx[ends]
-    if np.any(ie[1:] < ie[:-1]):
-        order = np.argsort(ie, kind="stable")
-        ends, ie = ends[order], ie[order]
-    first = np.concatenate([[0], np.flatnonzero(ie[1:] != ie[:-1]) + 1])
-    sizes = np.diff(np.append(first, len(ie)))
-    if np.all(sizes == sizes[0]):  # every datum with equally many ends: one block
-        groups_by_size = {int(sizes[0]): [ends.reshape(len(first), int(sizes[0]))]}
+    if (ie == ie[0]).all():  # one datum (a single query)
+        groups_by_size = {int(ends.size): [ends[None]]}
     else:
-        groups_by_size = {}
-        for a, k in zip(first.tolist(), sizes.tolist(), strict=True):
-            groups_by_size.setdefault(k, []).append(ends[a : a + k][None])
+        groups_by_size = _blocks_by_size(ends, ie)
     for size, blocks in groups_by_size.items():
         if size < 2:
             continue
@@ -281,6 +274,22 @@ def _fail_jumps(out: np.ndarray, status: np.ndarray, idx: np.ndarray) -> None:
         close = pair_distances(zs, bound) <= bound
         jumped = rows[close.sum(axis=2) > 1]
         status[jumped], out[jumped] = "failed", np.nan
+
+
+def _blocks_by_size(ends: np.ndarray, ie: np.ndarray) -> dict[int, list[np.ndarray]]:
+    """The paths ``ends`` (E,) grouped by their data ``ie`` (E,): number of paths -> blocks
+    (1, size) or (G, size), one row per datum (all data at once when sizes agree)."""
+    if np.any(ie[1:] < ie[:-1]):
+        order = np.argsort(ie, kind="stable")
+        ends, ie = ends[order], ie[order]
+    first = np.concatenate([[0], np.flatnonzero(ie[1:] != ie[:-1]) + 1])
+    sizes = np.diff(np.append(first, len(ie)))
+    if np.all(sizes == sizes[0]):  # every datum with equally many ends: one block
+        return {int(sizes[0]): [ends.reshape(len(first), int(sizes[0]))]}
+    out: dict[int, list[np.ndarray]] = {}
+    for a, k in zip(first.tolist(), sizes.tolist(), strict=True):
+        out.setdefault(k, []).append(ends[a : a + k][None])
+    return out
 
 
 def _identity(tau, idx):
