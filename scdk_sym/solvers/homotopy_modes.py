@@ -871,14 +871,10 @@ def _first_of_images(feats: np.ndarray, tol: float) -> list[int]:
     """The rows of ``feats`` (R, d) kept in order, each unless some kept row lies within
     ``tol`` of it (max-norm): all pairs compared at once (by their first coordinate, then,
     where two may meet, by all), the in-order rule run only where two rows meet."""
+    from ..algebraic.homotopy import pairs_apart
+
     R = len(feats)
-    if R < 2:
-        return list(range(R))
-    first = feats[:, 0]
-    with np.errstate(invalid="ignore"):
-        apart = np.abs(first[:, None] - first[None]) > tol  # a lower bound of the distance
-    np.fill_diagonal(apart, True)
-    if apart.all():  # no two rows meet
+    if R < 2 or pairs_apart(feats[None], tol):  # no two rows meet
         return list(range(R))
     dist = np.abs(feats[:, None] - feats[None]).max(axis=2)
     near = dist <= tol

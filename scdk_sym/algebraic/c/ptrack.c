@@ -17,9 +17,12 @@
  * each evaluation of G (generated for lane vectors: scdk_sym/kernels/lanes.py) and each
  * elimination serves all of them; every step of every path makes the same five evaluations
  * (six when some lane makes a third Newton iteration: all lanes evaluate it, those that do
- * not need it keep their second iteration's results), so the lanes never wait on each other. Each lane keeps its own step size, time and
- * counters; a lane whose path stops takes the next path. Lane by lane the arithmetic is that
- * of one path alone.
+ * not need it keep their second iteration's results), so the lanes never wait on each
+ * other. Each lane keeps its own step size, time and counters; a lane whose path stops takes
+ * the next path, and a path with a first stop (split) goes on from there in its lane. Lane
+ * by lane the arithmetic is that of one path alone.
+ * A query (scdk_psolve): every path to the split, on to t = 1, then Newton steps at t = 1 on
+ * the ends that arrived, in one call.
  * Linear systems: the package's LU with partial pivoting (scdk_lu.h, its lane form: pivot of
  * largest |re| + |im|, as LAPACK); an exactly zero pivot gives NaN solutions, which reject
  * the step.
