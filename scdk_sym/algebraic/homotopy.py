@@ -228,8 +228,16 @@ def pair_distances(z: np.ndarray, bound: np.ndarray | float) -> np.ndarray:
     lower bound of the distance, are not already farther apart than ``bound``; those pairs
     get the values the full computation gives, bit for bit (NaN included; the others are
     ``inf`` even where a later coordinate is NaN), so a test ``<= bound`` (or with a larger
-    bound) answers as on the full matrix.
+    bound) answers as on the full matrix. When every two rows are apart so
+    (:func:`pairs_apart` with the largest bound), only the diagonal is computed.
     """
+    if pairs_apart(z, float(np.max(bound))):
+        out = np.full(z.shape[:-1] + z.shape[-2:-1], np.inf)
+        with np.errstate(invalid="ignore"):
+            diag = np.abs(z - z).max(axis=-1)  # 0, or NaN in a row with a NaN
+        i = np.arange(z.shape[-2])
+        out[:, i, i] = diag
+        return out
     with np.errstate(invalid="ignore"):
         x = np.ascontiguousarray(z[..., 0].real)
         lower = np.abs(x[:, :, None] - x[:, None])  # |z| >= (1 - 2 eps) |Re z| after rounding
@@ -269,8 +277,6 @@ def _fail_jumps(out: np.ndarray, status: np.ndarray, idx: np.ndarray) -> None:
         zs = out[rows]  # (G, size, n)
         # the scale of the column's end, as one datum's (size, size) takes it
         bound = 1e-8 * (1.0 + np.abs(zs).max(axis=2))[:, None, :]
-        if pairs_apart(zs, bound.max()):  # no two ends meet
-            continue
         close = pair_distances(zs, bound) <= bound
         jumped = rows[close.sum(axis=2) > 1]
         status[jumped], out[jumped] = "failed", np.nan
@@ -436,10 +442,6 @@ def dedup_groups(xs: list[np.ndarray], tol: float, block: int = 1 << 20) -> list
             rows = groups[a : a + step]
             x = np.stack([xs[g] for g in rows])  # (G, M, n)
             scale = 1.0 + np.abs(x).max(axis=2)
-            if pairs_apart(x, tol * (1.0 + 1e-9) * scale.max()):  # no two rows meet
-                for g, xg in zip(rows, x, strict=True):
-                    out[g] = xg[np.lexsort(xg.real.T[::-1])]
-                continue
             with np.errstate(invalid="ignore"):
                 # the distances only where a pair may be near (margin: the division)
                 d = pair_distances(x, tol * (1.0 + 1e-9) * scale[:, None, :])
