@@ -229,8 +229,7 @@ class CTracker:
         i64 = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
         I = ctypes.c_int64  # noqa: E741
         f.argtypes = [I, I, dbl, cdbl, cdbl, cdbl, cdbl, cdbl, I, i64,
-                      cdbl, dbl, dbl, dbl, ctypes.POINTER(_Options), i64, i64, i64,
-                      ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]  # fmt: skip
+                      cdbl, dbl, dbl, dbl, ctypes.POINTER(_Options), i64, i64, i64]  # fmt: skip
         f.restype = ctypes.c_int
         g = lib.scdk_pnewton
         g.argtypes = [I, I, dbl, cdbl, cdbl, cdbl, cdbl, cdbl, I, i64,
@@ -342,7 +341,7 @@ class CTracker:
         status, steps, accepted = (np.zeros(M, dtype=np.int64) for _ in range(3))
         rc = self._track(
             self.n, self.k, *self._data(homotopy, weights), M, ix, z, tau, t1, h,
-            ctypes.byref(_options(o)), status, steps, accepted, None, None, None,
+            ctypes.byref(_options(o)), status, steps, accepted,
         )  # fmt: skip
         if rc:
             raise HomotopyError(

@@ -358,95 +358,89 @@ static int advance(lanes *c, lane_state *s, const scdk_options *o, double hh, do
     return s->status != SCDK_RUNNING;
 }
 
-/* The path of lane l stopped its part: the end of a first part that reached split[j] is kept
+/* A call's paths: the homotopy's data and the per-path arrays (as scdk_ptrack's arguments),
+ * and an optional first stop: with z_mid, each path is tracked to `split` first and, when it
+ * gets there, on to tau1[j] in its lane (see scdk_psolve). */
+typedef struct {
+    const double *weights, *p_from, *dp, *b_from, *db, *gamma;
+    const int64_t *idx;
+    double *z, *tau, *h;
+    const double *tau1;
+    int64_t *status, *steps, *accepted;
+    double split;
+    double *z_mid;      /* NULL: no first stop */
+    int64_t *mid_steps; /* step attempts to the split, -1: not reached */
+} paths;
+
+/* The path of lane l stopped its part: the end of a first part that reached the split is kept
  * (z_mid, mid_steps) and the path goes on in the lane (1); otherwise its outputs are stored
  * and the lane is free (0). */
-static int stopped(lanes *c, lane_state *s, int l, const scdk_options *opt, const double *tau1,
-                   double *z, double *z_mid, int64_t *mid_steps, double *tau, double *h,
-                   int64_t *status, int64_t *steps, int64_t *accepted) {
+static int stopped(lanes *c, lane_state *s, int l, const scdk_options *opt, const paths *P) {
     const int64_t j = s->j;
     if (s->first && s->status == SCDK_DONE) {
-        store(c, l, z_mid + 2 * N * j);
-        mid_steps[j] = s->steps;
+        store(c, l, P->z_mid + 2 * N * j);
+        P->mid_steps[j] = s->steps;
         s->before = s->steps;
         s->before_accepted = s->accepted;
         s->first = 0;
-        if (begin_part(s, opt, tau1[j])) return 1;
+        if (begin_part(s, opt, P->tau1[j])) return 1;
     }
-    store(c, l, z + 2 * N * j);
-    tau[j] = s->tau;
-    h[j] = s->h;
-    status[j] = s->status;
-    steps[j] = s->before + s->steps;
-    accepted[j] = s->before_accepted + s->accepted;
+    store(c, l, P->z + 2 * N * j);
+    P->tau[j] = s->tau;
+    P->h[j] = s->h;
+    P->status[j] = s->status;
+    P->steps[j] = s->before + s->steps;
+    P->accepted[j] = s->before_accepted + s->accepted;
     s->j = -1;
     return 0;
 }
 
-/* Load the next paths into the idle lanes (a path over at once stored as it is); the number
- * of busy lanes and of those whose velocity is to be computed. */
-static void fill(lanes *c, lane_state *s, int64_t *next, int64_t M, const int64_t *idx,
-                 const double *p_from, const double *dp, const double *b_from, const double *db,
-                 const double *gamma, const double *split, double *z, double *z_mid,
-                 int64_t *mid_steps, double *tau, const double *tau1, double *h,
-                 const scdk_options *opt, int64_t *status, int64_t *steps, int64_t *accepted,
-                 int *active, int *fresh) {
-    *active = *fresh = 0;
-    for (int l = 0; l < L; ++l) {
-        while (s[l].j < 0 && *next < M) {
-            const int64_t j = (*next)++;
-            s[l] = (lane_state){j, 1, 0, tau[j], tau1[j], h[j], 0, 0, SCDK_RUNNING, 0, 0, 0};
-            if (split) {
-                mid_steps[j] = -1;
-                s[l].first = 1;
-                if (!begin_part(&s[l], opt, split[j])) { /* at split[j] already, or no steps */
-                    if (s[l].status == SCDK_DONE) {
-                        memcpy(z_mid + 2 * N * j, z + 2 * N * j, 2 * N * sizeof(double));
-                        mid_steps[j] = 0;
-                        s[l].first = 0;
-                        if (begin_part(&s[l], opt, tau1[j])) goto run;
-                    }
-                    steps[j] = accepted[j] = 0;
-                    status[j] = s[l].status;
-                    s[l].j = -1;
-                    continue;
-                }
-            } else if (!begin_part(&s[l], opt, tau1[j])) {
-                steps[j] = accepted[j] = 0;
-                status[j] = s[l].status;
-                s[l].j = -1;
-                continue;
-            }
-        run:
-            load(c, l, idx[j], p_from, dp, b_from, db, gamma, z + 2 * N * j);
+/* Begin path j in lane state s: its first part (to the split, or to tau1[j]); a path at the
+ * split already begins its second part there. 0 when it is over at once (outputs stored as
+ * a call of its own reports them). */
+static int begin_path(lane_state *s, int64_t j, const scdk_options *opt, const paths *P) {
+    *s = (lane_state){j, 1, 0, P->tau[j], P->tau1[j], P->h[j], 0, 0, SCDK_RUNNING, 0, 0, 0};
+    if (!P->z_mid) {
+        if (begin_part(s, opt, P->tau1[j])) return 1;
+    } else {
+        P->mid_steps[j] = -1;
+        s->first = 1;
+        if (begin_part(s, opt, P->split)) return 1;
+        if (s->status == SCDK_DONE) { /* at the split already */
+            memcpy(P->z_mid + 2 * N * j, P->z + 2 * N * j, 2 * N * sizeof(double));
+            P->mid_steps[j] = 0;
+            s->first = 0;
+            if (begin_part(s, opt, P->tau1[j])) return 1;
         }
-        *active += s[l].j >= 0;
-        *fresh += s[l].j >= 0 && s[l].fresh;
     }
+    P->steps[j] = P->accepted[j] = 0;
+    P->status[j] = s->status;
+    s->j = -1;
+    return 0;
 }
 
-int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_from,
-                const double *dp, const double *b_from, const double *db, const double *gamma,
-                int64_t M, const int64_t *idx, double *z, double *tau, const double *tau1,
-                double *h, const scdk_options *opt, int64_t *status, int64_t *steps,
-                int64_t *accepted, const double *split, double *z_mid, int64_t *mid_steps) {
-    if (n != N || k != K || M < 0) return SCDK_BAD_SIZE;
-    if (split && (!z_mid || !mid_steps)) return SCDK_BAD_SIZE;
-    char *raw;
-    lanes *c = new_lanes(&raw);
-    if (!c) return SCDK_NO_MEMORY;
+/* Every path of P (M) to its end, SCDK_LANES at a time (see the file's comment). */
+static void track_paths(lanes *c, const paths *P, int64_t M, const scdk_options *opt) {
     lane_state s[L];
     int64_t next = 0;
     for (int l = 0; l < L; ++l) s[l].j = -1;
     for (;;) {
-        int active, fresh;
-        fill(c, s, &next, M, idx, p_from, dp, b_from, db, gamma, split, z, z_mid, mid_steps,
-             tau, tau1, h, opt, status, steps, accepted, &active, &fresh);
+        int active = 0, fresh = 0;
+        for (int l = 0; l < L; ++l) { /* idle lanes take the next paths */
+            while (s[l].j < 0 && next < M) {
+                const int64_t j = next++;
+                if (begin_path(&s[l], j, opt, P))
+                    load(c, l, P->idx[j], P->p_from, P->dp, P->b_from, P->db, P->gamma,
+                         P->z + 2 * N * j);
+            }
+            active += s[l].j >= 0;
+            fresh += s[l].j >= 0 && s[l].fresh;
+        }
         if (!active) break;
         double t[L], hh[L], nu1[L], nu2[L];
         for (int l = 0; l < L; ++l) t[l] = s[l].tau;
         if (fresh) { /* the velocity at the start of the paths (or parts) just begun */
-            velocity(c, weights, &c->z, t, &c->zt);
+            velocity(c, P->weights, &c->z, t, &c->zt);
             for (int l = 0; l < L; ++l) {
                 if (s[l].j < 0 || !s[l].fresh) continue;
                 s[l].fresh = 0;
@@ -463,7 +457,7 @@ int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_fro
             hh[l] = s[l].h < remaining ? s[l].h : remaining;
             if (remaining - hh[l] < 1e-3 * hh[l]) hh[l] = remaining; /* no sliver before the end */
         }
-        step(c, weights, t, hh, nu1, nu2);
+        step(c, P->weights, t, hh, nu1, nu2);
         double nu3[L];
         int more[L], any = 0;
         for (int l = 0; l < L; ++l) {
@@ -474,12 +468,25 @@ int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_fro
             any |= more[l];
             t[l] = t[l] + hh[l]; /* the step's end, as step() takes it */
         }
-        if (any) third(c, weights, t, more, nu3);
+        if (any) third(c, P->weights, t, more, nu3);
         for (int l = 0; l < L; ++l)
             if (s[l].j >= 0 && advance(c, &s[l], opt, hh[l], nu1[l], nu2[l], nu3[l], l))
-                stopped(c, &s[l], l, opt, tau1, z, z_mid, mid_steps, tau, h, status, steps,
-                        accepted);
+                stopped(c, &s[l], l, opt, P);
     }
+}
+
+int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_from,
+                const double *dp, const double *b_from, const double *db, const double *gamma,
+                int64_t M, const int64_t *idx, double *z, double *tau, const double *tau1,
+                double *h, const scdk_options *opt, int64_t *status, int64_t *steps,
+                int64_t *accepted) {
+    if (n != N || k != K || M < 0) return SCDK_BAD_SIZE;
+    char *raw;
+    lanes *c = new_lanes(&raw);
+    if (!c) return SCDK_NO_MEMORY;
+    const paths P = {weights, p_from, dp, b_from, db, gamma, idx, z, tau, h, tau1,
+                     status, steps, accepted, 0.0, NULL, NULL};
+    track_paths(c, &P, M, opt);
     free(raw);
     return SCDK_OK;
 }
@@ -599,30 +606,26 @@ int scdk_psolve(int64_t n, int64_t k, const double *weights, const double *p_fro
                 double split, double *z_mid, int64_t *mid_steps, int64_t iterations,
                 double *z_end, double *nu, double *cond) {
     if (n != N || k != K || M < 0 || iterations < 0) return SCDK_BAD_SIZE;
-    double *times = calloc((size_t)(2 * M + 1), sizeof(double));
-    int64_t *sel = calloc((size_t)(M + 1), sizeof(int64_t));
-    int rc = times && sel ? SCDK_OK : SCDK_NO_MEMORY;
+    double *ones = malloc((size_t)(M + 1) * sizeof(double)); /* tau1, and t of the Newton */
+    int64_t *sel = malloc((size_t)(M + 1) * sizeof(int64_t));
     char *raw = NULL;
-    lanes *c = rc == SCDK_OK ? new_lanes(&raw) : NULL;
-    if (rc == SCDK_OK && !c) rc = SCDK_NO_MEMORY;
-    if (rc == SCDK_OK) {
-        double *tau1 = times, *at = times + M;
-        for (int64_t j = 0; j < M; ++j) {
-            tau1[j] = 1.0;
-            at[j] = split;
-        }
-        rc = scdk_ptrack(n, k, weights, p_from, dp, b_from, db, gamma, M, idx, z, tau, tau1, h,
-                         opt, status, steps, accepted, at, z_mid, mid_steps);
+    lanes *c = ones && sel ? new_lanes(&raw) : NULL;
+    if (!c) {
+        free(sel);
+        free(ones);
+        return SCDK_NO_MEMORY;
     }
-    if (rc == SCDK_OK) { /* Newton at t = 1 from the ends of the paths that got there */
-        int64_t count = 0;
-        for (int64_t j = 0; j < M; ++j)
-            if (mid_steps[j] >= 0 && status[j] == SCDK_DONE) sel[count++] = j;
-        newton_points(c, weights, p_from, dp, b_from, db, gamma, count, sel, idx, z, z_end,
-                      times, iterations, nu, NULL, cond);
-    }
+    for (int64_t j = 0; j < M; ++j) ones[j] = 1.0;
+    const paths P = {weights, p_from, dp, b_from, db, gamma, idx, z, tau, h, ones,
+                     status, steps, accepted, split, z_mid, mid_steps};
+    track_paths(c, &P, M, opt);
+    int64_t count = 0; /* Newton at t = 1 from the ends of the paths that got there */
+    for (int64_t j = 0; j < M; ++j)
+        if (mid_steps[j] >= 0 && status[j] == SCDK_DONE) sel[count++] = j;
+    newton_points(c, weights, p_from, dp, b_from, db, gamma, count, sel, idx, z, z_end, ones,
+                  iterations, nu, NULL, cond);
     free(raw);
     free(sel);
-    free(times);
-    return rc;
+    free(ones);
+    return SCDK_OK;
 }

@@ -36,18 +36,12 @@ typedef struct {
  * db (D x n), gamma (D), z (M x n, start points in, end points out). h: initial steps in,
  * last steps out. Outputs per path: tau (in: start, out: reached), status, steps (attempts),
  * accepted. n, k: the sizes the library was compiled for (checked).
- * split: NULL, or (M) times: path j is tracked to split[j] first, and, when it gets there
- * (status DONE), on to tau1[j] as a call of its own from there would track it (its velocity
- * computed afresh, counters and rejection flag reset, its last step size kept), in the same
- * lane; z_mid (M x n) receives its point at split[j] and mid_steps (M) its step attempts up
- * to there (-1: it stopped before, its outputs those of the first part); steps and accepted
- * count both parts. Without split, z_mid and mid_steps are not used.
  * Returns SCDK_OK or an error code (the outputs are then undefined). */
 int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_from,
                 const double *dp, const double *b_from, const double *db, const double *gamma,
                 int64_t M, const int64_t *idx, double *z, double *tau, const double *tau1,
                 double *h, const scdk_options *opt, int64_t *status, int64_t *steps,
-                int64_t *accepted, const double *split, double *z_mid, int64_t *mid_steps);
+                int64_t *accepted);
 
 /* Newton's method on H(., t) = 0 for M points, as newton() in tracker.py: `iterations` steps
  * z <- z - H_z^{-1} H (non-finite components of an update left out), nu (M x iterations): the
@@ -61,12 +55,16 @@ int scdk_pnewton(int64_t n, int64_t k, const double *weights, const double *p_fr
                  int64_t M, const int64_t *idx, double *z, const double *t, int64_t iterations,
                  double *nu, double *hz, double *cond);
 
-/* The paths of a query in one call: scdk_ptrack of every path from tau[j] to 1 with the
- * first stop at `split` (z_mid, mid_steps as there), then scdk_pnewton's `iterations` steps
- * at t = 1 with the condition bound (no H_z) from the end of each path that got past the
- * split and arrived (status DONE): into z_end (M x n), nu (M x iterations) and cond (M) at
- * that path's rows (other rows untouched). Other arguments as scdk_ptrack's (tau1 = 1).
- * Returns SCDK_OK or an error code. */
+/* The paths of a query in one call. Each path j is tracked as scdk_ptrack tracks it from
+ * tau[j], first to `split` and, when it gets there (status DONE), on to t = 1 as a call of
+ * its own from there would track it (its velocity computed afresh, counters and rejection
+ * flag reset, its last step size kept), in the same lane: z_mid (M x n) receives its point
+ * at the split and mid_steps (M) its step attempts up to there (-1: it stopped before, its
+ * outputs those of the first part); steps and accepted count both parts. Then
+ * scdk_pnewton's `iterations` steps at t = 1 with the condition bound (no H_z) from the end
+ * of each path that got past the split and arrived: into z_end (M x n), nu
+ * (M x iterations) and cond (M) at that path's rows (other rows untouched). Other arguments
+ * as scdk_ptrack's. Returns SCDK_OK or an error code. */
 int scdk_psolve(int64_t n, int64_t k, const double *weights, const double *p_from,
                 const double *dp, const double *b_from, const double *db, const double *gamma,
                 int64_t M, const int64_t *idx, double *z, double *tau, double *h,
