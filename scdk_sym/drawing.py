@@ -24,7 +24,7 @@ def placements(model: Model, cfg: Configuration) -> tuple[dict, dict]:
         (links, frames): link name -> (4, 4) placement in the base frame, joint name ->
         (4, 4) placement of the joint frame [model length unit].
     """
-    values = dict(cfg.joints)
+    values = dict(cfg.coordinates)
     links: dict[str, np.ndarray] = {model.tree.root: np.eye(4)}
     frames: dict[str, np.ndarray] = {}
     for j in model.tree.joints:
@@ -151,8 +151,9 @@ def _drawing(model: Model, cfg: Configuration, dims: int) -> RobotDrawing:
         if np.linalg.norm(a - b) > scale:
             segments.append(np.array([a[:dims], b[:dims]]))
             segment_links.append(j.parent)
+    framed = [c for c in model.closures if c.type != "coupling"]  # couplings have no points
     closures = tuple(
-        np.array([links[c.frame_a][:dims, 3], links[c.frame_b][:dims, 3]]) for c in model.closures
+        np.array([links[c.frame_a][:dims, 3], links[c.frame_b][:dims, 3]]) for c in framed
     )
     return RobotDrawing(
         tuple(polygons),
@@ -160,7 +161,7 @@ def _drawing(model: Model, cfg: Configuration, dims: int) -> RobotDrawing:
         tuple(segments),
         tuple(segment_links),
         closures,
-        tuple(c.type for c in model.closures),
+        tuple(c.type for c in framed),
     )
 
 

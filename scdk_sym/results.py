@@ -105,11 +105,24 @@ class Configuration:
     def __post_init__(self) -> None:
         for name in ("theta", "y", "x", "platform_pose"):
             object.__setattr__(self, name, frozen_array(getattr(self, name)))
-        if not isinstance(self.joints, JointValues):  # that one is read-only already
+        if not isinstance(self.joints, JointValues) and not hasattr(self.joints, "qpos"):
+            # JointValues and a model read from MJCF's joints are read-only already
             object.__setattr__(self, "joints", MappingProxyType(dict(self.joints)))
 
+    @property
+    def qpos(self) -> np.ndarray | None:
+        """(nq,) MuJoCo's whole ``qpos`` of a model read from MJCF (``data.qpos[:] =
+        cfg.qpos``), else ``None``."""
+        return getattr(self.joints, "qpos", None)
+
+    @property
+    def coordinates(self) -> Mapping[str, float]:
+        """Every joint coordinate of the model's tree -> value (:attr:`joints` itself, but
+        for a model read from MJCF, whose :attr:`joints` are by MJCF name)."""
+        return getattr(self.joints, "coordinates", self.joints)
+
     def to_dict(self) -> dict:
-        return {
+        out = {
             "x": self.x.tolist(),
             "y": self.y.tolist(),
             "theta": self.theta.tolist(),
@@ -117,6 +130,9 @@ class Configuration:
             "joints": dict(self.joints),
             "residual": float(self.residual),
         }
+        if self.qpos is not None:
+            out["qpos"] = self.qpos.tolist()
+        return out
 
 
 def mode_order(cfg: Configuration) -> tuple[float, ...]:
@@ -251,6 +267,11 @@ class SolveResult:
     backend: str = ""
     fallback: str = ""
     strategy: str = ""
+
+    @property
+    def qpos(self) -> np.ndarray | None:
+        """(nq,) MuJoCo's whole ``qpos`` of a model read from MJCF, else ``None``."""
+        return getattr(self.joints, "qpos", None)
 
     @property
     def configuration(self) -> Configuration:

@@ -26,7 +26,7 @@ MODELS = Path(__file__).resolve().parents[1] / "models"
 
 #: Layer -> the package's modules it may import (besides itself).
 ALLOWED = {
-    "model": {"scdk_sym.errors", "scdk_sym.results"},
+    "model": {"scdk_sym.errors", "scdk_sym.results", "scdk_sym.optional"},
     "symbolic": {"scdk_sym.errors", "scdk_sym.results", "scdk_sym.model"},
 }
 

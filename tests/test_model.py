@@ -174,7 +174,7 @@ def test_home_that_is_not_assembled_is_refused(tmp_path):
 def test_missing_files(tmp_path):
     with pytest.raises(ModelError, match="file not found"):
         sc.load_model(tmp_path)
-    with pytest.raises(ModelError, match="expected a model directory or a .yaml"):
+    with pytest.raises(ModelError, match="expected a model directory, a .yaml"):
         sc.load_model(tmp_path / "x.txt")
 
 

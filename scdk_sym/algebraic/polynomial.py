@@ -189,6 +189,12 @@ def polynomial_joint_values(
 
 
 def _closure_rows(closure: Closure, T_a: ca.SX, T_b: ca.SX, values: dict) -> ca.SX:
+    if closure.type == "coupling":
+        raise AlgebraicFormError(
+            f"closure {closure.label} couples joint angles linearly, which has no polynomial "
+            "form in the joints' cosines and sines; use assembly_modes(method='curves') or "
+            "solve/track"
+        )
     length = values.get(closure.length_joint) if closure.type == "distance" else None
     if isinstance(length, tuple):
         raise AlgebraicFormError(

@@ -4,7 +4,9 @@ A strict superset of the Gepetto "extended URDF" YAML (``closed_loop``, ``type``
 case, ``name_mot``, and the joint edits ``joint_name`` / ``joint_type`` that Gepetto's loader
 applies to the URDF before closing the loops) with the extensions ``format_version``,
 ``platform``, ``workspace``, ``home``, ``length_unit`` (default m), the closure types ``2d``
-and ``distance`` and the per-closure ``length`` list.
+and ``distance``, the per-closure ``length`` list and ``coupling`` (joint couplings: a
+polynomial relation between two linear combinations of joint coordinates, as MJCF's joint and
+fixed-tendon equalities; their rows follow the frame closures').
 """
 
 from __future__ import annotations
@@ -18,8 +20,10 @@ import yaml
 from ..errors import ModelError
 
 CLOSURE_TYPES = ("3d", "6d", "2d", "distance")
+#: Closures between two frames (the others relate joint coordinates).
+FRAME_TYPES = CLOSURE_TYPES
 #: Number of residual rows of each closure type.
-CLOSURE_ROWS = {"3d": 3, "6d": 6, "2d": 2, "distance": 1}
+CLOSURE_ROWS = {"3d": 3, "6d": 6, "2d": 2, "distance": 1, "coupling": 1}
 WORKSPACE_NAMES = ("x", "y", "z", "roll", "pitch", "yaw", "phi")
 #: Joint edits of Gepetto's format (``joint_type``): a ball joint, a joint held at zero, and
 #: universal joints (two revolutes about the named axes of the joint frame, in that order).
@@ -36,6 +40,7 @@ KNOWN_KEYS = (
     "home",
     "length",
     "length_unit",
+    "coupling",
 )
 #: Length unit of a model that does not state one (URDF lengths are in metres).
 DEFAULT_LENGTH_UNIT = "m"
@@ -53,6 +58,13 @@ class Closure:
         length: distance for "distance" closures [model length unit], else ``nan``.
         length_joint: for a "distance" closure whose length is a joint coordinate (the leg
             length of an SPS/UPS leg, actuated prismatic joint), that joint's name.
+        terms_a: for a "coupling": (joint, coefficient) pairs of the combination
+            ``a = sum(c q)`` [rad or length unit].
+        offset_a: for a "coupling": the value of ``a`` that is its zero.
+        terms_b: for a "coupling": the pairs of ``b`` (empty: ``a - offset_a = polycoef[0]``).
+        offset_b: for a "coupling": the value of ``b`` that is its zero.
+        polycoef: for a "coupling": ``a - offset_a = sum(polycoef[i] (b - offset_b)^i)``.
+        name: the closure's name in its source file (MJCF equalities), else empty.
     """
 
     frame_a: str
@@ -60,6 +72,12 @@ class Closure:
     type: str
     length: float = math.nan
     length_joint: str | None = None
+    terms_a: tuple[tuple[str, float], ...] = ()
+    offset_a: float = 0.0
+    terms_b: tuple[tuple[str, float], ...] = ()
+    offset_b: float = 0.0
+    polycoef: tuple[float, ...] = ()
+    name: str = ""
 
     @property
     def rows(self) -> int:
@@ -67,7 +85,31 @@ class Closure:
 
     @property
     def label(self) -> str:
+        if self.name:
+            return f"{self.type}({self.name})"
+        if self.type == "coupling":
+            a = "+".join(j for j, _ in self.terms_a)
+            b = "+".join(j for j, _ in self.terms_b)
+            return f"coupling({a},{b})" if b else f"coupling({a})"
         return f"{self.type}({self.frame_a},{self.frame_b})"
+
+    @property
+    def joints(self) -> tuple[str, ...]:
+        """The joint coordinates a coupling relates (empty for a frame closure)."""
+        return tuple(j for j, _ in (*self.terms_a, *self.terms_b))
+
+    def coupling_dict(self) -> dict[str, Any]:
+        """A coupling as its ``coupling`` YAML entry."""
+        out: dict[str, Any] = {
+            "a": {j: float(c) for j, c in self.terms_a},
+            "a0": float(self.offset_a),
+            "poly": [float(p) for p in self.polycoef],
+        }
+        if self.terms_b:
+            out.update(b={j: float(c) for j, c in self.terms_b}, b0=float(self.offset_b))
+        if self.name:
+            out["name"] = self.name
+        return out
 
 
 @dataclass(frozen=True)
@@ -97,19 +139,23 @@ class Spec:
     joint_edits: tuple[tuple[str, str], ...] = ()
 
     def to_yaml(self) -> str:
+        frames = [c for c in self.closures if c.type != "coupling"]
+        couplings = [c.coupling_dict() for c in self.closures if c.type == "coupling"]
         data: dict[str, Any] = {
-            "closed_loop": [[c.frame_a, c.frame_b] for c in self.closures],
-            "type": [c.type for c in self.closures],
+            "closed_loop": [[c.frame_a, c.frame_b] for c in frames],
+            "type": [c.type for c in frames],
             "name_mot": list(self.actuated),
             "format_version": 1,
         }
+        if couplings:
+            data["coupling"] = couplings
         if self.joint_edits:
             data["joint_name"] = [name for name, _ in self.joint_edits]
             data["joint_type"] = [edit for _, edit in self.joint_edits]
-        if any(c.type == "distance" for c in self.closures):
+        if any(c.type == "distance" for c in frames):
             data["length"] = [
                 c.length_joint if c.length_joint else (None if math.isnan(c.length) else c.length)
-                for c in self.closures
+                for c in frames
             ]
         if self.platform is not None:
             data["platform"] = self.platform
@@ -137,7 +183,7 @@ def parse_spec(text: str, path: str | None = None) -> Spec:
     """
     data = _mapping(text, path)
     return Spec(
-        _closures(data, path),
+        _closures(data, path) + _couplings(data, path),
         _actuated(data, path),
         _platform(data, path),
         _workspace(data, path),
@@ -211,6 +257,36 @@ def _closures(data: dict, path: str | None) -> tuple[Closure, ...]:
                 length = float(value)
         closures.append(Closure(a, b, t, length, joint))
     return tuple(closures)
+
+
+def _couplings(data: dict, path: str | None) -> tuple[Closure, ...]:
+    """``coupling``: joint couplings ``a - a0 = sum(poly[i] (b - b0)^i)``, each a mapping
+    with ``a`` (joint -> coefficient), ``a0``, ``poly`` and optionally ``b``, ``b0``,
+    ``name``."""
+    entries = data.get("coupling") or []
+    if not isinstance(entries, list):
+        raise ModelError(f"'coupling' must be a list of mappings, got {entries!r}", path)
+    out = []
+    for i, e in enumerate(entries):
+        try:
+            a = tuple((str(j), float(c)) for j, c in e["a"].items())
+            b = tuple((str(j), float(c)) for j, c in (e.get("b") or {}).items())
+            poly = tuple(float(p) for p in e["poly"])
+            a0, b0 = float(e.get("a0", 0.0)), float(e.get("b0", 0.0))
+        except (KeyError, TypeError, AttributeError, ValueError) as exc:
+            raise ModelError(
+                f"coupling {i}: expected a mapping with 'a' (joint: coefficient), 'a0', 'poly' "
+                f"and optionally 'b', 'b0', got {e!r}",
+                path,
+            ) from exc
+        if not a or not poly:
+            raise ModelError(f"coupling {i}: 'a' and 'poly' must not be empty, got {e!r}", path)
+        first = a[0][0]
+        out.append(
+            Closure(first, b[0][0] if b else first, "coupling", terms_a=a, offset_a=a0,
+                    terms_b=b, offset_b=b0, polycoef=poly, name=str(e.get("name", "")))
+        )  # fmt: skip
+    return tuple(out)
 
 
 def _actuated(data: dict, path: str | None) -> tuple[str, ...]:

@@ -80,7 +80,7 @@ def closure_rows(
             plain.append(T_a[:3, 3] - T_b[:3, 3])
             turns.append(ca.reshape(T_a[:3, :3].T @ T_b[:3, :3], 9, 1))
         else:
-            plain.append(closure_residual(cl, T_a, T_b))
+            plain.append(closure_residual(cl, T_a, T_b, full.values))
     rows = ca.vertcat(*plain)
     mats = ca.vertcat(*turns) if turns else ca.SX(0, 1)
     outs = [rows, ca.jacobian(rows, z), mats, ca.jacobian(mats, z)]

@@ -151,7 +151,7 @@ def _block_model(model: Model, block: Block, index: int) -> Model:
     unknowns = tuple(model.unknowns[i] for i in block.unknowns)
     actuated = tuple(model.actuated[a] for a in block.actuated)
     actuated += tuple(model.unknowns[i] for i in block.inputs)
-    held = dict(model.home.joints)
+    held = dict(model.home.coordinates)
     for name in (*unknowns, *actuated):
         held.pop(name, None)
     # rows of the block in the block's own closure rows (its closures, in the model's order)

@@ -9,9 +9,10 @@ closure system is built by :mod:`scdk_sym.symbolic` and evaluated by :mod:`scdk_
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from functools import cached_property
+from os import PathLike
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +34,7 @@ from ..kernels.functions import build_kernels
 from ..model.chart import Chart
 from ..model.edits import apply_joint_edits, ball_to_universal
 from ..model.files import read_description
+from ..model.qpos import MjcfJoints, QposLayout
 from ..model.rotations import rot_exp, rot_log, rpy_matrix
 from ..model.spec import Spec
 from ..model.urdf import Tree, slides_along_carrier, tree_to_urdf
@@ -42,6 +44,7 @@ from ..symbolic.kinematics import link_placements
 from ..symbolic.system import Symbolic, build_symbolic
 from . import assembly
 from .assembly import assemble, closure_rows
+from .home import settle as settle_home
 
 #: Workspace coordinates that are angles [rad].
 ANGLE_COORDINATES = ("phi", "roll", "pitch", "yaw")
@@ -134,6 +137,17 @@ def _check_names(tree: Tree, spec: Spec, joint_frames: dict[str, str], path: str
     links, movable, single = tree.links, tree.coordinates, tree.single_coordinate_joints
     frames = (*links, *joint_frames)
     for c in spec.closures:
+        if c.type == "coupling":
+            for j in c.joints:
+                if j not in single:
+                    raise UnknownNameError(
+                        "joint",
+                        j,
+                        single,
+                        path,
+                        None if j not in movable else "in a coupling is not a one-coordinate joint",
+                    )
+            continue
         for f in (c.frame_a, c.frame_b):
             if f not in links and f not in joint_frames:
                 raise UnknownNameError("frame", f, frames, path)
@@ -153,6 +167,45 @@ def _check_names(tree: Tree, spec: Spec, joint_frames: dict[str, str], path: str
     for j in spec.home:
         if j not in movable:
             raise UnknownNameError("joint", j, movable, path)
+
+
+def _names_list(value: Any, what: str, path: str | None) -> tuple[str, ...]:
+    """A list of distinct joint names (``inputs=``)."""
+    if isinstance(value, str) or not all(isinstance(v, str) for v in value):
+        raise InputError(f"{what} must be a list of joint names, got {value!r}")
+    names = tuple(value)
+    if not names:
+        raise InputError(f"{what} is empty: at least one input joint is needed")
+    if len(set(names)) != len(names):
+        raise InputError(f"{what} has duplicates: {list(names)}")
+    return names
+
+
+def _held(
+    tree: Tree, spec: Spec, locked: Mapping[str, float] | None, path: str | None
+) -> dict[str, float]:
+    """``locked=``: one-coordinate joints, not inputs, each with a finite value."""
+    if locked is None:
+        return {}
+    if not isinstance(locked, Mapping):
+        raise InputError(f"locked must map joint names to values, got {locked!r}")
+    single = tree.single_coordinate_joints
+    out = {}
+    for name, value in locked.items():
+        if name not in single:
+            raise UnknownNameError("joint", name, single, path,
+                                   None if name not in tree.coordinates
+                                   else "in locked= is not a one-coordinate joint")  # fmt: skip
+        if name in spec.actuated:
+            raise InputError(f"joint {name!r} is both an input and locked; choose one")
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            v = float("nan")
+        if not np.isfinite(v):
+            raise InputError(f"locked value of {name!r} must be a finite number, got {value!r}")
+        out[name] = v
+    return out
 
 
 def _reported_frame(
@@ -221,16 +274,27 @@ class Model:
         path: str | None = None,
         frame: str | None = None,
         urdf_text: str | None = None,
+        *,
+        inputs: Sequence[str] | None = None,
+        locked: Mapping[str, float] | None = None,
+        source: Any = None,
     ) -> None:
         self._urdf_text = urdf_text if urdf_text is not None else tree_to_urdf(tree)
         tree = apply_joint_edits(tree, spec.joint_edits, path)
+        if inputs is not None:
+            spec = replace(spec, actuated=_names_list(inputs, "inputs", path))
         self.tree = tree
         self.spec = spec
         self.path = path
         self.name = tree.name
+        #: where the model came from when not URDF + YAML (an MJCF file: its qpos layout,
+        #: what loading decided), else ``None``
+        self.source = source
         # a frame is a link, or a joint (as in Pinocchio: the joint frame is its child link's)
         joint_frames = {j.name: j.child for j in tree.joints if j.name not in tree.links}
         _check_names(tree, spec, joint_frames, path)
+        #: joints held at given values (``locked=``, an MJCF file's springs) -> value
+        self.held = _held(tree, spec, locked, path)
         self.frame = _reported_frame(tree, spec, joint_frames, frame, path)
         workspace = _workspace(spec, path)
         self.workspace = tuple(workspace)
@@ -243,7 +307,9 @@ class Model:
             )
             for c in spec.closures
         )
-        candidates = tuple(j for j in tree.coordinates if j not in self.actuated)
+        candidates = tuple(
+            j for j in tree.coordinates if j not in self.actuated and j not in self.held
+        )
         if not candidates:
             raise ModelError("no unknown joints: every movable joint is actuated", path)
         if not spec.closures:
@@ -274,7 +340,7 @@ class Model:
             self.closures,
             self.actuated,
             candidates,
-            {},
+            self.held,
             None,
             self.frame,
             self.workspace,
@@ -311,7 +377,10 @@ class Model:
                 rank,
                 self.path,
             )
-        self.locked = {candidates[c]: float(y0[c]) for c in range(ncols) if c not in keep}
+        self.locked = {
+            **self.held,
+            **{candidates[c]: float(y0[c]) for c in range(ncols) if c not in keep},
+        }
         self.reduction = note
         self.chart = Chart.for_unknowns(self.unknowns, self.tree.rotation_joints)
         self._home_y = chart.to_canonical(y0, c0)[keep]
@@ -324,6 +393,8 @@ class Model:
         check = np.abs(np.array(f_all(y0, th0)[2])).ravel()
         if projected:
             return self._project(f_all, y0, th0), th0
+        if getattr(self.source, "settle_home", False):
+            return self._settled(f_all, y0, th0)
         if self.spec.home:
             if check.max() > self.tolerance:
                 raise NotAssembledError(
@@ -338,6 +409,27 @@ class Model:
         if check.max() > self.tolerance:
             y0, th0 = self._assemble(full, c0, f_all, y0, th0, check)
         return y0, th0
+
+    def _settled(self, f_all, y0, th0):
+        """A stated home projected onto the closures and moved off a singular configuration
+        (see :mod:`scdk_sym.robot.home`); what was done goes into :attr:`assembly`."""
+
+        def rows(y, th):
+            g, Gy, _, _, Gt, _ = (np.array(v) for v in f_all(y, th))
+            return g.ravel(), Gy, Gt
+
+        names = (*self._candidates, *self.actuated)
+        done = settle_home(rows, y0, th0, names, 1e-2 * self.tolerance)
+        check = np.abs(np.array(f_all(done.y, done.theta)[2])).ravel()
+        if check.max() > self.tolerance:
+            raise NotAssembledError(
+                f"home does not assemble: {self._worst(check)} after a least-change projection "
+                f"over every joint (tolerance {self.tolerance:.1e}); {self.source.home_hint}",
+                float(check.max()),
+                self.path,
+            )
+        self.assembly = done.note or None
+        return done.y, done.theta
 
     def _square_selection(self, full, f_all, G, y0, th0, c0, candidates):
         """``(rows, keep, rank, note)``: the closure rows and unknowns of a square system of
@@ -404,7 +496,9 @@ class Model:
             tree = ball_to_universal(tree, ball, rotation, u[:, 0])
             self.spins[ball] = (rotation, u[:, 0])
         self.tree = tree
-        candidates = tuple(j for j in tree.coordinates if j not in self.actuated)
+        candidates = tuple(
+            j for j in tree.coordinates if j not in self.actuated and j not in self.held
+        )
         self._candidates = candidates
         self._reduce(candidates, values)
         turned = ", ".join(balls)
@@ -595,6 +689,7 @@ class Model:
                 "2d": "xy",
                 "distance": ["d"],
                 "6d": ["x", "y", "z", "rx", "ry", "rz"],
+                "coupling": ["q"],
             }
             labels.extend(f"{c.label}.{k}" for k in comps[c.type])
         return labels
@@ -750,7 +845,9 @@ class Model:
         """SHA-256 of the URDF, the YAML and the reported frame (cache key); of a block model
         (see :meth:`restricted`), also of its unknowns, actuators and rows."""
         h = hashlib.sha256()
-        parts = (self._urdf_text, self.spec.to_yaml(), self.frame, "|".join(self.workspace))
+        parts = [self._urdf_text, self.spec.to_yaml(), self.frame, "|".join(self.workspace)]
+        if self.held:  # joints held by locked= (none: the hash of earlier releases)
+            parts.append("held " + repr(sorted(self.held.items())))
         for part in (*parts, *self._restriction):
             h.update(part.encode())
             h.update(b"\0")
@@ -782,9 +879,9 @@ class Model:
             block: (index, :class:`~scdk_sym.robot.blocks.Block`) of the block.
         """
         sub = cls.__new__(cls)
-        for name in ("tree", "spec", "path", "name", "_urdf_text", "frame", "workspace"):
+        for name in ("tree", "spec", "path", "name", "_urdf_text", "frame", "workspace", "held"):
             setattr(sub, name, getattr(parent, name))
-        for name in ("length_scale", "tolerance", "reduction", "assembly", "spins"):
+        for name in ("length_scale", "tolerance", "reduction", "assembly", "spins", "source"):
             setattr(sub, name, getattr(parent, name))
         sub.closures, sub.unknowns, sub.actuated, sub.rows = closures, unknowns, actuated, rows
         sub.locked = dict(held)
@@ -901,7 +998,9 @@ class Model:
         ys_c = np.array(canonical)
         for a in (ths, xs, poses, ys_c):
             a.setflags(write=False)
-        joints = JointValues.rows(self._joint_columns, self._joint_table(ys_c, ths))
+        joints: list = JointValues.rows(self._joint_columns, self._joint_table(ys_c, ths))
+        if self.qpos_layout is not None:
+            joints = [MjcfJoints(j, self.qpos_layout) for j in joints]
         cfgs = unchecked_many(
             Configuration, N, theta=ths, y=ys_c, x=xs, platform_pose=poses, joints=joints,
             residual=np.asarray(residuals, dtype=float).tolist(),
@@ -971,7 +1070,7 @@ class Model:
     def file_joints(self, cfg: Configuration) -> dict[str, float]:
         """The joint coordinates of ``cfg`` in the model files' terms (``home`` of the YAML):
         a ball joint whose rod spin was locked gives its rotation vector again."""
-        joints = {k: v for k, v in cfg.joints.items() if not k.endswith(("_U1", "_U2"))}
+        joints = {k: v for k, v in cfg.coordinates.items() if not k.endswith(("_U1", "_U2"))}
         if not self.spins:
             return joints
         T = self.placements(cfg)
@@ -986,10 +1085,22 @@ class Model:
             )
         return joints
 
-    def joint_values(self, y: np.ndarray, theta: np.ndarray) -> dict[str, float]:
-        """Every joint coordinate (URDF order, locked ones included) from canonical y, theta."""
+    def joint_values(self, y: np.ndarray, theta: np.ndarray) -> Mapping[str, Any]:
+        """Every joint coordinate (URDF order, locked ones included) from canonical y, theta;
+        of a model read from MJCF, the joints by MJCF name (:class:`MjcfJoints`: hinge and
+        slide ``qpos``, ball quaternions, and the whole ``qpos``)."""
         y, theta = np.asarray(y, dtype=float), np.asarray(theta, dtype=float)
-        return dict(JointValues(self._joint_columns, self._joint_table(y[None], theta[None])[0]))
+        row = JointValues(self._joint_columns, self._joint_table(y[None], theta[None])[0])
+        if self.qpos_layout is not None:
+            return MjcfJoints(row, self.qpos_layout)
+        return dict(row)
+
+    @cached_property
+    def qpos_layout(self) -> QposLayout | None:
+        """Where MuJoCo's ``qpos`` takes each joint, for a model read from MJCF (``None``
+        otherwise)."""
+        layout = getattr(self.source, "layout", None)
+        return None if layout is None else layout.with_spins(self.spins)
 
     @cached_property
     def _joint_columns(self) -> dict[str, int]:
@@ -1112,20 +1223,43 @@ class Model:
         )
 
 
-def load_model(path: str | Path, frame: str | None = None) -> Model:
-    """Load a model from a directory holding ``robot.urdf`` + ``robot.yaml`` (or the YAML path).
+def load_model(
+    path: str | Path,
+    frame: str | None = None,
+    *,
+    inputs: Sequence[str] | None = None,
+    locked: Mapping[str, float] | None = None,
+) -> Model:
+    """Load a model: a directory holding ``robot.urdf`` + ``robot.yaml`` (or the YAML path),
+    or an MJCF file (``.xml``, read by MuJoCo's compiler: ``pip install "scdk_sym[mjcf]"``).
 
     Args:
-        path: model directory, or the path of its YAML file (the URDF is ``robot.urdf`` beside
-            it, or the YAML's name with ``.urdf``).
+        path: model directory, the path of its YAML file (the URDF is ``robot.urdf`` beside
+            it, or the YAML's name with ``.urdf``), or an MJCF ``.xml`` file.
         frame: link whose pose is reported as x, or a joint (its child link's frame, as in
             Pinocchio) (default: the YAML's ``platform``, else ``effector`` if present).
+        inputs: the joints given to the solvers (theta), instead of the YAML's ``name_mot``
+            or the MJCF actuators' joints: motors plus measured spring joints, or a leg's
+            output joints so that the motors become unknowns.
+        locked: joints held at given values [rad or length unit]; of an MJCF file, added to
+            its springs (held at ``springref``), whose values it overrides.
 
     Raises:
-        ModelError: missing files, malformed URDF/YAML, unknown names, non-square systems.
+        ModelError: missing files, malformed URDF/YAML/MJCF, unknown names, non-square
+            systems (a choice of inputs that leaves freedoms undetermined, or binds inputs).
+        DependencyError: an MJCF file without ``mujoco`` installed.
     """
+    if isinstance(path, (str, PathLike)) and Path(path).suffix.lower() == ".xml":
+        from ..model.mjcf import read_mjcf
+
+        tree, spec, source = read_mjcf(path)
+        chosen = set(inputs) if inputs is not None and not isinstance(inputs, str) else set()
+        held = {k: v for k, v in source.springs.items() if k not in chosen}
+        held.update(locked or {})
+        return Model(tree, spec, str(path), frame or source.frame, inputs=inputs, locked=held,
+                     source=source)  # fmt: skip
     tree, spec, yaml_path, urdf_text = read_description(path)
-    return Model(tree, spec, yaml_path, frame, urdf_text)
+    return Model(tree, spec, yaml_path, frame, urdf_text, inputs=inputs, locked=locked)
 
 
 def model_from_tree(tree: Tree, spec: Spec, frame: str | None = None) -> Model:

@@ -104,6 +104,8 @@ def closure_residual(
             placements are) instead of ``(|d|^2 - L^2) / (2 L)`` [length] (the distance
             error to first order).
     """
+    if closure.type == "coupling":
+        return coupling_residual(closure, values or {})
     d = T_a[:3, 3] - T_b[:3, 3]
     if closure.type == "3d":
         return d
@@ -113,6 +115,22 @@ def closure_residual(
         L = values[closure.length_joint] if closure.length_joint and values else closure.length
         return ca.dot(d, d) - L * L if polynomial else (ca.dot(d, d) - L * L) / (2 * L)
     return ca.vertcat(d, rotation_error(T_a[:3, :3], T_b[:3, :3]))
+
+
+def coupling_residual(closure: Closure, values: Mapping[str, ca.SX | float]) -> ca.SX:
+    """The row of a joint coupling: ``a - a0 - sum(p_i (b - b0)^i)`` with ``a``, ``b`` linear
+    combinations of joint coordinates (MJCF's joint and fixed-tendon equalities) [rad or
+    length unit]."""
+    a = sum((c * values[j] for j, c in closure.terms_a), ca.SX(0)) - closure.offset_a
+    if not closure.terms_b:
+        return ca.SX(a - closure.polycoef[0])
+    b = sum((c * values[j] for j, c in closure.terms_b), ca.SX(0)) - closure.offset_b
+    poly, power = ca.SX(0), ca.SX(1)
+    for p in closure.polycoef:
+        if p:
+            poly = poly + p * power
+        power = power * b
+    return ca.SX(a - poly)
 
 
 def closure_check(

@@ -7,7 +7,7 @@ locked joints (idle freedoms removed by the square reduction) are constants.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
@@ -36,6 +36,7 @@ class Symbolic:
         x: (n,) workspace coordinates of ``pose``.
         placements: link name -> (4, 4) world placement.
         workspace: names of the coordinates of ``x``.
+        values: every joint coordinate -> its symbol or constant (what couplings read).
     """
 
     y: ca.SX
@@ -50,6 +51,7 @@ class Symbolic:
     x: ca.SX
     placements: Mapping[str, ca.SX]
     workspace: tuple[str, ...] = ()
+    values: Mapping[str, ca.SX | float] = field(default_factory=dict)
 
     @property
     def m(self) -> int:
@@ -121,4 +123,5 @@ def build_symbolic(
         x=workspace_coordinates(workspace, T[frame]),
         placements=T,
         workspace=tuple(workspace),
+        values=values,
     )

@@ -135,7 +135,7 @@ def placement_errors(model: Model, y, theta) -> dict[str, float]:
         Link name -> error [model length unit for the translations; rotations unitless].
     """
     cfg = model.configuration(y, theta)
-    pin_T = frame_placements(model, cfg.joints)
+    pin_T = frame_placements(model, cfg.coordinates)
     ours = model.placements(cfg)
     return {n: float(np.abs(ours[n] - pin_T[n]).max()) for n in ours}
 

@@ -248,7 +248,7 @@ def verify_model(
         if cfg is None:
             checks.append(Check("closures", where, math.inf, tol, why))
             continue
-        res = closure_residuals(model, cfg.joints)
+        res = closure_residuals(model, cfg.coordinates)
         error, closure = _worst(dict(zip(labels, res.tolist(), strict=True)))
         checks.append(Check("closures", where, error, tol, f"closure {closure}"))
 

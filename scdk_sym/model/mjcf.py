@@ -1,0 +1,499 @@
+"""MJCF (MuJoCo XML) models: the kinematics as MuJoCo's own compiler reads them.
+
+The file is compiled by MuJoCo (PyPI ``mujoco``, the optional extra ``scdk_sym[mjcf]``), so
+every rule of the format is MuJoCo's: defaults and ``childclass``, hinge ``ref``, ``xyaxes``,
+``zaxis``, ``axisangle``, ``euler`` with ``eulerseq``, ``angle``, joint ``pos``, ``<include>``,
+``<frame>``. Mesh, texture, height-field and skin files are not read (kinematics does not need
+them: each mesh geom becomes a small sphere before compiling).
+
+The compiled model becomes a spanning :class:`~scdk_sym.model.urdf.Tree` and a
+:class:`~scdk_sym.model.spec.Spec`:
+
+- a body is a link of its name; its joints are joints of their names, applied in order, each
+  about its own ``pos`` (an intermediate link ``<body>~<joint>`` between two); a hinge's or
+  slide's ``ref`` is folded into its origin, so a joint coordinate equals MuJoCo's ``qpos``;
+- a ball joint is a spherical joint (its rotation vector; its ``qpos`` is the quaternion);
+- a free joint of a body tied to the rest by no equality (a robot's root) is held at home;
+  one whose body an equality ties to another subtree (a floating platform) is a floating joint;
+- ``<equality>``: ``connect`` (3 rows, the second anchor where MuJoCo puts it from ``qpos0``),
+  ``weld`` (6 rows, ``relpose`` or from ``qpos0``), site-to-site ``connect`` and ``weld``,
+  ``joint`` couplings (``polycoef``) and fixed-``tendon`` equalities (one row each); inactive
+  ones are skipped and said;
+- the inputs are the joints the actuators drive; an actuator on a fixed tendon drives an
+  input of its own (``<actuator name>``, a joint of no body) that a coupling row ties to the
+  tendon's length;
+- joints with ``stiffness > 0`` that no actuator drives (springs) are held at ``springref``;
+- home is the keyframe ``home`` when there is one, else ``qpos0``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from os import PathLike
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import DependencyError, ModelError
+from .qpos import QposEntry, QposLayout
+from .rotations import quaternion_matrix, rot_log
+from .spec import Closure, Spec
+from .urdf import Joint, Tree
+
+#: Install command of the MJCF reader's dependency.
+INSTALL = 'pip install "scdk_sym[mjcf]"  (or: pip install mujoco)'
+#: MuJoCo's joint types (mjtJoint) and equality types (mjtEq), as numbers.
+FREE, BALL, SLIDE, HINGE = 0, 1, 2, 3
+CONNECT, WELD, JOINT, TENDON = 0, 1, 2, 3
+#: MuJoCo's object types (mjtObj) of equality ends.
+OBJ_BODY, OBJ_SITE = 1, 6
+#: Transmission types (mjtTrn).
+TRN_JOINT, TRN_JOINTINPARENT, TRN_TENDON = 0, 1, 3
+#: Tendon wrap type of a joint (mjtWrap).
+WRAP_JOINT = 1
+#: Anchors shorter than this are the body's origin [m].
+ANCHOR_TOL = 1e-15
+
+
+@dataclass(frozen=True)
+class MjcfSource:
+    """What an MJCF file says beyond the tree and the closures.
+
+    Attributes:
+        path: the file.
+        layout: where each MJCF joint sits in MuJoCo's ``qpos``.
+        springs: spring joints held at ``springref`` -> value [rad or m].
+        skipped: labels of the inactive equalities.
+        home_name: ``"keyframe 'home'"`` or ``"qpos0"``.
+        notes: lines saying what loading decided.
+        frame: the default reported link: the leaf body with the most joints above it.
+        settle_home: home is projected onto the closures and moved off a singular
+            configuration (see :mod:`scdk_sym.robot.home`).
+    """
+
+    path: str
+    layout: QposLayout
+    springs: Mapping[str, float] = field(default_factory=dict)
+    skipped: tuple[str, ...] = ()
+    home_name: str = "qpos0"
+    notes: tuple[str, ...] = ()
+    frame: str | None = None
+    settle_home: bool = True
+
+    @property
+    def home_hint(self) -> str:
+        """What to try when home does not assemble."""
+        held = ", ".join(f"{k}={v:g}" for k, v in self.springs.items())
+        if held:
+            return (
+                f"the springs {held} are held at their springref: lock them at values that "
+                "assemble (locked={...}) or make them inputs (inputs=[...])"
+            )
+        return f"check the file's {self.home_name}, or lock joints (locked={{...}})"
+
+
+def require_mujoco() -> Any:
+    """``mujoco``, or a :class:`DependencyError` with the install command."""
+    from ..optional import require
+
+    return require("mujoco", needed_for="MJCF models", install=INSTALL, error=DependencyError)
+
+
+def compile_kinematics(path: str | PathLike[str]) -> Any:
+    """The file compiled by MuJoCo with its mesh, texture, height-field and skin files left
+    out (each mesh geom a small sphere, each body given a unit inertia): an ``MjModel`` whose
+    kinematics are the file's.
+
+    Raises:
+        ModelError: MuJoCo cannot read or compile the file (its message kept).
+    """
+    mujoco = require_mujoco()
+    p = Path(path)
+    if not p.is_file():
+        raise ModelError("not found: expected an MJCF .xml file", str(p))
+    try:
+        spec = mujoco.MjSpec.from_file(str(p))
+        for g in spec.geoms:
+            if g.type in (mujoco.mjtGeom.mjGEOM_MESH, mujoco.mjtGeom.mjGEOM_HFIELD,
+                          mujoco.mjtGeom.mjGEOM_SDF):  # fmt: skip
+                g.type = mujoco.mjtGeom.mjGEOM_SPHERE
+                g.size = [0.01, 0.0, 0.0]
+                g.meshname = ""
+                g.hfieldname = ""
+        for kind in ("meshes", "textures", "hfields", "skins"):
+            for item in list(getattr(spec, kind)):
+                spec.delete(item)
+        for mat in spec.materials:
+            mat.textures = [""] * len(mat.textures)
+        for body in spec.bodies:
+            if body.name != "world" and not body.explicitinertial:
+                body.explicitinertial = True
+                body.mass = 1.0
+                body.inertia = [1e-3, 1e-3, 1e-3]
+        return spec.compile()
+    except ValueError as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else repr(exc)
+        raise ModelError(f"MuJoCo cannot compile it: {first}", str(p)) from exc
+
+
+def read_mjcf(path: str | PathLike[str]) -> tuple[Tree, Spec, MjcfSource]:
+    """Read an MJCF file into a spanning tree, its closures and its qpos layout.
+
+    Raises:
+        DependencyError: ``mujoco`` is not installed.
+        ModelError: MuJoCo cannot compile the file, or it uses what has no kinematic meaning
+            here (a flex or distance equality, a spatial tendon, an actuator on a site).
+    """
+    m = compile_kinematics(path)
+    return describe(m, str(path))
+
+
+def _names(m: Any, kind: str, count: int, fallback: str) -> list[str]:
+    mujoco = require_mujoco()
+    obj = getattr(mujoco.mjtObj, f"mjOBJ_{kind}")
+    out = []
+    for i in range(count):
+        name = mujoco.mj_id2name(m, obj, i)
+        out.append(name if name else f"{fallback}{i}")
+    return out
+
+
+def _pose(pos: Any, quat: Any = None) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, 3] = pos
+    if quat is not None:
+        T[:3, :3] = quaternion_matrix(np.asarray(quat, dtype=float))
+    return T
+
+
+def _motion(kind: int, axis: np.ndarray, q: float) -> np.ndarray:
+    """4x4 motion of a hinge or slide by ``q``."""
+    T = np.eye(4)
+    if kind == SLIDE:
+        T[:3, 3] = axis * q
+    else:
+        from .rotations import rot_exp
+
+        T[:3, :3] = rot_exp(axis * q)
+    return T
+
+
+def _tied_free_bodies(m: Any, free: list[int]) -> set[int]:
+    """The bodies among ``free`` (bodies of free joints) that an active frame equality ties
+    to a body outside their subtree: floating parts of a loop, not a robot's root."""
+    parent = m.body_parentid
+
+    def inside(body: int, root: int) -> bool:
+        while body > 0:
+            if body == root:
+                return True
+            body = int(parent[body])
+        return False
+
+    tied = set()
+    for e in range(m.neq):
+        if not m.eq_active0[e] or m.eq_type[e] not in (CONNECT, WELD):
+            continue
+        ends = [int(m.eq_obj1id[e]), int(m.eq_obj2id[e])]
+        if m.eq_objtype[e] == OBJ_SITE:
+            ends = [int(m.site_bodyid[s]) for s in ends]
+        for b in free:
+            if inside(ends[0], b) != inside(ends[1], b):
+                tied.add(b)
+    return tied
+
+
+class _Builder:
+    """The tree, closures and layout of one compiled model (one pass over its arrays)."""
+
+    def __init__(self, m: Any, path: str) -> None:
+        self.m, self.path = m, path
+        self.bodies = _names(m, "BODY", m.nbody, "body")
+        self.bodies[0] = "world"
+        self.jnames = _names(m, "JOINT", m.njnt, "joint")
+        self.sites = _names(m, "SITE", m.nsite, "site")
+        keys = _names(m, "KEY", m.nkey, "key")
+        if "home" in keys:
+            self.home_name = "keyframe 'home'"
+            self.qhome = np.array(m.key_qpos[keys.index("home")], dtype=float)
+        else:
+            self.home_name = "qpos0"
+            self.qhome = np.array(m.qpos0, dtype=float)
+        self.links: list[str] = ["world"]
+        self.joints: list[Joint] = []
+        self.entries: list[QposEntry] = []
+        self.home: dict[str, float] = {}
+        self.notes: list[str] = []
+        free = [int(m.jnt_bodyid[j]) for j in range(m.njnt) if m.jnt_type[j] == FREE]
+        self.floating = _tied_free_bodies(m, free)
+
+    def _add(self, joint: Joint) -> None:
+        if joint.child in self.links:
+            raise ModelError(f"name {joint.child!r} is used twice in the tree", self.path)
+        self.links.append(joint.child)
+        self.joints.append(joint)
+
+    def tree(self) -> Tree:
+        m = self.m
+        for b in range(1, m.nbody):
+            self._body(b)
+        return Tree(self.modelname(), "world", tuple(self.links), tuple(self.joints))
+
+    def modelname(self) -> str:
+        """The ``<mujoco model=...>`` name, else the file's stem."""
+        raw = bytes(self.m.names)
+        name = raw[: raw.find(b"\0")].decode() if raw else ""
+        return name or Path(self.path).stem
+
+    def _body(self, b: int) -> None:
+        m, name = self.m, self.bodies[b]
+        parent = self.bodies[int(m.body_parentid[b])]
+        T = _pose(m.body_pos[b], m.body_quat[b])
+        adr, num = int(m.body_jntadr[b]), int(m.body_jntnum[b])
+        if num == 0:
+            self._add(Joint(f"{name}~fixed", "fixed", parent, name, T, np.array([0, 0, 1.0])))
+            return
+        prev = np.zeros(3)
+        for i, j in enumerate(range(adr, adr + num)):
+            kind, jname = int(m.jnt_type[j]), self.jnames[j]
+            qadr = int(m.jnt_qposadr[j])
+            pos = np.array(m.jnt_pos[j], dtype=float)
+            last = i == num - 1
+            child = name if last and (kind == FREE or not np.any(pos)) else f"{name}~{jname}"
+            origin = T @ _pose(pos - prev)
+            axis = np.array(m.jnt_axis[j], dtype=float)
+            if kind == FREE:
+                self._free(b, j, jname, parent, child, qadr)
+                pos = np.zeros(3)
+            elif kind == BALL:
+                self._add(Joint(jname, "spherical", parent, child, origin, np.array([0, 0, 1.0])))
+                self.entries.append(QposEntry(jname, "ball", qadr))
+                w = rot_log(quaternion_matrix(self.qhome[qadr : qadr + 4]))
+                self.home.update({f"{jname}.r{c}": float(v) for c, v in zip("xyz", w, strict=True)})
+            else:
+                ref = float(m.qpos0[qadr])
+                origin = origin @ _motion(kind, axis, -ref)
+                lo, hi = m.jnt_range[j] if m.jnt_limited[j] else (-np.inf, np.inf)
+                utype = "prismatic" if kind == SLIDE else (
+                    "revolute" if m.jnt_limited[j] else "continuous")  # fmt: skip
+                self._add(Joint(jname, utype, parent, child, origin, axis, float(lo), float(hi)))
+                self.entries.append(QposEntry(jname, "slide" if kind == SLIDE else "hinge", qadr))
+                self.home[jname] = float(self.qhome[qadr])
+            T, parent, prev = np.eye(4), child, pos
+        if parent != name:
+            self._add(Joint(f"{name}~frame", "fixed", parent, name, _pose(-prev), np.eye(3)[2]))
+
+    def _free(self, b: int, j: int, jname: str, parent: str, child: str, qadr: int) -> None:
+        q = self.qhome[qadr : qadr + 7]
+        if b not in self.floating:
+            self._add(Joint(jname, "fixed", parent, child, _pose(q[:3], q[3:]), np.eye(3)[2]))
+            self.entries.append(QposEntry(jname, "free", qadr, tuple(map(float, q))))
+            self.notes.append(f"free joint {jname!r} of body {self.bodies[b]!r} held at home")
+            return
+        self._add(Joint(jname, "floating", parent, child, np.eye(4), np.eye(3)[2]))
+        self.entries.append(QposEntry(jname, "free", qadr))
+        w = rot_log(quaternion_matrix(q[3:]))
+        self.home.update({f"{jname}.{c}": float(v) for c, v in zip("xyz", q[:3], strict=True)})
+        self.home.update({f"{jname}.r{c}": float(v) for c, v in zip("xyz", w, strict=True)})
+
+    # ------------------------------------------------------------------ closures
+
+    def _frame(self, body: int, anchor: np.ndarray, tag: str, quat: Any = None) -> str:
+        """A link at ``anchor`` (and ``quat``) of ``body``: the body itself at its origin."""
+        name = self.bodies[body]
+        if np.linalg.norm(anchor) <= ANCHOR_TOL and quat is None:
+            return name
+        link = f"{name}@{tag}"
+        self._add(Joint(link, "fixed", name, link, _pose(anchor, quat), np.eye(3)[2]))
+        return link
+
+    def _site(self, s: int) -> str:
+        m = self.m
+        link = self.sites[s]
+        if link in self.links:
+            return link
+        if link in self.bodies:
+            link = f"{link}~site"
+        body = self.bodies[int(m.site_bodyid[s])]
+        T = _pose(m.site_pos[s], m.site_quat[s])
+        self._add(Joint(link, "fixed", body, link, T, np.eye(3)[2]))
+        return link
+
+    def closures(self) -> tuple[list[Closure], list[str]]:
+        """The active equalities as closures (frames first, couplings last) and the labels
+        of the inactive ones."""
+        m = self.m
+        eqnames = _names(m, "EQUALITY", m.neq, "equality")
+        frames, couplings, skipped = [], [], []
+        for e in range(m.neq):
+            kind, name = int(m.eq_type[e]), eqnames[e]
+            data = np.array(m.eq_data[e], dtype=float)
+            o1, o2 = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+            if not m.eq_active0[e]:
+                skipped.append(name)
+                continue
+            if kind in (CONNECT, WELD):
+                frames.append(self._frame_closure(e, kind, name, data, o1, o2))
+            elif kind == JOINT:
+                couplings.append(self._joint_coupling(name, data, o1, o2))
+            elif kind == TENDON:
+                couplings.append(self._tendon_coupling(name, data, o1, o2))
+            else:
+                raise ModelError(
+                    f"equality {name!r} is of a kind with no kinematic closure here (MuJoCo "
+                    f"type {kind}); supported: connect, weld, joint, tendon",
+                    self.path,
+                )
+        return frames + couplings, skipped
+
+    def _frame_closure(self, e: int, kind: int, name: str, data, o1: int, o2: int) -> Closure:
+        m = self.m
+        if m.eq_objtype[e] == OBJ_SITE:
+            a, b = self._site(o1), self._site(o2)
+            return Closure(a, b, "3d" if kind == CONNECT else "6d", name=name)
+        if kind == CONNECT:
+            a = self._frame(o1, data[0:3], f"{name}.1")
+            b = self._frame(o2, data[3:6], f"{name}.2")
+            return Closure(a, b, "3d", name=name)
+        # weld: body1's frame moved by relpose against body2's at its anchor
+        a = self._frame(o1, data[3:6], f"{name}.1", data[6:10])
+        b = self._frame(o2, data[0:3], f"{name}.2")
+        return Closure(a, b, "6d", name=name)
+
+    def _joint_coupling(self, name: str, data, o1: int, o2: int) -> Closure:
+        m = self.m
+        for j in (o1, o2):
+            if j >= 0 and m.jnt_type[j] not in (HINGE, SLIDE):
+                raise ModelError(
+                    f"joint equality {name!r} names {self.jnames[j]!r}, not a hinge or slide",
+                    self.path,
+                )
+        a = ((self.jnames[o1], 1.0),)
+        b = ((self.jnames[o2], 1.0),) if o2 >= 0 else ()
+        a0 = float(m.qpos0[m.jnt_qposadr[o1]])
+        b0 = float(m.qpos0[m.jnt_qposadr[o2]]) if o2 >= 0 else 0.0
+        return Closure(a[0][0], (b or a)[0][0], "coupling", terms_a=a, offset_a=a0,
+                       terms_b=b, offset_b=b0, polycoef=tuple(map(float, data[:5])),
+                       name=name)  # fmt: skip
+
+    def tendon_terms(self, t: int, what: str) -> tuple[tuple[str, float], ...]:
+        """(joint, coefficient) of fixed tendon ``t``."""
+        m = self.m
+        adr, num = int(m.tendon_adr[t]), int(m.tendon_num[t])
+        terms = []
+        for w in range(adr, adr + num):
+            if m.wrap_type[w] != WRAP_JOINT:
+                raise ModelError(f"{what}: tendon {t} is spatial; only fixed tendons are "
+                                 "kinematic closures here", self.path)  # fmt: skip
+            terms.append((self.jnames[int(m.wrap_objid[w])], float(m.wrap_prm[w])))
+        return tuple(terms)
+
+    def _tendon_coupling(self, name: str, data, o1: int, o2: int) -> Closure:
+        m = self.m
+        a = self.tendon_terms(o1, f"equality {name!r}")
+        b = self.tendon_terms(o2, f"equality {name!r}") if o2 >= 0 else ()
+        a0 = float(m.tendon_length0[o1])
+        b0 = float(m.tendon_length0[o2]) if o2 >= 0 else 0.0
+        return Closure(a[0][0], (b or a)[0][0], "coupling", terms_a=a, offset_a=a0,
+                       terms_b=b, offset_b=b0, polycoef=tuple(map(float, data[:5])),
+                       name=name)  # fmt: skip
+
+    # ------------------------------------------------------------------ inputs
+
+    def inputs(self) -> tuple[list[str], list[Closure]]:
+        """The actuated joints, and the coupling rows of inputs on fixed tendons (each such
+        actuator an input joint of its own name, on a link of no body)."""
+        m = self.m
+        names = _names(m, "ACTUATOR", m.nu, "actuator")
+        inputs, rows = [], []
+        for a in range(m.nu):
+            trn, target = int(m.actuator_trntype[a]), int(m.actuator_trnid[a][0])
+            if trn in (TRN_JOINT, TRN_JOINTINPARENT):
+                if m.jnt_type[target] not in (HINGE, SLIDE):
+                    raise ModelError(
+                        f"actuator {names[a]!r} drives {self.jnames[target]!r}, a ball or "
+                        "free joint: only a hinge or slide is an input here",
+                        self.path,
+                    )
+                name = self.jnames[target]
+            elif trn == TRN_TENDON:
+                terms = self.tendon_terms(target, f"actuator {names[a]!r}")
+                name = names[a]
+                if name in self.links or name in self.jnames:
+                    name = f"{name}~input"
+                slide = any(m.jnt_type[self.jnames.index(j)] == SLIDE for j, _ in terms)
+                self._add(Joint(name, "prismatic" if slide else "continuous", "world",
+                                f"{name}~link", np.eye(4), np.eye(3)[2]))  # fmt: skip
+                length0 = float(np.dot([c for _, c in terms],
+                                       [self.qhome[m.jnt_qposadr[self.jnames.index(j)]]
+                                        for j, _ in terms]))  # fmt: skip
+                self.home[name] = length0
+                self.entries.append(QposEntry(name, "input", -1))
+                rows.append(Closure(terms[0][0], name, "coupling", terms_a=terms,
+                                    terms_b=((name, 1.0),), polycoef=(0.0, 1.0),
+                                    name=f"{names[a]}.tendon"))  # fmt: skip
+            else:
+                raise ModelError(
+                    f"actuator {names[a]!r} acts through a site, body or slider-crank; "
+                    "only joint and fixed-tendon actuators are inputs here",
+                    self.path,
+                )
+            if name not in inputs:
+                inputs.append(name)
+        return inputs, rows
+
+    def springs(self, inputs: Sequence[str]) -> dict[str, float]:
+        """Hinges and slides with ``stiffness > 0`` that no actuator drives -> springref."""
+        m = self.m
+        out = {}
+        for j in range(m.njnt):
+            name = self.jnames[j]
+            if m.jnt_type[j] in (HINGE, SLIDE) and m.jnt_stiffness[j] > 0 and name not in inputs:
+                out[name] = float(m.qpos_spring[m.jnt_qposadr[j]])
+        return out
+
+
+def describe(m: Any, path: str) -> tuple[Tree, Spec, MjcfSource]:
+    """The tree, closures and qpos layout of a compiled ``MjModel`` (see :func:`read_mjcf`)."""
+    b = _Builder(m, path)
+    b.tree()
+    closures, skipped = b.closures()
+    inputs, rows = b.inputs()
+    tree = Tree(b.modelname(), "world", tuple(b.links), tuple(b.joints))
+    if not closures:
+        raise ModelError("no active equality (connect, weld, joint, tendon): not a closed "
+                         "chain", path)  # fmt: skip
+    if not inputs:
+        raise ModelError("no actuator: give the inputs (inputs=[joint names])", path)
+    springs = b.springs(inputs)
+    notes = list(b.notes)
+    if skipped:
+        notes.append(f"inactive equalities skipped: {', '.join(skipped)}")
+    if springs:
+        held = ", ".join(f"{k} at {v:g}" for k, v in springs.items())
+        notes.append(f"springs held at springref: {held}")
+    spec = Spec(tuple(closures) + tuple(rows), tuple(inputs), home=dict(b.home))
+    layout = QposLayout(int(m.nq), tuple(b.entries), tuple(map(float, b.qhome)))
+    source = MjcfSource(path, layout, springs, tuple(skipped), b.home_name, tuple(notes),
+                        _deepest_body(tree, set(b.bodies)))  # fmt: skip
+    return tree, spec, source
+
+
+def _deepest_body(tree: Tree, bodies: set[str]) -> str:
+    """The leaf body (anchor, site and input links aside) with the most movable joints
+    between it and the root; the first in the file among equals."""
+    parents = {j.child: j for j in tree.joints}
+    inner = {j.parent for j in tree.joints if j.child in bodies or "~" in j.child}
+    best, rank = tree.links[-1], -1
+    for link in tree.links:
+        if link not in bodies or link in inner:
+            continue
+        n, at = 0, link
+        while at in parents:
+            n += parents[at].movable
+            at = parents[at].parent
+        if n > rank:
+            best, rank = link, n
+    return best
