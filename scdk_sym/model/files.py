@@ -42,7 +42,9 @@ def read_description(path: str | PathLike[str]) -> tuple[Tree, Spec, str, str]:
         if not urdf_path.exists():
             urdf_path = p.parent / "robot.urdf"
     elif not p.exists():
-        raise ModelError("not found: expected a model directory, a .yaml file or an MJCF .xml file", str(p))
+        raise ModelError(
+            "not found: expected a model directory, a .yaml file or an MJCF .xml file", str(p)
+        )
     else:
         raise ModelError("expected a model directory, a .yaml file or an MJCF .xml file", str(p))
     if not urdf_path.exists():
