@@ -41,6 +41,7 @@ from .track import read_thetas
 #: The command modules, in the order ``scdk --help`` lists their commands (each registers its
 #: commands in :data:`COMMANDS` when imported).
 COMMAND_MODULES = (
+    "info",
     "solve",
     "codegen",
     "modes",

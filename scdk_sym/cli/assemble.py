@@ -62,6 +62,12 @@ def _assemble(args: argparse.Namespace) -> int:
     joints = model.file_joints(model.home)
     print(f"home closes every loop to {model.home.residual:.1e}")
     if args.write:
+        if model.source is not None:
+            raise OutputError(
+                "an MJCF model's home is its keyframe 'home' (or qpos0): write the printed "
+                "configuration's qpos there",
+                model.path,
+            )
         if model.path is None:
             raise OutputError("the model has no YAML file to write 'home' into", "model")
         write_home(Path(model.path), joints)

@@ -148,11 +148,26 @@ def backend_of(name: str, function: str) -> str:
 
 def add_model_args(p: argparse.ArgumentParser) -> None:
     """The model argument and the options every model command takes (``--frame``, ``-v``)."""
-    p.add_argument("model", help="model directory (robot.urdf + robot.yaml) or its YAML file")
+    p.add_argument(
+        "model",
+        help="model directory (robot.urdf + robot.yaml), its YAML file, or an MJCF .xml file",
+    )
     p.add_argument(
         "--frame",
         metavar="LINK",
         help="link whose pose is reported (default: the YAML's platform)",
+    )
+    p.add_argument(
+        "--inputs",
+        metavar="J1,J2",
+        help="joints given as theta instead of the model's actuated ones (motors plus "
+        "measured springs, or output joints so that the motors become unknowns)",
+    )
+    p.add_argument(
+        "--lock",
+        metavar="J=V,...",
+        help="joints held at values [rad or length unit] (an MJCF file's springs are held at "
+        "springref unless named here or in --inputs)",
     )
     p.add_argument(
         "-v",
@@ -166,10 +181,33 @@ def load(args: argparse.Namespace):
     """The model named on the command line (a note on its reduction with ``--verbose``)."""
     from ..robot import load_model
 
-    model = load_model(args.model, frame=args.frame)
-    if model.reduction and getattr(args, "verbose", False):
-        print(f"note: {model.reduction}", file=sys.stderr)
+    inputs = getattr(args, "inputs", None)
+    names = [n.strip() for n in inputs.split(",") if n.strip()] if inputs else None
+    model = load_model(args.model, frame=args.frame, inputs=names, locked=_locks(args))
+    if getattr(args, "verbose", False):
+        held = ", ".join(f"{k} = {v:g}" for k, v in model.held.items())
+        notes = [model.reduction, model.assembly, *getattr(model.source, "notes", ())]
+        notes.append(f"joints held (springs at springref, --lock): {held}" if held else "")
+        for note in filter(None, notes):
+            print(f"note: {note}", file=sys.stderr)
     return model
+
+
+def _locks(args: argparse.Namespace) -> dict[str, float] | None:
+    """``--lock J=V,...`` as a mapping."""
+    text = getattr(args, "lock", None)
+    if not text:
+        return None
+    out = {}
+    for item in text.split(","):
+        name, eq, value = item.partition("=")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            eq = ""
+        if not eq or not name.strip():
+            raise InputError(f"--lock: expected NAME=VALUE pairs separated by commas, got {item!r}")
+    return out
 
 
 def label(model) -> str:

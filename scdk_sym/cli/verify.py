@@ -24,7 +24,8 @@ def _verify_args(p: argparse.ArgumentParser) -> None:
 
 @command(
     "verify",
-    "cross-check the model: frame placements and closures against Pinocchio, Jacobians "
+    "cross-check the model: frame placements and closures against Pinocchio (an MJCF model: "
+    "against MuJoCo itself), Jacobians "
     "against finite differences (exit 1 when a check fails)",
     _verify_args,
     "scdk verify models/planar_hexa --samples 5",

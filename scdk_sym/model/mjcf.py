@@ -65,9 +65,13 @@ class MjcfSource:
         path: the file.
         layout: where each MJCF joint sits in MuJoCo's ``qpos``.
         springs: spring joints held at ``springref`` -> value [rad or m].
+        preloaded: the springs whose ``springref`` lies outside their range -> a label.
         skipped: labels of the inactive equalities.
         home_name: ``"keyframe 'home'"`` or ``"qpos0"``.
         notes: lines saying what loading decided.
+        equalities: the closure index of each active equality, in MuJoCo's order (the
+            model's closures hold the frame closures first, then the couplings).
+        bodies: MuJoCo's body names by body id (``world`` first); each is a link.
         frame: the default reported link: the leaf body with the most joints above it.
         settle_home: home is projected onto the closures and moved off a singular
             configuration (see :mod:`scdk_sym.robot.home`).
@@ -76,10 +80,13 @@ class MjcfSource:
     path: str
     layout: QposLayout
     springs: Mapping[str, float] = field(default_factory=dict)
+    preloaded: Mapping[str, str] = field(default_factory=dict)
     skipped: tuple[str, ...] = ()
     home_name: str = "qpos0"
     notes: tuple[str, ...] = ()
     frame: str | None = None
+    equalities: tuple[int, ...] = ()
+    bodies: tuple[str, ...] = ()
     settle_home: bool = True
 
     @property
@@ -156,7 +163,7 @@ def _names(m: Any, kind: str, count: int, fallback: str) -> list[str]:
     out = []
     for i in range(count):
         name = mujoco.mj_id2name(m, obj, i)
-        out.append(name if name else f"{fallback}{i}")
+        out.append(name if name else (f"{fallback}{i}" if fallback else ""))
     return out
 
 
@@ -325,41 +332,49 @@ class _Builder:
         """The active equalities as closures (frames first, couplings last) and the labels
         of the inactive ones."""
         m = self.m
-        eqnames = _names(m, "EQUALITY", m.neq, "equality")
+        eqnames = _names(m, "EQUALITY", m.neq, "")  # unnamed: labelled by their ends
         frames, couplings, skipped = [], [], []
+        order: list[tuple[str, int]] = []  # each active equality: (frames|couplings, index)
         for e in range(m.neq):
             kind, name = int(m.eq_type[e]), eqnames[e]
+            tag = name or f"eq{e}"
             data = np.array(m.eq_data[e], dtype=float)
             o1, o2 = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
             if not m.eq_active0[e]:
-                skipped.append(name)
+                skipped.append(name or f"equality {e}")
                 continue
             if kind in (CONNECT, WELD):
-                frames.append(self._frame_closure(e, kind, name, data, o1, o2))
+                order.append(("f", len(frames)))
+                frames.append(self._frame_closure(e, kind, name, tag, data, o1, o2))
             elif kind == JOINT:
+                order.append(("c", len(couplings)))
                 couplings.append(self._joint_coupling(name, data, o1, o2))
             elif kind == TENDON:
+                order.append(("c", len(couplings)))
                 couplings.append(self._tendon_coupling(name, data, o1, o2))
             else:
                 raise ModelError(
-                    f"equality {name!r} is of a kind with no kinematic closure here (MuJoCo "
+                    f"equality {tag!r} is of a kind with no kinematic closure here (MuJoCo "
                     f"type {kind}); supported: connect, weld, joint, tendon",
                     self.path,
                 )
+        self.equalities = tuple(i if k == "f" else len(frames) + i for k, i in order)
         return frames + couplings, skipped
 
-    def _frame_closure(self, e: int, kind: int, name: str, data, o1: int, o2: int) -> Closure:
+    def _frame_closure(
+        self, e: int, kind: int, name: str, tag: str, data, o1: int, o2: int
+    ) -> Closure:
         m = self.m
         if m.eq_objtype[e] == OBJ_SITE:
             a, b = self._site(o1), self._site(o2)
             return Closure(a, b, "3d" if kind == CONNECT else "6d", name=name)
         if kind == CONNECT:
-            a = self._frame(o1, data[0:3], f"{name}.1")
-            b = self._frame(o2, data[3:6], f"{name}.2")
+            a = self._frame(o1, data[0:3], f"{tag}.1")
+            b = self._frame(o2, data[3:6], f"{tag}.2")
             return Closure(a, b, "3d", name=name)
         # weld: body1's frame moved by relpose against body2's at its anchor
-        a = self._frame(o1, data[3:6], f"{name}.1", data[6:10])
-        b = self._frame(o2, data[0:3], f"{name}.2")
+        a = self._frame(o1, data[3:6], f"{tag}.1", data[6:10])
+        b = self._frame(o2, data[0:3], f"{tag}.2")
         return Closure(a, b, "6d", name=name)
 
     def _joint_coupling(self, name: str, data, o1: int, o2: int) -> Closure:
@@ -444,15 +459,22 @@ class _Builder:
                 inputs.append(name)
         return inputs, rows
 
-    def springs(self, inputs: Sequence[str]) -> dict[str, float]:
-        """Hinges and slides with ``stiffness > 0`` that no actuator drives -> springref."""
+    def springs(self, inputs: Sequence[str]) -> tuple[dict[str, float], dict[str, str]]:
+        """Hinges and slides with ``stiffness > 0`` that no actuator drives -> springref, and
+        those whose springref lies outside their range -> why they cannot be held there (a
+        preloaded spring pressing its joint against a limit or a contact: what holds that
+        freedom is an inequality, not a closure)."""
         m = self.m
-        out = {}
+        out, outside = {}, {}
         for j in range(m.njnt):
             name = self.jnames[j]
             if m.jnt_type[j] in (HINGE, SLIDE) and m.jnt_stiffness[j] > 0 and name not in inputs:
-                out[name] = float(m.qpos_spring[m.jnt_qposadr[j]])
-        return out
+                ref = float(m.qpos_spring[m.jnt_qposadr[j]])
+                out[name] = ref
+                lo, hi = m.jnt_range[j]
+                if m.jnt_limited[j] and not lo <= ref <= hi:
+                    outside[name] = f"{name} (springref {ref:g} outside its range [{lo:g}, {hi:g}])"
+        return out, outside
 
 
 def describe(m: Any, path: str) -> tuple[Tree, Spec, MjcfSource]:
@@ -467,33 +489,41 @@ def describe(m: Any, path: str) -> tuple[Tree, Spec, MjcfSource]:
                          "chain", path)  # fmt: skip
     if not inputs:
         raise ModelError("no actuator: give the inputs (inputs=[joint names])", path)
-    springs = b.springs(inputs)
+    springs, outside = b.springs(inputs)
     notes = list(b.notes)
     if skipped:
         notes.append(f"inactive equalities skipped: {', '.join(skipped)}")
-    if springs:
-        held = ", ".join(f"{k} at {v:g}" for k, v in springs.items())
-        notes.append(f"springs held at springref: {held}")
     spec = Spec(tuple(closures) + tuple(rows), tuple(inputs), home=dict(b.home))
     layout = QposLayout(int(m.nq), tuple(b.entries), tuple(map(float, b.qhome)))
-    source = MjcfSource(path, layout, springs, tuple(skipped), b.home_name, tuple(notes),
-                        _deepest_body(tree, set(b.bodies)))  # fmt: skip
+    source = MjcfSource(
+        path,
+        layout,
+        springs=springs,
+        preloaded=outside,
+        skipped=tuple(skipped),
+        home_name=b.home_name,
+        notes=tuple(notes),
+        frame=_deepest_body(tree, set(b.bodies)),
+        equalities=b.equalities,
+        bodies=tuple(b.bodies),
+    )
     return tree, spec, source
 
 
 def _deepest_body(tree: Tree, bodies: set[str]) -> str:
     """The leaf body (anchor, site and input links aside) with the most movable joints
-    between it and the root; the first in the file among equals."""
+    between it and the root, then the most bodies; the first in the file among equals."""
     parents = {j.child: j for j in tree.joints}
     inner = {j.parent for j in tree.joints if j.child in bodies or "~" in j.child}
-    best, rank = tree.links[-1], -1
+    best, rank = tree.links[-1], (-1, -1)
     for link in tree.links:
         if link not in bodies or link in inner:
             continue
-        n, at = 0, link
+        n, depth, at = 0, 0, link
         while at in parents:
             n += parents[at].movable
+            depth += 1
             at = parents[at].parent
-        if n > rank:
-            best, rank = link, n
+        if (n, depth) > rank:
+            best, rank = link, (n, depth)
     return best

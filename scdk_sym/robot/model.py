@@ -1216,6 +1216,13 @@ class Model:
             raise OutputError(f"cannot save the model: {exc.strerror or exc}", d) from exc
         return d
 
+    def info(self) -> str:
+        """What the model is made of, as text (``scdk info``): inputs, unknowns, closures,
+        held joints and springs, home, joint ranges, blocks, the reduction made."""
+        from .info import describe
+
+        return describe(self)
+
     def __repr__(self) -> str:
         return (
             f"Model({self.name!r}, actuated={list(self.actuated)}, unknowns={list(self.unknowns)}, "
@@ -1254,12 +1261,33 @@ def load_model(
 
         tree, spec, source = read_mjcf(path)
         chosen = set(inputs) if inputs is not None and not isinstance(inputs, str) else set()
+        chosen |= set(locked or {})
         held = {k: v for k, v in source.springs.items() if k not in chosen}
+        preloaded = [label for k, label in source.preloaded.items() if k not in chosen]
+        if preloaded:
+            _refuse_preloaded(tree, spec, str(path), source, preloaded, held, inputs)
         held.update(locked or {})
         return Model(tree, spec, str(path), frame or source.frame, inputs=inputs, locked=held,
                      source=source)  # fmt: skip
     tree, spec, yaml_path, urdf_text = read_description(path)
     return Model(tree, spec, yaml_path, frame, urdf_text, inputs=inputs, locked=locked)
+
+
+def _refuse_preloaded(tree, spec, path, source, preloaded, held, inputs) -> None:
+    """Refuse springs that cannot be held at their springref, naming the freedoms they hold
+    (the reduction's message with them free)."""
+    free = {k: v for k, v in held.items() if k not in source.preloaded}
+    names = ", ".join(preloaded)
+    fix = "lock them at values that assemble (locked={...}) or give them as inputs (inputs=[...])"
+    try:
+        Model(tree, spec, path, source.frame, inputs=inputs, locked=free, source=source)
+    except ModelError as exc:
+        raise ModelError(
+            f"springs {names} cannot be held at springref, and without them: "
+            f"{str(exc).removeprefix(path + ': ')}; {fix}",
+            path,
+        ) from exc
+    raise ModelError(f"springs {names} cannot be held at springref; {fix}", path)
 
 
 def model_from_tree(tree: Tree, spec: Spec, frame: str | None = None) -> Model:

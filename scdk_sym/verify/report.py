@@ -26,7 +26,6 @@ from ..kernels.fastcall import model_calls
 from ..results import Configuration
 from ..robot import Model
 from ..solvers.sc import solve
-from .pinocchio import closure_residuals, placement_errors
 
 #: Kinds of checks, in report order.
 KINDS = ("placements", "closures", "jacobians")
@@ -127,6 +126,18 @@ class VerifyReport:
         }
 
 
+def _checker(model: Model) -> Any:
+    """The reference a model is checked against: MuJoCo for a model read from MJCF, else
+    Pinocchio (each a module with ``placement_errors`` and ``closure_residuals``)."""
+    if getattr(model.source, "layout", None) is not None:
+        from . import mujoco
+
+        return mujoco
+    from . import pinocchio
+
+    return pinocchio
+
+
 def _scales(model: Model, names: tuple[str, ...]) -> np.ndarray:
     """Size of a typical change of each joint coordinate: the model size for lengths
     (prismatic joints, floating translations), 1 for angles [rad]."""
@@ -225,8 +236,9 @@ def verify_model(
         y = home.y + spread * y_scale * rng.standard_normal(model.m)
         th = home.theta + spread * th_scale * rng.standard_normal(model.k)
         points.append((f"random configuration {i + 1}", y, th))
+    checker = _checker(model)
     for where, y, th in points:
-        error, frame = _worst(placement_errors(model, y, th))
+        error, frame = _worst(checker.placement_errors(model, y, th))
         checks.append(Check("placements", where, error, tol, f"frame {frame!r}"))
 
     labels = [c.label for c in model.closures]
@@ -248,7 +260,7 @@ def verify_model(
         if cfg is None:
             checks.append(Check("closures", where, math.inf, tol, why))
             continue
-        res = closure_residuals(model, cfg.coordinates)
+        res = checker.closure_residuals(model, cfg.coordinates)
         error, closure = _worst(dict(zip(labels, res.tolist(), strict=True)))
         checks.append(Check("closures", where, error, tol, f"closure {closure}"))
 
@@ -257,4 +269,7 @@ def verify_model(
             checks.append(Check("jacobians", where, math.inf, jacobian_tolerance, why))
             continue
         checks.append(_jacobian_check(model, cfg, where, jacobian_tolerance))
+        if checker.__name__.endswith("mujoco"):
+            error, item = checker.jacobian_error(model, cfg)
+            checks.append(Check("jacobians", f"{where} vs MuJoCo", error, jacobian_tolerance, item))
     return VerifyReport(model.name, tuple(checks), seed)
