@@ -333,7 +333,9 @@ class _Builder:
         of the inactive ones."""
         m = self.m
         eqnames = _names(m, "EQUALITY", m.neq, "")  # unnamed: labelled by their ends
-        frames, couplings, skipped = [], [], []
+        frames: list[Closure] = []
+        couplings: list[Closure] = []
+        skipped: list[str] = []
         order: list[tuple[str, int]] = []  # each active equality: (frames|couplings, index)
         for e in range(m.neq):
             kind, name = int(m.eq_type[e]), eqnames[e]

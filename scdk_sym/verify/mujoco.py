@@ -15,7 +15,9 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import InputError
 from ..model.mjcf import compile_kinematics, require_mujoco
+from ..model.qpos import QposLayout
 from ..robot import Model
 
 
@@ -49,12 +51,19 @@ def equality_rows(model: Model, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return np.array(d.efc_pos)[rows], J, np.array(d.efc_id)[rows]
 
 
+def _layout(model: Model) -> QposLayout:
+    layout = model.qpos_layout
+    if layout is None:
+        raise InputError(f"model {model.name!r} was not read from MJCF: check it with Pinocchio")
+    return layout
+
+
 def placement_errors(model: Model, y: np.ndarray, theta: np.ndarray) -> dict[str, float]:
     """Body -> largest difference between the model's placement and MuJoCo's (position
     [m], and rotation matrix entries times the model size) at unknowns ``y`` and inputs
     ``theta`` (closed or not: the spanning tree alone)."""
     cfg = model.configuration(y, theta)
-    _, d = forward(model, cfg.qpos)
+    _, d = forward(model, _layout(model).qpos(cfg.coordinates))
     mine = model.placements(cfg)
     size = max(1.0, model.length_scale)
     out = {}
@@ -72,7 +81,7 @@ def closure_residuals(model: Model, joints: Mapping[str, float]) -> np.ndarray:
     """(closures,) the largest |row| MuJoCo computes for each closure's equality at the joint
     coordinates ``joints`` (``Configuration.coordinates``; 0 for the coupling of a tendon
     input, which MuJoCo has no equality for)."""
-    pos, _, ids = equality_rows(model, model.qpos_layout.qpos(joints))
+    pos, _, ids = equality_rows(model, _layout(model).qpos(joints))
     out = np.zeros(len(model.closures))
     active = np.unique(ids)
     for k, e in enumerate(active):
@@ -96,10 +105,11 @@ def jacobian_error(model: Model, cfg: Any) -> tuple[float, str]:
                     [ca.jacobian(sym.g_all, sym.y), ca.jacobian(sym.g_all, sym.theta)])  # fmt: skip
     y, c = model.chart.to_local(cfg.y)
     Jy, Jt = (np.array(a, dtype=float) for a in f(y, cfg.theta, c))
-    _, J, ids = equality_rows(model, cfg.qpos)
+    _, J, ids = equality_rows(model, _layout(model).qpos(cfg.coordinates))
     m = _compiled(model.source.path)
     columns = []  # (our column of [Jy, Jt], MuJoCo dof, name)
-    for e in model.qpos_layout.entries:
+    layout = _layout(model)
+    for e in layout.entries:
         if e.kind not in ("hinge", "slide"):
             continue
         dof = int(m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, e.name)])
@@ -122,5 +132,5 @@ def jacobian_error(model: Model, cfg: Any) -> tuple[float, str]:
         return 0.0, "no hinge or slide column"
     size = max(1.0, float(np.abs(B).max()))
     diff = np.abs(A - B) / size
-    r, k = np.unravel_index(int(np.argmax(diff)), diff.shape)
+    r, k = (int(i) for i in np.unravel_index(int(np.argmax(diff)), diff.shape))
     return float(diff[r, k]), f"entry [{names[r]}, {columns[k][2]}]"
