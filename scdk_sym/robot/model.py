@@ -44,6 +44,7 @@ from ..symbolic.kinematics import link_placements
 from ..symbolic.system import Symbolic, build_symbolic
 from . import assembly
 from .assembly import assemble, closure_rows
+from .diagnosis import weld_diagnosis
 from .home import settle as settle_home
 
 #: Workspace coordinates that are angles [rad].
@@ -608,7 +609,10 @@ class Model:
         if found is None or worst > self.tolerance:
             suspects = slides_along_carrier(self.tree, self.actuated)
             hint = "add 'home' to the YAML"
-            if suspects:
+            welds = self._weld_diagnosis(c0, np.concatenate([y, theta]))
+            if welds:
+                hint = welds
+            elif suspects:
                 listed = ", ".join(f"{p} along the axis of revolute {r}" for p, r in suspects)
                 hint = (
                     f"linear actuators that slide only along their own hinge axis ({listed}) "
@@ -631,6 +635,16 @@ class Model:
             f"{found.change:.3g} ({names[far]}); write it as 'home' with `scdk assemble --write`"
         )
         return found.z[:m], found.z[m:]
+
+    def _weld_diagnosis(self, c0: np.ndarray, z: np.ndarray) -> str:
+        """A sentence when the welds are what keeps the model from assembling, else empty
+        (see :mod:`scdk_sym.robot.diagnosis`)."""
+
+        def build(closures):
+            return build_symbolic(self.tree, closures, self.actuated, self._candidates,
+                                  self.held, None, self.frame, self.workspace)  # fmt: skip
+
+        return weld_diagnosis(build, self.closures, c0, z, self.tolerance)
 
     def _nearest_turns(self, found: assembly.Assembly, names: Sequence[str]) -> assembly.Assembly:
         """``found`` with each revolute angle replaced by the equivalent one (a whole number
