@@ -20,8 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: Relative smallest kept singular value of the closure Jacobian that counts as regular.
-REGULAR_MARGIN = 1e-3
+#: Relative smallest kept singular value of the closure Jacobian that counts as regular (four
+#: orders above the rank cut-off of the square reduction, 1e-8).
+REGULAR_MARGIN = 1e-4
 #: Sizes of the perturbations tried when home is singular [rad or length unit, scaled].
 MOVES = (1e-3, 3e-3, 1e-2, 3e-2, 0.1)
 #: Perturbations tried per size.
@@ -38,11 +39,13 @@ class Settled:
         y: (m,) unknowns [rad or length unit].
         theta: (k,) inputs.
         note: one line saying what was done (empty when nothing was).
+        regular: False when home is singular and no regular configuration was found near it.
     """
 
     y: np.ndarray
     theta: np.ndarray
     note: str
+    regular: bool = True
 
 
 def project(
@@ -149,6 +152,14 @@ def settle(
             )
             yp, tp = yb, tb
             break
+    else:
+        generic = max([rank, *(s[0] for s in samples)])
+        if rank < generic or margin <= REGULAR_MARGIN:
+            notes.append(
+                f"home singular (closure rank {rank} where {generic} is generic) and no regular "
+                f"assembled configuration found within {MOVES[-1]:g} of it"
+            )
+            return Settled(yp, tp, "; ".join(notes), regular=False)
     return Settled(yp, tp, "; ".join(notes))
 
 

@@ -429,6 +429,13 @@ class Model:
                 float(check.max()),
                 self.path,
             )
+        if not done.regular:
+            raise NotAssembledError(
+                f"{done.note}: a start must be regular; give a regular home (MJCF: a keyframe "
+                "named 'home') or other inputs (inputs=[...])",
+                float(check.max()),
+                self.path,
+            )
         self.assembly = done.note or None
         return done.y, done.theta
 
@@ -558,7 +565,8 @@ class Model:
                 f"{ncols} unknown joints, {nrows} closure rows, rank {rank}: {real} freedom(s) "
                 f"left undetermined by the actuators {list(self.actuated)} move links {shown} "
                 f"(joints {names}; dependent rows {dropped}); the mechanism is under-actuated: "
-                "add the missing actuators to 'name_mot' or a closure that fixes them",
+                "add the missing actuators to 'name_mot' (or inputs=[...]), hold joints "
+                "(locked={...}), or add a closure that fixes them",
                 nrows,
                 ncols,
                 rank,
