@@ -408,3 +408,24 @@ def test_cli_info_verify_and_solve_on_an_mjcf_file(capsys) -> None:
 
     qpos = np.array(json.loads(capsys.readouterr().out)["qpos"])
     assert mujoco_residual(MJCF / "planar_fourbar.xml", qpos) <= 1e-9
+
+
+def test_redundant_rows_the_file_rounds_inconsistent_are_solved_on_an_independent_subset():
+    """Three parallel cranks, the third 3e-8 m longer: its redundant row disagrees with the
+    others by about 1e-8 away from home; solved on the others, that row reported."""
+    path = MJCF / "double_parallelogram.xml"
+    model = sc.load_model(path)
+    assert model.unchecked and "the file's rounding" in model.reduction
+    worst = float(re.search(r"by up to ([0-9.e-]+) \(the file", model.reduction).group(1))
+    assert 1e-9 < worst < 1e-7
+    assert "projected onto the closures" in model.assembly  # the keyframe, rounded to 1e-9
+    m = kinematics(path)
+    assert np.abs(model.home.qpos - np.array(m.key_qpos[0])).max() <= 1e-7  # least change
+    for backend in ("cvodes", "c"):
+        res = sc.solve(model, [0.8], start=model.home, backend=backend)
+        rows = np.abs(ref.equality_residual(m, res.qpos))
+        assert np.sort(rows)[-2] <= 1e-12  # every row but the inconsistent one closes
+        assert rows.max() <= 1e-7
+        # closed form of a parallelogram: the coupler keeps its direction, the cranks turn
+        # alike (the third to within its 3e-8 m of rounding)
+        np.testing.assert_allclose(res.qpos, [0.8, -0.8, 0.8, 0.8], rtol=0, atol=1e-6)

@@ -39,19 +39,31 @@ class Settled:
         y: (m,) unknowns [rad or length unit].
         theta: (k,) inputs.
         note: one line saying what was done (empty when nothing was).
+        subset: the independent rows home closes, when the others (redundant rows a file's
+            rounding makes inconsistent) cannot close with them; ``None``: every row closes.
         regular: False when home is singular and no regular configuration was found near it.
     """
 
     y: np.ndarray
     theta: np.ndarray
     note: str
+    subset: tuple[int, ...] | None = None
     regular: bool = True
 
 
 def project(
-    rows: Closure, y: np.ndarray, theta: np.ndarray, tol: float, steps: int = 60
+    rows: Closure,
+    y: np.ndarray,
+    theta: np.ndarray,
+    tol: float,
+    steps: int = 60,
+    subset: Sequence[int] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """Minimum-norm Gauss-Newton on the closure rows over every joint.
+
+    Directions the rows see weakly (singular values below 1e-8 of the largest: a redundant
+    row that rounding makes slightly inconsistent) take no step, so the projection stays near
+    the start instead of leaping to where every row can hold.
 
     Args:
         rows: ``(y, theta) -> (g, dg/dy, dg/dtheta)``.
@@ -59,21 +71,45 @@ def project(
         theta: (k,) inputs at the start.
         tol: stop below this residual.
         steps: most steps.
+        subset: the rows projected on (default: all).
 
     Returns:
-        ``(y, theta, residual)``: the projection and its largest closure row.
+        ``(y, theta, residual)``: the projection and its largest closure row (of ``subset``).
     """
     m = y.size
     z = np.concatenate([y, theta])
     best = np.inf
+    pick = slice(None) if subset is None else list(subset)
     for _ in range(steps):
         g, Gy, Gt = rows(z[:m], z[m:])
+        g, G = g[pick], np.hstack([Gy, Gt])[pick]
         best = float(np.abs(g).max()) if g.size else 0.0
         if best < tol:
             break
-        dz = np.linalg.lstsq(np.hstack([Gy, Gt]), -g, rcond=1e-12)[0]
+        dz = np.linalg.lstsq(G, -g, rcond=1e-8)[0]
+        if np.linalg.norm(dz) < 1e-15:
+            break
         z = z + dz
     return z[:m], z[m:], best
+
+
+def independent_rows(G: np.ndarray) -> tuple[int, ...]:
+    """Indices of a largest set of independent rows of ``G`` (pivoted Gram-Schmidt, rank cut
+    at 1e-8 of the largest row), in order."""
+    A = np.array(G, dtype=float)
+    norms = np.linalg.norm(A, axis=1)
+    top = float(norms.max()) if norms.size else 0.0
+    chosen: list[int] = []
+    while top > 0:
+        norms = np.linalg.norm(A, axis=1)
+        norms[chosen] = -1
+        i = int(np.argmax(norms))
+        if norms[i] <= 1e-8 * top:
+            break
+        chosen.append(i)
+        u = A[i] / norms[i]
+        A = A - np.outer(A @ u, u)
+    return tuple(sorted(chosen))
 
 
 def _rank_margin(G: np.ndarray) -> tuple[int, float]:
@@ -114,8 +150,13 @@ def settle(
     stated = float(np.abs(g).max()) if g.size else 0.0
     notes = []
     yp, tp = y0, th0
+    subset = None
     if stated > tol:
         yp, tp, res = project(rows, y0, th0, 1e-3 * tol)
+        if res > tol:  # redundant rows that rounding makes inconsistent: an independent set
+            _, Gy, Gt = rows(y0, th0)
+            subset = independent_rows(np.hstack([Gy, Gt]))
+            yp, tp, res = project(rows, y0, th0, 1e-3 * tol, subset=subset)
         notes.append(
             f"home closed to {stated:.2g} only; projected onto the closures (residual {res:.1e}, "
             + _change(start, np.concatenate([yp, tp]), names)
@@ -125,14 +166,14 @@ def settle(
     G = rows(yp, tp)[1]
     rank, margin = _rank_margin(G)
     if rank == min(G.shape) and margin > REGULAR_MARGIN:
-        return Settled(yp, tp, "; ".join(notes))
+        return Settled(yp, tp, "; ".join(notes), subset)
     rng = np.random.default_rng(seed)
     samples = []
     for size in MOVES:
         for _ in range(TRIES):
             d = rng.standard_normal(start.size)
             d *= size / np.linalg.norm(d)
-            ys, ts, res = project(rows, yp + d[:m], tp + d[m:], 1e-3 * tol)
+            ys, ts, res = project(rows, yp + d[:m], tp + d[m:], 1e-3 * tol, subset=subset)
             if res > tol:
                 continue
             r, mg = _rank_margin(rows(ys, ts)[1])
@@ -159,8 +200,8 @@ def settle(
                 f"home singular (closure rank {rank} where {generic} is generic) and no regular "
                 f"assembled configuration found within {MOVES[-1]:g} of it"
             )
-            return Settled(yp, tp, "; ".join(notes), regular=False)
-    return Settled(yp, tp, "; ".join(notes))
+            return Settled(yp, tp, "; ".join(notes), subset, regular=False)
+    return Settled(yp, tp, "; ".join(notes), subset)
 
 
 def _change(a: np.ndarray, b: np.ndarray, names: Sequence[str]) -> str:

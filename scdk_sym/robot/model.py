@@ -51,6 +51,9 @@ from .home import settle as settle_home
 ANGLE_COORDINATES = ("phi", "roll", "pitch", "yaw")
 #: Relative tolerance of the assembled-configuration checks (scaled by the model size).
 RESIDUAL_TOL = 1e-9
+#: Redundant closure rows may disagree with the others by this much of the model's size (a
+#: file's rounding) and be left out of the verification; more is an over-constraint.
+REDUNDANT_TOL = 1e-5
 #: A freedom the actuators leave undetermined is idle when it moves every joint by less than
 #: this fraction of the model's size per unit of motion (a spin in place; CAD exports leave
 #: offsets of a few 1e-4 m between axes meant to meet) [length unit / (rad or length unit)].
@@ -267,6 +270,10 @@ class Model:
     block: tuple[int, Any] | None = None
     #: What distinguishes a block model's cache key from its parent's (empty otherwise).
     _restriction: tuple[str, ...] = ()
+    #: Rows of the full closure system left out of the verification: redundant rows that a
+    #: file's rounding makes slightly inconsistent with the others (see
+    #: :meth:`_inconsistent_rows`); their residual is reported in :attr:`reduction`.
+    unchecked: tuple[int, ...] = ()
 
     def __init__(
         self,
@@ -322,7 +329,10 @@ class Model:
         #: ball joint -> (rotation at home (3, 3), spin axis (3,)) of the balls turned into
         #: universal joints to lock a rod's spin (see :meth:`_lock_spins`)
         self.spins: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        self._preferred: tuple[int, ...] | None = None
         self._reduce(candidates)
+        if getattr(source, "settle_home", False):
+            self.unchecked = self._inconsistent_rows()
 
     # ------------------------------------------------------------------ loading helpers
 
@@ -422,6 +432,11 @@ class Model:
         names = (*self._candidates, *self.actuated)
         done = settle_home(rows, y0, th0, names, 1e-2 * self.tolerance)
         check = np.abs(np.array(f_all(done.y, done.theta)[2])).ravel()
+        if done.subset is not None:  # the rows home closes; the others within rounding
+            g = np.abs(rows(done.y, done.theta)[0])
+            rest = float(np.delete(g, list(done.subset)).max(initial=0.0))
+            self._preferred = done.subset
+            check = g[list(done.subset)] if rest <= REDUNDANT_TOL * self.length_scale else g
         if check.max() > self.tolerance:
             raise NotAssembledError(
                 f"home does not assemble: {self._worst(check)} after a least-change projection "
@@ -438,6 +453,59 @@ class Model:
             )
         self.assembly = done.note or None
         return done.y, done.theta
+
+    def _inconsistent_rows(self, samples: int = 6, spread: float = 0.5) -> tuple[int, ...]:
+        """The dropped redundant rows that disagree with the kept ones by more than the
+        tolerance, but within rounding (:data:`REDUNDANT_TOL` of the model size), at home or
+        along continuations of the kept rows to seeded inputs up to ``spread`` away; what they
+        do is said in :attr:`reduction`. Disagreeing beyond rounding is refused.
+
+        Raises:
+            NonSquareSystemError: a dropped row disagrees beyond rounding.
+        """
+        dropped = [r for r in range(int(self.row_offsets[-1])) if r not in self.rows]
+        if not dropped:
+            return ()
+        sym = build_symbolic(self.tree, self.closures, self.actuated, self.unknowns,
+                             self.locked, self.rows, self.frame, self.workspace)  # fmt: skip
+        f = ca.Function("redundant", [sym.y, sym.theta, sym.c], [sym.g, sym.J_p, sym.g_all])
+        y0, c = self.chart.to_local(self._home_y)
+        rng = np.random.default_rng(0)
+        worst = np.abs(np.array(f(y0, self._home_theta, c)[2])).ravel()
+        for _ in range(samples):  # a continuation in 10 steps to a random nearby input
+            step = spread * rng.standard_normal(self.k) / 10
+            y = y0.copy()
+            for i in range(1, 11):
+                theta = self._home_theta + i * step
+                for _ in range(12):
+                    g, J, _ = (np.array(v) for v in f(y, theta, c))
+                    if np.abs(g).max() < 1e-14 * max(1.0, self.length_scale):
+                        break
+                    y = y - np.linalg.lstsq(J, g.ravel(), rcond=1e-12)[0]
+                else:
+                    break  # no solution of the kept rows on the way: nothing to compare
+                worst = np.maximum(worst, np.abs(np.array(f(y, theta, c)[2])).ravel())
+        bad = [r for r in dropped if worst[r] > self.tolerance]
+        if not bad:
+            return ()
+        labels = self.row_labels()
+        big = [labels[r] for r in bad if worst[r] > REDUNDANT_TOL * self.length_scale]
+        if big:
+            raise NonSquareSystemError(
+                f"redundant closure row(s) {big} disagree with the others by up to "
+                f"{worst[bad].max():.2g} away from home: the closures over-constrain the "
+                "mechanism beyond rounding; check the file's geometry or lock a joint",
+                int(self.row_offsets[-1]),
+                len(self._candidates),
+                len(self.rows),
+                self.path,
+            )
+        self.reduction = (self.reduction or "reduced to a square system") + (
+            f"; redundant row(s) {[labels[r] for r in bad]} disagree with the others by up to "
+            f"{worst[bad].max():.2g} (the file's rounding): solved on an independent subset, "
+            "those rows left out of the verification"
+        )
+        return tuple(bad)
 
     def _square_selection(self, full, f_all, G, y0, th0, c0, candidates):
         """``(rows, keep, rank, note)``: the closure rows and unknowns of a square system of
@@ -459,7 +527,10 @@ class Model:
         self._check_actuation(G, np.array(f_all(y0, th0)[4]), rank, labels)
         if rank == nrows == ncols:
             return list(range(nrows)), list(range(ncols)), rank, None
-        rows = _pivoted_selection(G.T, rank)
+        weight = np.ones(nrows)
+        if self._preferred is not None:  # rows home closes first (see :meth:`_settled`)
+            weight[[r for r in range(nrows) if r not in self._preferred]] = 1e-6
+        rows = _pivoted_selection((G * weight[:, None]).T, rank)
         keep = _pivoted_selection(G[rows], rank)
         if any("." in candidates[c] for c in range(ncols) if c not in keep):
             # lock single-coordinate joints: weigh the chart coordinates up so that the
@@ -793,6 +864,7 @@ class Model:
             self.rows,
             self.frame,
             self.workspace,
+            self.unchecked,
         )
 
     @cached_property
@@ -870,6 +942,8 @@ class Model:
         parts = [self._urdf_text, self.spec.to_yaml(), self.frame, "|".join(self.workspace)]
         if self.held:  # joints held by locked= (none: the hash of earlier releases)
             parts.append("held " + repr(sorted(self.held.items())))
+        if self.unchecked:
+            parts.append("unchecked " + repr(self.unchecked))
         for part in (*parts, *self._restriction):
             h.update(part.encode())
             h.update(b"\0")
@@ -885,6 +959,7 @@ class Model:
         rows: tuple[int, ...],
         held: dict[str, float],
         block: tuple[int, object],
+        unchecked: tuple[int, ...] = (),
     ) -> Model:
         """A model of part of ``parent``'s closure system (one independent block): its own
         unknowns, actuators, closures and rows of those closures, every other joint held at
@@ -899,6 +974,7 @@ class Model:
             rows: indices of the kept rows in the block's closure rows.
             held: every other joint coordinate -> value [rad or length unit].
             block: (index, :class:`~scdk_sym.robot.blocks.Block`) of the block.
+            unchecked: rows of the block's closure rows left out of the verification.
         """
         sub = cls.__new__(cls)
         for name in ("tree", "spec", "path", "name", "_urdf_text", "frame", "workspace", "held"):
@@ -906,6 +982,7 @@ class Model:
         for name in ("length_scale", "tolerance", "reduction", "assembly", "spins", "source"):
             setattr(sub, name, getattr(parent, name))
         sub.closures, sub.unknowns, sub.actuated, sub.rows = closures, unknowns, actuated, rows
+        sub.unchecked = unchecked
         sub.locked = dict(held)
         sub._candidates = unknowns
         sub.chart = Chart.for_unknowns(unknowns, parent.tree.rotation_joints)

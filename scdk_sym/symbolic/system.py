@@ -71,6 +71,7 @@ def build_symbolic(
     rows: Sequence[int] | None,
     frame: str,
     workspace: tuple[str, ...],
+    unchecked: Sequence[int] = (),
 ) -> Symbolic:
     """Build the symbolic system.
 
@@ -83,6 +84,9 @@ def build_symbolic(
         rows: indices of ``g_all`` rows kept in ``g`` (``None``: all).
         frame: link whose placement is ``pose``.
         workspace: workspace coordinate names of ``x``.
+        unchecked: rows of ``g_all`` whose verification rows are zero (redundant rows a
+            file's rounding makes slightly inconsistent; a weld's rotation row takes its
+            rotation matrix rows with it).
     """
     y = ca.SX.sym("y", len(unknowns))
     theta = ca.SX.sym("theta", len(actuated))
@@ -106,9 +110,17 @@ def build_symbolic(
     g_all = ca.vertcat(
         *[closure_residual(cl, T[cl.frame_a], T[cl.frame_b], values) for cl in closures]
     )
-    g_check = ca.vertcat(
-        *[closure_check(cl, T[cl.frame_a], T[cl.frame_b], values) for cl in closures]
-    )
+    checks, start = [], 0
+    for cl in closures:
+        rows_c = closure_check(cl, T[cl.frame_a], T[cl.frame_b], values)
+        off = [r - start for r in unchecked if start <= r < start + cl.rows]
+        if cl.type == "6d" and any(r >= 3 for r in off):
+            off += list(range(6, 15))
+        for r in off:
+            rows_c[r] = 0
+        checks.append(rows_c)
+        start += cl.rows
+    g_check = ca.vertcat(*checks)
     g = g_all if rows is None else g_all[list(rows)]
     return Symbolic(
         y=y,
