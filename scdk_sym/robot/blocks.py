@@ -166,4 +166,11 @@ def _block_model(model: Model, block: Block, index: int) -> Model:
         ci = owner[full]
         rows.append(offsets[ci] + int(full - model.row_offsets[ci]))
     closures = tuple(model.closures[ci] for ci in block.closures)
-    return Model.restricted(model, unknowns, actuated, closures, tuple(rows), held, (index, block))
+    unchecked = tuple(
+        offsets[owner[r]] + int(r - model.row_offsets[owner[r]])
+        for r in model.unchecked
+        if owner[r] in offsets
+    )
+    return Model.restricted(
+        model, unknowns, actuated, closures, tuple(rows), held, (index, block), unchecked
+    )

@@ -154,12 +154,14 @@ def distance_model(model: Model, rods: tuple[Rod, ...]) -> Model | None:
     welds = {rod.closure for rod in rods}
     closures: list[Closure] = []
     rows: list[int] = []
+    unchecked: list[int] = []
     start = 0
     for ci, c in enumerate(model.closures):
         if ci in welds:
             continue
         lo = int(model.row_offsets[ci])
         rows += [start + r - lo for r in model.rows if lo <= r < lo + c.rows]
+        unchecked += [start + r - lo for r in model.unchecked if lo <= r < lo + c.rows]
         closures.append(c)
         start += c.rows
     for rod in rods:
@@ -170,7 +172,7 @@ def distance_model(model: Model, rods: tuple[Rod, ...]) -> Model | None:
         return None
     sub = Model.restricted(
         model, unknowns, model.actuated, tuple(closures), tuple(rows), held,
-        model.block if model.block is not None else (0, None),
+        model.block if model.block is not None else (0, None), tuple(unchecked),
     )  # fmt: skip
     sub._restriction = (*model._restriction, "rods", *(c.label for c in closures))
     return sub
