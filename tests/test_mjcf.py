@@ -429,3 +429,21 @@ def test_redundant_rows_the_file_rounds_inconsistent_are_solved_on_an_independen
         # closed form of a parallelogram: the coupler keeps its direction, the cranks turn
         # alike (the third to within its 3e-8 m of rounding)
         np.testing.assert_allclose(res.qpos, [0.8, -0.8, 0.8, 0.8], rtol=0, atol=1e-6)
+
+
+def test_joints_only_a_passive_tendons_limits_hold_are_refused_and_locked_resolves_it():
+    path = MJCF / "tendon_limited.xml"
+    with pytest.raises(NonSquareSystemError) as info:
+        sc.load_model(path)
+    assert "tendon 'stop': right" in str(info.value) and "\n" not in str(info.value)
+    # MuJoCo agrees: with the motor held, the equality Jacobian leaves one freedom
+    m = kinematics(path)
+    dofs = ref.solved_dofs(m, ["left"])
+    sv = np.linalg.svd(ref.equality_jacobian(m, np.array(m.qpos0))[:, dofs], compute_uv=False)
+    assert len(dofs) - int(np.sum(sv > 1e-8 * sv[0])) == 1
+    for kwargs, theta in (({"locked": {"right": 0.05}}, [0.1]), ({"inputs": ["left", "right"]},
+                                                                  [0.1, 0.05])):  # fmt: skip
+        model = sc.load_model(path, **kwargs)
+        res = sc.solve(model, theta, start=model.home)
+        assert mujoco_residual(path, res.qpos) <= 1e-9
+        assert res.joints["right"] == pytest.approx(0.05, abs=1e-15)

@@ -66,6 +66,7 @@ class MjcfSource:
         layout: where each MJCF joint sits in MuJoCo's ``qpos``.
         springs: spring joints held at ``springref`` -> value [rad or m].
         preloaded: the springs whose ``springref`` lies outside their range -> a label.
+        passive_tendons: limited fixed tendons no actuator or equality uses -> their joints.
         skipped: labels of the inactive equalities.
         home_name: ``"keyframe 'home'"`` or ``"qpos0"``.
         notes: lines saying what loading decided.
@@ -81,6 +82,7 @@ class MjcfSource:
     layout: QposLayout
     springs: Mapping[str, float] = field(default_factory=dict)
     preloaded: Mapping[str, str] = field(default_factory=dict)
+    passive_tendons: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
     skipped: tuple[str, ...] = ()
     home_name: str = "qpos0"
     notes: tuple[str, ...] = ()
@@ -461,6 +463,25 @@ class _Builder:
                 inputs.append(name)
         return inputs, rows
 
+    def limited_tendons(self, inputs: Sequence[str]) -> dict[str, tuple[str, ...]]:
+        """Fixed tendons with limits that no actuator or equality uses -> their joints: what
+        holds those joints in a simulation is an inequality, not a closure."""
+        m = self.m
+        used = {int(m.actuator_trnid[a][0]) for a in range(m.nu)
+                if m.actuator_trntype[a] == TRN_TENDON}  # fmt: skip
+        used |= {int(m.eq_obj1id[e]) for e in range(m.neq) if m.eq_type[e] == TENDON}
+        used |= {int(m.eq_obj2id[e]) for e in range(m.neq) if m.eq_type[e] == TENDON}
+        names = _names(m, "TENDON", m.ntendon, "tendon")
+        out = {}
+        for t in range(m.ntendon):
+            if t in used or not m.tendon_limited[t]:
+                continue
+            adr, num = int(m.tendon_adr[t]), int(m.tendon_num[t])
+            if all(m.wrap_type[w] == WRAP_JOINT for w in range(adr, adr + num)):
+                joints = tuple(self.jnames[int(m.wrap_objid[w])] for w in range(adr, adr + num))
+                out[names[t]] = tuple(j for j in joints if j not in inputs)
+        return out
+
     def springs(self, inputs: Sequence[str]) -> tuple[dict[str, float], dict[str, str]]:
         """Hinges and slides with ``stiffness > 0`` that no actuator drives -> springref, and
         those whose springref lies outside their range -> why they cannot be held there (a
@@ -502,6 +523,7 @@ def describe(m: Any, path: str) -> tuple[Tree, Spec, MjcfSource]:
         layout,
         springs=springs,
         preloaded=outside,
+        passive_tendons=b.limited_tendons(inputs),
         skipped=tuple(skipped),
         home_name=b.home_name,
         notes=tuple(notes),

@@ -1366,10 +1366,35 @@ def load_model(
         if preloaded:
             _refuse_preloaded(tree, spec, str(path), source, preloaded, held, inputs)
         held.update(locked or {})
-        return Model(tree, spec, str(path), frame or source.frame, inputs=inputs, locked=held,
-                     source=source)  # fmt: skip
+        try:
+            return Model(tree, spec, str(path), frame or source.frame, inputs=inputs,
+                         locked=held, source=source)  # fmt: skip
+        except NonSquareSystemError as exc:
+            _name_passive_tendons(exc, source, held)
+            raise
     tree, spec, yaml_path, urdf_text = read_description(path)
     return Model(tree, spec, yaml_path, frame, urdf_text, inputs=inputs, locked=locked)
+
+
+def _name_passive_tendons(exc: NonSquareSystemError, source: Any, held: Mapping) -> None:
+    """Raise ``exc`` again naming the passive tendons whose limits alone would hold the
+    freedoms it reports (limits are inequalities, not closures), if there are such."""
+    text = str(exc)
+    named = {t: [j for j in joints if repr(j) in text and j not in held]
+             for t, joints in source.passive_tendons.items()}  # fmt: skip
+    named = {t: js for t, js in named.items() if js}
+    if not named:
+        return
+    listed = "; ".join(f"tendon {t!r}: {', '.join(js)}" for t, js in named.items())
+    raise NonSquareSystemError(
+        f"{text.removeprefix(str(exc.path) + ': ')}; joints held only by the limits of a "
+        f"passive tendon ({listed}), an inequality, not a closure: lock them (locked={{...}}) "
+        "or make them inputs (inputs=[...])",
+        exc.rows,
+        exc.unknowns,
+        exc.rank,
+        exc.path,
+    ) from exc
 
 
 def _refuse_preloaded(tree, spec, path, source, preloaded, held, inputs) -> None:
