@@ -18,7 +18,9 @@ fixtures (``frame="effector"``) are checked with Pinocchio alone: ``3d`` closure
 difference of the frame origins, ``6d`` as ``log6`` of the relative placement, on the
 Pinocchio ``q`` of a result's ``joints``; they have no closed-form inverse kinematics, so their
 assembled configurations come from a walk on the closure manifold (tangent steps and
-minimum-norm Gauss-Newton corrections).
+minimum-norm Gauss-Newton corrections). The MJCF fixtures of :data:`MJCF_NAMES` are walked
+the same way on MuJoCo's own kinematics (compiled by MuJoCo, the closure the equality rows of
+``efc_pos``, on MuJoCo's ``qpos``).
 
 The fuzz driver (:func:`draw_scenarios`, :func:`run_solves`, :func:`draw_tracks`,
 :func:`run_tracks`, :func:`fuzz`) draws, seeded, a start and a target ``theta0`` with a known
@@ -46,6 +48,7 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "models"
 GEPETTO = Path(__file__).resolve().parent / "fixtures" / "gepetto"
+MJCF = Path(__file__).resolve().parent / "fixtures" / "mjcf"
 #: Shipped models (models/<name>).
 SHIPPED = (
     "planar_hexa",
@@ -63,9 +66,20 @@ GEPETTO_NAMES = ("5bar_linkage", "5bar_linkage_iso3d", "5bar_linkage_iso6d", "ro
 GEPETTO_LEGGED = ("cassie_like", "digit_like", "disney_like", "talos_like", "wl16_like")
 #: The models fuzzed by default.
 NAMES = SHIPPED + GEPETTO_NAMES
+#: MJCF fixtures (tests/fixtures/mjcf/<name>.xml) whose joints are all hinges or slides and
+#: whose actuators drive joints directly, loaded with no option (the pose reported is the
+#: model's frame, an MJCF body); checked against MuJoCo itself (:class:`MjcfReference`).
+MJCF_NAMES = ("planar_fourbar", "fourbar_sites", "weld_loop")
+#: Models with no direct-kinematic singularity on their closure manifold, so no scenario or
+#: track across (or next to) a singular surface can be drawn: the two Grashof crank-rocker
+#: four-bars, whose transmission angle stays within (52, 93) and (42, 93) degrees over the
+#: whole crank turn (coupler and rocker are never aligned) in either assembly mode.
+NO_SINGULAR = frozenset({"planar_fourbar", "fourbar_sites"})
+#: Scenario kinds that need a singular surface (not drawn for :data:`NO_SINGULAR`).
+SINGULAR_KINDS = ("across", "near_singular")
 #: Every model the fuzz can draw for; a new name goes last (each model's draws are seeded by
 #: its index here).
-ALL_NAMES = NAMES + GEPETTO_LEGGED
+ALL_NAMES = NAMES + GEPETTO_LEGGED + MJCF_NAMES
 
 #: Closure residual accepted as a solution [model length unit or rad].
 RESIDUAL_TOL = 1e-7
@@ -587,8 +601,12 @@ class GepettoReference(Reference):
         self.scale = 1.0
         self.home_q = self.q_of(home_joints)
         self.home_theta = self.home_q[self.motors]
+        self.rows = self._independent_rows()
+
+    def _independent_rows(self) -> list[int]:
+        """The closure rows that are not redundant at home: pivoted Gram-Schmidt on the rows
+        of the Jacobian over the free joints and motors (as many as free joints, or raise)."""
         J = self._jac(self.home_q, self.free + self.motors)
-        # independent rows: pivoted Gram-Schmidt on the rows of the full Jacobian at home
         rows, basis = [], []
         for i in np.argsort(-np.linalg.norm(J, axis=1)):
             v = J[i].copy()
@@ -597,9 +615,9 @@ class GepettoReference(Reference):
             if np.linalg.norm(v) > 1e-8 * np.linalg.norm(J):
                 rows.append(int(i))
                 basis.append(v / np.linalg.norm(v))
-        self.rows = sorted(rows)
-        if len(self.rows) != len(self.free):
-            raise ValueError(f"{name}: {len(self.rows)} independent rows, {len(self.free)} free")
+        if len(rows) != len(self.free):
+            raise ValueError(f"{self.name}: {len(rows)} independent rows, {len(self.free)} free")
+        return sorted(rows)
 
     def q_of(self, joints: Mapping[str, float]) -> np.ndarray:
         q = np.zeros(self.pm.nq)
@@ -738,6 +756,142 @@ class GepettoReference(Reference):
         return path
 
 
+class MjcfReference(GepettoReference):
+    """MJCF fixtures: MuJoCo's own kinematics on MuJoCo's qpos (no scdk_sym).
+
+    The file is compiled by MuJoCo (``MjModel.from_xml_path``) with contacts, limits and
+    friction loss disabled, so that the only constraint rows of ``mj_forward`` are the
+    equalities. ``q`` is MuJoCo's qpos (joint names from ``mj_id2name``, addresses from
+    ``jnt_qposadr``); the closure is the ``efc_pos`` rows of type ``mjCNSTR_EQUALITY``, its
+    Jacobian the matching ``efc_J`` rows (a weld's rotation rows signed, see
+    :meth:`jacobian`); the effector pose is ``xpos`` / ``xmat`` of the body ``frame``; the
+    actuated joints are the joints the MJCF actuators drive (``actuator_trnid``), in the
+    actuators' order. Only hinges and slides, and actuators on joints, are accepted (every
+    joint one qpos coordinate).
+
+    Args:
+        name: fixture name (tests/fixtures/mjcf/<name>.xml).
+        home_joints: joint name -> qpos value of the configuration the walks start from.
+        locked: joints held at fixed values -> value.
+        frame: the body whose pose is reported.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        home_joints: Mapping[str, float],
+        locked: Mapping[str, float],
+        frame: str,
+    ):
+        import mujoco
+
+        self.mj = mujoco
+        self.name = name
+        self.path = MJCF / f"{name}.xml"
+        m = mujoco.MjModel.from_xml_path(str(self.path))
+        off = mujoco.mjtDisableBit
+        m.opt.disableflags |= off.mjDSBL_CONTACT | off.mjDSBL_LIMIT | off.mjDSBL_FRICTIONLOSS
+        m.opt.disableflags &= ~(off.mjDSBL_CONSTRAINT | off.mjDSBL_EQUALITY)
+        m.opt.jacobian = mujoco.mjtJacobian.mjJAC_DENSE
+        self.mm, self.md = m, mujoco.MjData(m)
+        scalar = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+        if not all(int(t) in scalar for t in m.jnt_type):
+            raise ValueError(f"{name}: a joint is not a hinge or a slide")
+        assert np.array_equal(m.jnt_qposadr, m.jnt_dofadr)  # so efc_J's columns index q
+        if not all(int(t) == int(mujoco.mjtTrn.mjTRN_JOINT) for t in m.actuator_trntype):
+            raise ValueError(f"{name}: an actuator does not drive a joint")
+        for e in range(m.neq):  # _row_signs reads the bodies' quaternions
+            if int(m.eq_type[e]) == int(mujoco.mjtEq.mjEQ_WELD) and int(m.eq_objtype[e]) != int(
+                mujoco.mjtObj.mjOBJ_BODY
+            ):
+                raise ValueError(f"{name}: a weld between sites")
+        obj = mujoco.mjtObj.mjOBJ_JOINT
+        self.names = [mujoco.mj_id2name(m, obj, j) for j in range(m.njnt)]
+        self.index = {n: int(m.jnt_qposadr[j]) for j, n in enumerate(self.names)}
+        self.actuated = tuple(self.names[int(m.actuator_trnid[a, 0])] for a in range(m.nu))
+        self.k = len(self.actuated)
+        self.motors = [self.index[n] for n in self.actuated]
+        self.locked = {n: float(v) for n, v in locked.items()}
+        self.unknowns = [n for n in self.names if n not in self.actuated and n not in self.locked]
+        self.free = [self.index[n] for n in self.unknowns]
+        self.effector = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, frame)
+        if self.effector < 0:
+            raise ValueError(f"{name}: no body {frame!r}")
+        self.equality = int(mujoco.mjtConstraint.mjCNSTR_EQUALITY)
+        self.scale = 1.0
+        self.home_q = self.q_of(home_joints)
+        self.home_theta = self.home_q[self.motors]
+        self.rows = self._independent_rows()
+
+    def q_of(self, joints: Mapping[str, float]) -> np.ndarray:
+        q = np.zeros(self.mm.nq)
+        for n in self.names:
+            q[self.index[n]] = joints[n]
+        return q
+
+    def _forward(self, q: np.ndarray) -> None:
+        d = self.md
+        d.qpos[:] = q
+        d.qvel[:] = 0.0
+        self.mj.mj_forward(self.mm, d)
+
+    def residual_q(self, q: np.ndarray) -> np.ndarray:
+        self._forward(q)
+        d = self.md
+        rows = np.asarray(d.efc_type[: d.nefc]) == self.equality
+        return np.asarray(d.efc_pos[: d.nefc])[rows].copy()
+
+    def _jac(self, q, cols, h=None) -> np.ndarray:
+        """d residual_q / dq[cols]: MuJoCo's ``efc_J`` equality rows (hinges and slides only,
+        so the dofs are the qpos coordinates)."""
+        self._forward(q)
+        d = self.md
+        rows = np.asarray(d.efc_type[: d.nefc]) == self.equality
+        J = np.asarray(d.efc_J[: d.nefc * self.mm.nv]).reshape(d.nefc, self.mm.nv)
+        return J[rows][:, cols]
+
+    def jacobian(self, u, theta) -> np.ndarray:
+        """The Gepetto Jacobian, a weld's rotation rows times the sign of the real part of its
+        error quaternion: MuJoCo's rows ``Im(conj(q2) q1 relquat)`` vanish both where that
+        quaternion is +1 and where it is -1 (the same rotation, e.g. past a turn of a hinge),
+        with opposite derivatives; the sign keeps ``det`` continuous on the manifold."""
+        q = np.array(u, dtype=float)
+        q[self.motors] = theta
+        return super().jacobian(u, theta) * self._row_signs(q)[self.rows, None]
+
+    def _row_signs(self, q: np.ndarray) -> np.ndarray:
+        """+-1 per equality row: -1 on the rotation rows of a weld whose error quaternion
+        ``conj(q2) q1 relquat`` has a negative real part."""
+        mj, m, d = self.mj, self.mm, self.md
+        self._forward(q)
+        eq = np.asarray(d.efc_type[: d.nefc]) == self.equality
+        ids = np.asarray(d.efc_id[: d.nefc])[eq]
+        signs = np.ones(len(ids))
+        for e in np.unique(ids):
+            if int(m.eq_type[e]) != int(mj.mjtEq.mjEQ_WELD):
+                continue
+            q1, q2 = d.xquat[m.eq_obj1id[e]], d.xquat[m.eq_obj2id[e]]
+            conj, tmp, err = np.zeros(4), np.zeros(4), np.zeros(4)
+            mj.mju_negQuat(conj, q2)
+            mj.mju_mulQuat(tmp, conj, q1)
+            mj.mju_mulQuat(err, tmp, m.eq_data[e, 6:10])
+            rows = np.flatnonzero(ids == e)
+            signs[rows[3:]] = 1.0 if err[0] >= 0 else -1.0
+        return signs
+
+    def effector_pose(self, q) -> np.ndarray:
+        self._forward(q)
+        T = np.eye(4)
+        T[:3, :3] = np.asarray(self.md.xmat[self.effector]).reshape(3, 3)
+        T[:3, 3] = self.md.xpos[self.effector]
+        return T
+
+    def consistency(self, res) -> float:
+        """The Gepetto checks, and the result's qpos against its joints at MuJoCo's addresses."""
+        err = super().consistency(res)
+        return max(err, float(np.max(np.abs(np.asarray(res.qpos) - self.coords(res)))))
+
+
 @cache
 def reference(name: str) -> Reference:
     """The independent reference of a shipped model or a Gepetto fixture."""
@@ -746,6 +900,8 @@ def reference(name: str) -> Reference:
     if name in SHIPPED:
         return _rod_reference(name)
     model = load(name)
+    if name in MJCF_NAMES:
+        return MjcfReference(name, model.home.joints, model.locked, model.frame)
     frame = "effector" if name in GEPETTO_NAMES else model.frame
     return GepettoReference(name, model.home.joints, model.locked, frame)
 
@@ -759,6 +915,8 @@ def load(name: str):
         return sc.load_model(MODELS / name)
     if name in GEPETTO_LEGGED:
         return sc.load_model(GEPETTO / name)
+    if name in MJCF_NAMES:
+        return sc.load_model(MJCF / f"{name}.xml")
     return sc.load_model(GEPETTO / name, frame="effector")
 
 
@@ -775,6 +933,8 @@ def model_expr(name: str) -> str:
         return f"sc.load_model('models/{name}')"
     if name in GEPETTO_LEGGED:
         return f"sc.load_model('tests/fixtures/gepetto/{name}')"
+    if name in MJCF_NAMES:
+        return f"sc.load_model('tests/fixtures/mjcf/{name}.xml')"
     return f"sc.load_model('tests/fixtures/gepetto/{name}', frame='effector')"
 
 
@@ -1080,7 +1240,12 @@ def _draw_gepetto(ref: GepettoReference, model, rng, kind: str) -> Scenario | No
 
 
 def draw_scenarios(name: str, count: int, seed: int, kinds: Mapping[str, float] = KINDS):
-    """``count`` seeded scenarios of model ``name`` (kinds drawn with the given weights)."""
+    """``count`` seeded scenarios of model ``name`` (kinds drawn with the given weights; none
+    of :data:`SINGULAR_KINDS` for a model of :data:`NO_SINGULAR`)."""
+    if name in NO_SINGULAR:
+        kinds = {k: w for k, w in kinds.items() if k not in SINGULAR_KINDS}
+        if not kinds:
+            return []
     ref, model = reference(name), load(name)
     rng = np.random.default_rng([seed, ALL_NAMES.index(name)])
     names = list(kinds)
@@ -1343,13 +1508,14 @@ def _gepetto_track(ref: GepettoReference, model, rng, kind: str, samples: int) -
 
 
 def draw_tracks(name: str, count: int, seed: int, samples: int = 100) -> list[Track]:
-    """``count`` seeded commanded motions (half smooth, half through a singularity)."""
+    """``count`` seeded commanded motions (half smooth, half through a singularity; all
+    smooth for a model of :data:`NO_SINGULAR`)."""
     ref, model = reference(name), load(name)
     rng = np.random.default_rng([seed, ALL_NAMES.index(name), 7])
     out: list[Track] = []
     draw = _pose_track if isinstance(ref, PoseReference) else _gepetto_track
     for i in range(count):
-        kind = "smooth" if i % 2 == 0 else "singular"
+        kind = "smooth" if i % 2 == 0 or name in NO_SINGULAR else "singular"
         for _ in range(3 * ATTEMPTS):
             tr = draw(ref, model, rng, kind, samples)
             if tr is not None:

@@ -8,6 +8,8 @@ and the joints, and the parity of the reported singular crossings against the si
 ``det d(closure)/dx`` (finite differences) at the start and at the answer. Asserted: no
 silently wrong answer, no crash, and no refusal of a small convergent step in the start's
 assembly mode; the other refusals are printed (``pytest -s``), they are figures, not failures.
+The MJCF fixtures (``MJCF_NAMES``) are checked against MuJoCo itself (``MjcfReference``); the
+four-bars among them have no singular surface, so they get no scenario or track across one.
 The full-size run is ``python benchmarks/fuzz.py``.
 """
 
@@ -22,8 +24,11 @@ from references import (
     GEPETTO_LEGGED,
     GEPETTO_NAMES,
     KINDS,
+    MJCF_NAMES,
     NAMES,
+    NO_SINGULAR,
     SHIPPED,
+    SINGULAR_KINDS,
     Report,
     Scenario,
     classify,
@@ -48,6 +53,16 @@ SMALL, NEAR = 10, 5
 TRACKS, SAMPLES = 2, 60
 #: Wall-time limits per solve and per track [s] (outcome "timeout", printed).
 LIMIT, TRACK_LIMIT = 5.0, 10.0
+
+
+#: Models fuzzed here: the default ones and the MJCF fixtures.
+FUZZED = NAMES + MJCF_NAMES
+
+
+def drawable(name: str) -> tuple[str, ...]:
+    """The scenario kinds that can be drawn for a model (none across a singular surface for a
+    model without one)."""
+    return tuple(k for k in KINDS if name not in NO_SINGULAR or k not in SINGULAR_KINDS)
 
 
 @cache
@@ -115,9 +130,10 @@ def test_det_sign_changes_at_the_published_singular_configurations(
     assert ref.det_sign(xa, ref.ik(xa)) == -ref.det_sign(xb, ref.ik(xb)) != 0
 
 
-@pytest.mark.parametrize("name", GEPETTO_NAMES + GEPETTO_LEGGED)
+@pytest.mark.parametrize("name", GEPETTO_NAMES + GEPETTO_LEGGED + MJCF_NAMES)
 def test_gepetto_reference_walks_on_the_closure_manifold(name: str) -> None:
     ref, model = reference(name), load(name)
+    assert ref.actuated == tuple(model.actuated)
     assert np.abs(ref.closure(ref.home_q, ref.home_theta)).max() <= 1e-12
     assert ref.consistency(model.home) <= 1e-12
     rng = np.random.default_rng(SEED)
@@ -137,14 +153,80 @@ def test_gepetto_reference_walks_on_the_closure_manifold(name: str) -> None:
 # ---------------------------------------------------------------------------- fuzz
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", MJCF_NAMES)
+def test_mjcf_reference_jacobian_is_the_derivative_of_its_closure(name: str) -> None:
+    """MuJoCo's efc_J equality rows (the MJCF reference's Jacobian) equal the central
+    differences of its efc_pos equality rows, on the closure manifold and off it."""
+    ref = reference(name)
+    cols = list(range(len(ref.home_q)))
+    rng = np.random.default_rng(SEED)
+    for q in (ref.home_q, ref.home_q + 0.5 * rng.normal(size=ref.home_q.shape)):
+        h, diffs = 1e-7, []
+        for i in cols:
+            dq = np.zeros_like(q)
+            dq[i] = h
+            diffs.append((ref.residual_q(q + dq) - ref.residual_q(q - dq)) / (2 * h))
+        assert np.abs(ref._jac(q, cols) - np.array(diffs).T).max() <= 1e-7
+
+
+@pytest.mark.parametrize("name", MJCF_NAMES)
+def test_mjcf_reference_det_sign_is_the_same_a_hinge_turn_away(name: str) -> None:
+    """A whole turn of any hinge is the same configuration: the MJCF reference's closure still
+    vanishes and its det keeps its sign (weld_loop: a turn of a hinge in the loop flips the
+    sign of the weld's error quaternion, so of MuJoCo's rotation rows and their Jacobian;
+    the reference signs those rows by it)."""
+    ref = reference(name)
+    q0 = ref.home_q
+    ratio = ref.det_ratio(q0, ref.home_theta)
+    assert abs(ratio) > 0.1
+    for j in ref.free + ref.motors:
+        q = q0.copy()
+        q[j] += 2 * np.pi
+        assert np.abs(ref.residual_q(q)).max() <= 1e-12
+        assert ref.det_ratio(q, q[ref.motors]) == pytest.approx(ratio, abs=1e-9)
+
+
+@pytest.mark.parametrize("name", sorted(NO_SINGULAR))
+def test_a_model_without_singular_surface_keeps_its_det_sign_over_a_crank_turn(name) -> None:
+    """The MJCF crank-rocker four-bars (no scenario across a singular surface is drawn for
+    them): walked on MuJoCo's closures over more than a whole turn of the crank, in both
+    assembly modes, the det sign never changes and |det| stays far from 0."""
+    ref = reference(name)
+    home_sign = ref.det_sign(ref.home_q, ref.home_theta)
+    # the other assembly mode at the home crank angle: Gauss-Newton on the passive joints
+    # from seeded guesses until one converges with the other det sign
+    rng = np.random.default_rng(SEED)
+    other = None
+    for _ in range(50):
+        q = ref.home_q.copy()
+        q[ref.free] = rng.uniform(-np.pi, np.pi, len(ref.free))
+        for _it in range(50):
+            r = ref.residual_q(q)
+            if np.abs(r).max() < 1e-13:
+                break
+            J = ref._jac(q, ref.free)[ref.rows]
+            q[ref.free] -= np.linalg.lstsq(J, r[ref.rows], rcond=None)[0]
+        if np.abs(ref.residual_q(q)).max() < 1e-12 and ref.det_sign(q, q[ref.motors]) == -home_sign:
+            other = q
+            break
+    assert other is not None
+    for start, sign in ((ref.home_q, home_sign), (other, -home_sign)):
+        path = ref.walk(start, ref.tangent(start)[0], 250, 0.05)
+        assert path is not None
+        assert np.ptp(np.array(path)[:, ref.motors]) > 2 * np.pi  # more than a crank turn
+        ratios = np.array([ref.det_ratio(q, q[ref.motors]) for q in path])
+        assert np.all(sign * ratios > 0.5)
+
+
+@pytest.mark.parametrize("name", FUZZED)
 def test_fuzz_solves(name: str) -> None:
     rep = solves(name)
     print(f"\n{rep.table()}\n{rep.kind_table()}")
     refused = [o for o in rep.solves if o.status in ("refused", "timeout")]
     if refused:
         print("refusals:\n" + _lines(refused))
-    assert len(rep.solves) == 2 * PER_KIND * len(KINDS) + SMALL + NEAR
+    near = 0 if name in NO_SINGULAR else NEAR
+    assert len(rep.solves) == 2 * PER_KIND * len(drawable(name)) + SMALL + near
     wrong = rep.failures()
     assert not wrong, "silently wrong or crashed:\n" + _lines(wrong)
     must = [
@@ -162,12 +244,14 @@ def tracks(name: str):
     return run_tracks(draw_tracks(name, TRACKS, SEED, SAMPLES), limit=TRACK_LIMIT)
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", FUZZED)
 def test_fuzz_tracks(name: str) -> None:
     outs = tracks(name)
     rep = Report(tracks=outs)
     print(f"\n{rep.track_table()}")
-    assert {o.track.kind for o in outs} == {"smooth", "singular"}
+    kinds = {"smooth"} if name in NO_SINGULAR else {"smooth", "singular"}
+    assert {o.track.kind for o in outs} == kinds
+    assert len(outs) == 2 * TRACKS  # each track on both backends
     bad = [o for o in outs if o.status in ("deviation", "crash")]
     lines = "\n".join(
         f"{o.status} ({o.track.kind}, {o.backend}): {o.detail[:160]}\n    "
