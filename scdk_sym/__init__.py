@@ -18,6 +18,7 @@ if TYPE_CHECKING:
     from .solvers.modes import assembly_modes
     from .solvers.sc import solve
     from .solvers.track import track
+    from .solvers.transmission import Transmission, transmission
     from .verify.report import VerifyReport, verify_model
 
 #: Public name -> (module, attribute; ``None`` for the module itself).
@@ -35,6 +36,8 @@ _PUBLIC: dict[str, tuple[str, str | None]] = {
     "open_atlas": (".atlases", "open_atlas"),
     "solve": (".solvers.sc", "solve"),
     "track": (".solvers.track", "track"),
+    "Transmission": (".solvers.transmission", "Transmission"),
+    "transmission": (".solvers.transmission", "transmission"),
     "VerifyReport": (".verify.report", "VerifyReport"),
     "verify_model": (".verify.report", "verify_model"),
 }
@@ -54,6 +57,8 @@ __all__ = [
     "open_atlas",
     "solve",
     "track",
+    "transmission",
+    "Transmission",
     "verify_model",
 ]
 

@@ -104,6 +104,21 @@ class VerificationError(SolveError):
         super().__init__(message)
 
 
+class SingularTransmissionError(SolveError):
+    """A motor <-> joint map is singular where it was asked for (its velocities and torques
+    are not defined there).
+
+    Attributes:
+        margin: the map's margin there (relative smallest singular value).
+        theta: the motor values.
+    """
+
+    def __init__(self, message: str, margin: float, theta) -> None:
+        self.margin = margin
+        self.theta = theta
+        super().__init__(message)
+
+
 class TrackError(SolveError):
     """Tracking failed at a sample: no decision, no solution, or a failed verification.
 

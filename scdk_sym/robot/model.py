@@ -288,6 +288,8 @@ class Model:
         source: Any = None,
     ) -> None:
         self._urdf_text = urdf_text if urdf_text is not None else tree_to_urdf(tree)
+        #: what the model was made from: (tree, spec, frame) before edits and reduction
+        self._made_from = (tree, spec, frame)
         tree = apply_joint_edits(tree, spec.joint_edits, path)
         if inputs is not None:
             spec = replace(spec, actuated=_names_list(inputs, "inputs", path))
@@ -331,7 +333,7 @@ class Model:
         self.spins: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._preferred: tuple[int, ...] | None = None
         self._reduce(candidates)
-        if getattr(source, "settle_home", False):
+        if source is not None:
             self.unchecked = self._inconsistent_rows()
 
     # ------------------------------------------------------------------ loading helpers
@@ -1314,6 +1316,22 @@ class Model:
         except OSError as exc:
             raise OutputError(f"cannot save the model: {exc.strerror or exc}", d) from exc
         return d
+
+    def with_inputs(self, inputs: Sequence[str]) -> Model:
+        """The same mechanism with other joints as inputs (the motors becoming unknowns when
+        the inputs are output joints), its home this model's home.
+
+        Raises:
+            NonSquareSystemError: the inputs leave freedoms undetermined or bind each other.
+        """
+        tree, spec, frame = self._made_from
+        spec = replace(spec, home=dict(self.file_joints(self.home)))
+        source = self.source
+        if source is not None:  # home is assembled and regular already
+            source = replace(source, settle_home=False)
+        held = {k: v for k, v in self.held.items() if k not in inputs}
+        return Model(tree, spec, self.path, frame, self._urdf_text, inputs=inputs,
+                     locked=held, source=source)  # fmt: skip
 
     def info(self) -> str:
         """What the model is made of, as text (``scdk info``): inputs, unknowns, closures,
