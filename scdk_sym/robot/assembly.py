@@ -231,3 +231,42 @@ def assemble(
     if not found:
         return None
     return min(found, key=lambda a: float(np.linalg.norm(a.z - z0)))
+
+
+def least_squares(
+    rows: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], z: np.ndarray, steps: int = 200
+) -> tuple[np.ndarray, float]:
+    """Levenberg-Marquardt with minimum-norm steps: ``(z, largest |row|)`` where it stops.
+
+    Every step has no component along the directions the rows do not see (singular values
+    below ``1e-10`` of the largest): a step along an idle freedom would be driven by rounding
+    alone, and the result would depend on the floating-point library.
+
+    Args:
+        rows: ``z -> (r, dr/dz)``.
+        z: the start.
+        steps: most steps.
+    """
+    mu = 1e-3
+    g, J = rows(z)
+    cost = g @ g
+    for _ in range(steps):
+        if cost < 1e-30:
+            break
+        u, sv, vt = np.linalg.svd(J, full_matrices=False)
+        s_max = float(sv[0]) if sv.size else 0.0
+        keep = sv > 1e-10 * s_max
+        sv, u, vt = sv[keep], u[:, keep], vt[keep]
+        dz = -vt.T @ ((sv / (sv * sv + mu * s_max**2)) * (u.T @ g))
+        zn = z + dz
+        gn, Jn = rows(zn)
+        if gn @ gn < cost:
+            z, g, J, cost = zn, gn, Jn, gn @ gn
+            mu = max(mu / 3, 1e-16)
+            if np.linalg.norm(dz) < 1e-15:
+                break
+        else:
+            mu *= 4
+            if mu > 1e12:
+                break
+    return z, float(np.abs(g).max()) if g.size else 0.0

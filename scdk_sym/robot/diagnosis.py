@@ -18,36 +18,20 @@ import numpy as np
 
 from ..model.spec import Closure
 from ..symbolic.system import Symbolic
+from .assembly import least_squares
 
 Rows = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
-def least_squares_floor(rows: Rows, z: np.ndarray, steps: int = 200) -> float:
-    """Levenberg-Marquardt over every coordinate from ``z``: the largest |row| where it stops.
+def least_squares_floor(rows: Rows, z: np.ndarray) -> float:
+    """The largest |row| where least squares over every coordinate from ``z`` stops
+    (:func:`~scdk_sym.robot.assembly.least_squares`).
 
     Args:
         rows: ``z -> (r, dr/dz)``.
         z: start (unknowns then inputs).
-        steps: most steps.
     """
-    r, J = rows(z)
-    cost, mu = float(r @ r), 1e-3
-    for _ in range(steps):
-        if cost < 1e-30:
-            break
-        A = J.T @ J
-        dz = -np.linalg.solve(A + mu * (np.trace(A) / max(1, A.shape[0]) + 1e-12) * np.eye(len(z)),
-                              J.T @ r)  # fmt: skip
-        rn, Jn = rows(z + dz)
-        if float(rn @ rn) < cost:
-            z, r, J, cost, mu = z + dz, rn, Jn, float(rn @ rn), max(mu / 3, 1e-12)
-            if np.linalg.norm(dz) < 1e-14:
-                break
-        else:
-            mu *= 4
-            if mu > 1e10:
-                break
-    return float(np.abs(r).max()) if r.size else 0.0
+    return least_squares(rows, z)[1]
 
 
 def check_rows(full: Symbolic, c: np.ndarray) -> Rows:

@@ -43,7 +43,7 @@ from ..results import Configuration, JointValues, unchecked_many
 from ..symbolic.kinematics import link_placements
 from ..symbolic.system import Symbolic, build_symbolic
 from . import assembly
-from .assembly import assemble, closure_rows
+from .assembly import assemble, closure_rows, least_squares
 from .diagnosis import weld_diagnosis
 from .home import settle as settle_home
 
@@ -812,31 +812,12 @@ class Model:
         driven by rounding alone, and the locked values would depend on the floating-point
         library; this way the result is the same on every machine to rounding.
         """
-        mu = 1e-3
-        _, _, g, J, *_ = (np.array(v) for v in f_all(y, theta))
-        g = g.ravel()
-        cost = g @ g
-        for _ in range(200):
-            if cost < 1e-30:
-                break
-            u, sv, vt = np.linalg.svd(J, full_matrices=False)
-            s_max = float(sv[0]) if sv.size else 0.0
-            keep = sv > 1e-10 * s_max
-            sv, u, vt = sv[keep], u[:, keep], vt[keep]
-            dy = -vt.T @ ((sv / (sv * sv + mu * s_max**2)) * (u.T @ g))
-            yn = y + dy
-            _, _, gn, Jn, *_ = (np.array(v) for v in f_all(yn, theta))
-            gn = gn.ravel()
-            if gn @ gn < cost:
-                y, g, J, cost = yn, gn, Jn, gn @ gn
-                mu = max(mu / 3, 1e-16)
-                if np.linalg.norm(dy) < 1e-15:
-                    break
-            else:
-                mu *= 4
-                if mu > 1e12:
-                    break
-        return y
+
+        def rows(yv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            _, _, g, J, *_ = (np.array(v) for v in f_all(yv, theta))
+            return g.ravel(), J
+
+        return least_squares(rows, y)[0]
 
     @cached_property
     def row_offsets(self) -> np.ndarray:
