@@ -183,7 +183,8 @@ def load(args: argparse.Namespace):
 
     inputs = getattr(args, "inputs", None)
     names = [n.strip() for n in inputs.split(",") if n.strip()] if inputs else None
-    model = load_model(args.model, frame=args.frame, inputs=names, locked=_locks(args))
+    choices: dict = {"inputs": names, "locked": _locks(args)}
+    model = load_model(args.model, frame=args.frame, **{k: v for k, v in choices.items() if v})
     if getattr(args, "verbose", False):
         held = ", ".join(f"{k} = {v:g}" for k, v in model.held.items())
         notes = [model.reduction, model.assembly, *getattr(model.source, "notes", ())]
