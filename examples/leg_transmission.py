@@ -70,7 +70,8 @@ def main() -> None:
     print("motors ", np.round(T.inverse(q), 4), " (inverse)")
     print("d joints / d motors, ankle block:")
     print(np.round(T.jacobian(theta)[4:, 4:], 4))
-    print("motor torques holding 1 N m of ankle pitch:", np.round(T.torques(theta, [0] * 4 + [1, 0]), 4))
+    tau = T.torques(theta, [0] * 4 + [1, 0])
+    print("motor torques holding 1 N m of ankle pitch:", np.round(tau, 4))
     print("margin per block:", [round(b, 4) for b in T.margin(theta).blocks])
 
     T.reset()
@@ -88,8 +89,10 @@ def main() -> None:
     fig.colorbar(im, label="relative smallest singular value")
     fig.tight_layout()
     fig.savefig(args.out, dpi=120)
-    print(f"wrote {args.out}: margin from {np.nanmin(grid):.2e} to {np.nanmax(grid):.2e}, "
-          f"{int(np.isnan(grid).sum())} of {grid.size} cells without an assembly")
+    print(
+        f"wrote {args.out}: margin from {np.nanmin(grid):.2e} to {np.nanmax(grid):.2e}, "
+        f"{int(np.isnan(grid).sum())} of {grid.size} cells without an assembly"
+    )
 
 
 if __name__ == "__main__":
