@@ -20,6 +20,7 @@ import pytest
 import scdk_sym as sc
 from scdk_sym.errors import InputError, ModelWarning, SingularTransmissionError, UnknownNameError
 from scdk_sym.kernels.fastcall import model_calls
+from scdk_sym.robot.blocks import triangular_blocks
 from scdk_sym.verify.pinocchio import pinocchio_q
 
 GEPETTO = Path(__file__).resolve().parent / "fixtures" / "gepetto"
@@ -187,3 +188,69 @@ def test_cassie_from_menagerie_knee_motor_to_tarsus_equals_mujocos_continuation(
                              fixed=springs, steps=40)  # fmt: skip
         np.testing.assert_allclose(out, [q[adr[o]] for o in outputs], rtol=0, atol=1e-8)
         np.testing.assert_allclose(T.inverse(out), theta, rtol=0, atol=1e-9)
+
+
+def fold_configuration(m: sc.Model) -> sc.Configuration:
+    """Next to the fold of the right ankle's rod motor (an arc-length continuation of the
+    closures with only ``motor_shin1`` free, to where that motor turns back)."""
+    calls = model_calls(m)
+    j = m.actuated.index("motor_shin1")
+    y, theta, prev, samples = m.home.y.copy(), m.home.theta.copy(), None, []
+    for _ in range(400):
+        y_loc, c = m.chart.to_local(y)
+        J_p, J_s = (np.array(a) for a in calls.jac(y_loc, theta, c))
+        tangent = np.linalg.svd(np.hstack([J_p, -J_s[:, [j]]]))[2][-1]
+        if prev is None:
+            tangent *= np.sign(tangent[-1])
+        elif tangent @ prev < 0:
+            tangent = -tangent
+        prev = tangent
+        step = 0.02 if not samples or samples[-1][0] < 0.9 * np.pi else 0.002
+        y, theta = y + step * tangent[:-1], theta.copy()
+        theta[j] += step * tangent[-1]
+        for _ in range(20):
+            y_loc, c = m.chart.to_local(y)
+            g = np.array(calls.g(y_loc, theta, c)).ravel()
+            J_p, J_s = (np.array(a) for a in calls.jac(y_loc, theta, c))
+            d = np.linalg.lstsq(np.hstack([J_p, -J_s[:, [j]]]), -g, rcond=None)[0]
+            y, theta[j] = y + d[:-1], theta[j] + d[-1]
+            if np.abs(g).max() < 1e-13:
+                break
+        samples.append((theta[j], m.configuration(y, theta)))
+        if len(samples) > 2 and samples[-1][0] < samples[-2][0]:
+            return samples[-2][1]
+    raise AssertionError("the curve did not turn back")
+
+
+def test_certify_range_proves_a_box_around_home_and_not_one_holding_the_ankle_fold() -> None:
+    m = model("digit_like")
+    T = sc.transmission(m, OUTPUTS["digit_like"])
+    home = T.inverse_model.home.theta
+    lo, hi = home.copy(), home.copy()
+    lo[4:] -= 3e-3
+    hi[4:] += 3e-3
+    cert = T.certify_range(lo, hi, depth=10, max_boxes=1000)
+    assert cert.proven and not len(cert.open_boxes)
+    # the proven parts cover the box exactly
+    area = np.prod(np.diff(cert.boxes[:, 4:], axis=2)[..., 0], axis=1).sum()
+    assert area == pytest.approx(np.prod(hi[4:] - lo[4:]), rel=1e-12)
+    # the bound holds where the map is sampled: margins of J_p at seeded points of the box
+    assert cert.margin_lower > 0
+    rng = np.random.default_rng(11)
+    for q in lo + (hi - lo) * rng.uniform(0, 1, (3, len(lo))):
+        T.reset()
+        theta = T.inverse_many(home + np.linspace(0, 1, 4)[1:, None] * (q - home))[-1]
+        J_p, _ = T._parts(T._forward.many(theta[None], keep=False)[-1])
+        for b in triangular_blocks(m):  # each block of J_p (a stage of the leg)
+            sv = np.linalg.svd(J_p[np.ix_(b.rows, b.unknowns)], compute_uv=False)
+            assert sv[-1] >= cert.sigma_lower
+    # next to the fold of the ankle (its J_p nearly singular): the box around it is not
+    # proven, and its open parts hold the fold's outputs
+    fold = fold_configuration(m)
+    q_fold = np.array([fold.coordinates[o] for o in OUTPUTS["digit_like"]])
+    lo, hi = q_fold.copy(), q_fold.copy()
+    lo[4:] -= 3e-3
+    hi[4:] += 3e-3
+    cert = T.certify_range(lo, hi, depth=6, max_boxes=200)
+    assert not cert.proven and cert.contains_open(q_fold)
+    assert any("forward map" in r for r in cert.reasons)

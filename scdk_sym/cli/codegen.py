@@ -53,6 +53,13 @@ def _codegen_args(p: argparse.ArgumentParser) -> None:
         "its ankle: model.stages), in DIR/stage<i> with prefix <prefix>_s<i>; a stage's "
         "actuators are the model's it involves, then the earlier stages' unknowns it reads",
     )
+    p.add_argument(
+        "--outputs",
+        metavar="NAME1,NAME2,...",
+        help="write the C transmission of a leg controller instead (motor <-> output-joint maps: "
+        "forward, inverse, Jacobian, velocities, torques, margin; one header "
+        "<prefix>_transmission.h): the output joints, one per motor (a motor may be its own)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the text")
 
 
@@ -70,6 +77,8 @@ def _codegen(args: argparse.Namespace) -> int:
 
     if not args.no_shared:
         compiler_command()  # a missing compiler ends the command before any work
+    if args.outputs is not None:
+        return _codegen_transmission(args)
     model = load(args)
     parts = model.stages if args.stages else (model,)
     staged = len(parts) > 1
@@ -112,4 +121,31 @@ def _codegen(args: argparse.Namespace) -> int:
     if staged:
         print("track the stages in order: a stage's theta is the model's actuators it names, "
               "then the unknowns it names from the stages before it")  # fmt: skip
+    return 0
+
+
+def _codegen_transmission(args: argparse.Namespace) -> int:
+    """``scdk codegen MODEL --outputs ...``: the C transmission (scdk_sym.codegen.transmission)."""
+    from ..codegen.transmission import compile_transmission, write_transmission
+    from ..errors import InputError
+
+    if args.stages:
+        raise InputError("--outputs and --stages do not go together: choose one")
+    outputs = [name.strip() for name in args.outputs.split(",") if name.strip()]
+    model = load(args)
+    src = write_transmission(model, outputs, args.out, args.prefix)
+    library = None
+    if not args.no_shared:
+        library = compile_transmission(src, src.directory / f"lib{src.prefix}_transmission.so")
+    if args.json:
+        dump({"files": [str(f) for f in src.files], "library": str(library) if library else None,
+              "header": str(src.header), "outputs": outputs})  # fmt: skip
+        return 0
+    print(f"model {label(model)}: {theta_line(model)}; outputs = ({', '.join(outputs)})")
+    for f in src.files:
+        print(f"wrote {f}")
+    if library:
+        print(f"wrote {library}")
+    print(f"compile: gcc -std=c99 -O2 -Wall *.c your_controller.c -lm   (in {src.directory}; "
+          f"include {src.header.name})")  # fmt: skip
     return 0

@@ -36,6 +36,7 @@ from ..robot import Model
 from ..robot.blocks import triangular_blocks
 from ..robot.model import as_vector
 from .track import track
+from .transmission_range import RangeCertificate, certify_range
 
 #: A map is singular where its margin is below this (relative smallest singular value).
 SINGULAR_MARGIN = 1e-8
@@ -234,6 +235,12 @@ class Transmission:
         )
 
     # ------------------------------------------------------------------ margin
+
+    def certify_range(self, lower: ArrayLike, upper: ArrayLike, **options) -> RangeCertificate:
+        """Prove the map invertible with no singular configuration over the box of outputs
+        ``[lower, upper]`` (see :func:`~scdk_sym.solvers.transmission_range.certify_range`,
+        which takes ``depth`` and ``max_boxes``)."""
+        return certify_range(self, lower, upper, **options)
 
     def blocks(self) -> tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]:
         """``(motors, outputs)`` of each independent block of the map at home (a leg's knee
