@@ -22,36 +22,11 @@ import numpy as np
 
 import scdk_sym as sc
 from scdk_sym.errors import ModelWarning
+from scdk_sym.plot import plot_range
+from scdk_sym.solvers.transmission_range import margin_grid
 
 MODEL = Path(__file__).resolve().parent.parent / "tests" / "fixtures" / "gepetto" / "digit_like"
-#: Readings between two cells of the sweep.
-STEPS = 8
 OUTPUTS = ("motor_hip_x", "motor_hip_y", "motor_hip_z", "free_knee", "free_foot1", "free_foot2")
-
-
-def margin_map(T: sc.Transmission, half: float, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """The ankle block's margin over ``home +- half`` of (free_foot1, free_foot2) on an
-    n x n grid, and the grid's offsets [rad]."""
-    home = T.inverse_model.home.theta  # the outputs at home
-    i1, i2 = T.outputs.index("free_foot1"), T.outputs.index("free_foot2")
-    offsets = np.linspace(-half, half, n)
-    out = np.full((n, n), np.nan)
-    block = [b for _, b in T.blocks()].index(("free_foot1", "free_foot2"))
-    last = home.copy()
-    for r, d1 in enumerate(offsets):
-        cols = range(n) if r % 2 == 0 else range(n - 1, -1, -1)
-        for c in cols:
-            q = home.copy()
-            q[i1], q[i2] = home[i1] + d1, home[i2] + offsets[c]
-            # readings at a steady rate between cells (what a controller's readings are)
-            path = last + np.linspace(0, 1, STEPS + 1)[1:, None] * (q - last)
-            try:
-                T.forward_many(T.inverse_many(path))  # the motors, then the leg along them
-                out[r, c] = T.margin().blocks[block]
-                last = q
-            except sc.ScdkError:
-                pass  # blank: not reached from the last cell (the maps keep their state)
-    return out, offsets
 
 
 def main() -> None:
@@ -74,24 +49,16 @@ def main() -> None:
     print("motor torques holding 1 N m of ankle pitch:", np.round(tau, 4))
     print("margin per block:", [round(b, 4) for b in T.margin(theta).blocks])
 
-    T.reset()
-    grid, offsets = margin_map(T, 0.6, args.n)
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(5.5, 4.5))
-    im = ax.pcolormesh(offsets, offsets, grid, shading="auto", cmap="viridis")
-    ax.set_xlabel("ankle roll free_foot2 - home [rad]")
-    ax.set_ylabel("ankle pitch free_foot1 - home [rad]")
-    ax.set_title("digit_like ankle: margin of the motor <-> joint map")
-    fig.colorbar(im, label="relative smallest singular value")
-    fig.tight_layout()
-    fig.savefig(args.out, dpi=120)
+    home = T.inverse_model.home.theta  # the outputs at home
+    lower, upper = home.copy(), home.copy()
+    lower[4:] -= 0.6
+    upper[4:] += 0.6
+    grid = margin_grid(T, lower, upper, n=args.n)  # a serpentine sweep continuing each cell
+    plot_range(grid, args.out, title="digit_like ankle: margin of the motor <-> joint map")
+    m = grid.margin
     print(
-        f"wrote {args.out}: margin from {np.nanmin(grid):.2e} to {np.nanmax(grid):.2e}, "
-        f"{int(np.isnan(grid).sum())} of {grid.size} cells without an assembly"
+        f"wrote {args.out}: margin from {np.nanmin(m):.2e} to {np.nanmax(m):.2e}, "
+        f"{int(np.isnan(m).sum())} of {m.size} cells not reached"
     )
 
 

@@ -426,3 +426,40 @@ __all__ = [
     "robot_drawing",
     "robot_drawing_3d",
 ]
+
+
+def plot_range(grid, path: str | Path, certificate=None, title: str | None = None) -> Path:
+    """A transmission's margin over a box of two outputs (a
+    :class:`~scdk_sym.solvers.transmission_range.MarginGrid`), with the open parts of a
+    :class:`~scdk_sym.solvers.transmission_range.RangeCertificate` (where a singular
+    configuration may lie) outlined in red and its proven parts in white.
+
+    Raises:
+        PlotError: matplotlib missing, or the file cannot be written.
+    """
+    from matplotlib.patches import Rectangle
+
+    fig = new_figure(6.0, 4.8)
+    ax = fig.add_subplot(111)
+    mesh = ax.pcolormesh(grid.columns, grid.rows, grid.margin, shading="auto", cmap="viridis")
+    fig.colorbar(mesh, ax=ax, label="margin (relative smallest singular value)")
+    if certificate is not None:
+        i, j = _range_axes(certificate)
+        for boxes, color, lw in ((certificate.boxes, "white", 0.4),
+                                 (certificate.open_boxes, "red", 1.2)):  # fmt: skip
+            for b in boxes:
+                ax.add_patch(Rectangle((b[j, 0], b[i, 0]), b[j, 1] - b[j, 0], b[i, 1] - b[i, 0],
+                                       fill=False, edgecolor=color, lw=lw))  # fmt: skip
+    ax.set_xlabel(f"{grid.outputs[1]} [rad]")
+    ax.set_ylabel(f"{grid.outputs[0]} [rad]")
+    ax.set_title(title or "margin of the motor <-> joint map")
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def _range_axes(certificate) -> tuple[int, int]:
+    """The indices of the certificate's two widest outputs (the grid's, as
+    :func:`~scdk_sym.solvers.transmission_range.margin_grid` picks them)."""
+    widths = certificate.upper - certificate.lower
+    order = [int(k) for k in np.argsort(-widths, kind="stable")[:2]]
+    return order[0], order[1]

@@ -254,3 +254,23 @@ def test_certify_range_proves_a_box_around_home_and_not_one_holding_the_ankle_fo
     cert = T.certify_range(lo, hi, depth=6, max_boxes=200)
     assert not cert.proven and cert.contains_open(q_fold)
     assert any("forward map" in r for r in cert.reasons)
+
+
+def test_cli_range_certifies_and_draws(tmp_path: Path, capsys) -> None:
+    from scdk_sym.cli import main
+
+    png = tmp_path / "range.png"
+    code = main(["range", str(GEPETTO / "digit_like"), "--outputs", ",".join(OUTPUTS["digit_like"]),
+                 "--box", "free_foot1=-0.012:-0.010,free_foot2=0.044:0.046", "--out", str(png),
+                 "--n", "2", "--json"])  # fmt: skip
+    assert code == 0
+    import json
+
+    out = json.loads(capsys.readouterr().out)
+    assert out["proven"] and out["proven_boxes"] >= 1 and out["margin_lower"] > 0
+    assert png.stat().st_size > 10_000
+    with pytest.raises(SystemExit):
+        main(["range", str(GEPETTO / "digit_like"), "--outputs", "nope"])
+    assert main(["range", str(GEPETTO / "digit_like"), "--outputs",
+                 ",".join(OUTPUTS["digit_like"]), "--box", "free_foot1=1"]) == 1  # fmt: skip
+    assert "--box: expected NAME=LO:HI" in capsys.readouterr().err

@@ -50,6 +50,7 @@ COMMAND_MODULES = (
     "atlas",
     "verify",
     "assemble",
+    "transmission",
 )
 for _module in COMMAND_MODULES:
     import_module(f"{__name__}.{_module}")

@@ -37,7 +37,7 @@ from flint import arb
 from numpy.typing import ArrayLike
 
 from ..algebraic.interval import interval_function
-from ..errors import InputError
+from ..errors import InputError, ScdkError
 from ..results import frozen_array
 
 #: Halvings of the box before a part is left undecided.
@@ -308,3 +308,57 @@ def certify_range(
         margin_lower=sigma / big if proven and big > 0 else 0.0,
         reasons=tuple(reasons),
     )
+
+
+@dataclass(frozen=True)
+class MarginGrid:
+    """A transmission's block margins sampled over a box of two outputs.
+
+    Attributes:
+        outputs: the two outputs varied (rows, then columns).
+        rows: (n,) values of the first [rad or length unit].
+        columns: (n,) values of the second.
+        margin: (n, n) the smallest block margin at each point (NaN where the sweep did not
+            reach it) [1].
+    """
+
+    outputs: tuple[str, str]
+    rows: np.ndarray
+    columns: np.ndarray
+    margin: np.ndarray
+
+
+def margin_grid(
+    T: Any, lower: ArrayLike, upper: ArrayLike, n: int = 25, steps: int = 8
+) -> MarginGrid:
+    """Sample :meth:`Transmission.margin` over the box's two widest outputs (the others at
+    their lower values), row after row in a serpentine with ``steps`` readings at a steady
+    rate between two points (as a controller's readings are), continuing from home.
+
+    Raises:
+        InputError: fewer than two outputs vary, or ``n < 2``.
+    """
+    lo = np.asarray(lower, dtype=float).reshape(-1)
+    hi = np.asarray(upper, dtype=float).reshape(-1)
+    widths = hi - lo
+    if n < 2 or np.sum(widths > 0) < 2:
+        raise InputError("margin_grid: give a box in which two outputs vary, and n >= 2")
+    i, j = (int(k) for k in np.argsort(-widths, kind="stable")[:2])
+    rows, cols = np.linspace(lo[i], hi[i], n), np.linspace(lo[j], hi[j], n)
+    grid = np.full((n, n), np.nan)
+    T.reset()
+    last = T.inverse_model.home.theta.copy()
+    for r in range(n):
+        for c in range(n) if r % 2 == 0 else range(n - 1, -1, -1):
+            q = lo.copy()
+            q[i], q[j] = rows[r], cols[c]
+            try:
+                far = max(1, int(np.ceil(np.abs(q - last).max() / STEP)))
+                path = last + np.linspace(0, 1, max(steps, far) + 1)[1:, None] * (q - last)
+                T.forward_many(T.inverse_many(path))
+                grid[r, c] = T.margin().value
+                last = q
+            except ScdkError:
+                continue  # not reached from the last point: left blank
+    T.reset()
+    return MarginGrid((T.outputs[i], T.outputs[j]), rows, cols, grid)
