@@ -54,7 +54,11 @@ def test_every_placeholder_is_filled(planar):
 
 def test_templates_are_the_package_data_files():
     names = sorted(p.name for p in TEMPLATE_DIR.iterdir() if p.is_file())
-    assert names == sorted([templates.HEADER, templates.SOURCE])
+    from scdk_sym.solvers import transmission_c
+
+    assert names == sorted(
+        [templates.HEADER, templates.SOURCE, transmission_c.HEADER, transmission_c.SOURCE]
+    )
     for name in names:
         assert templates.template(name) == (TEMPLATE_DIR / name).read_text()
     # shipped by a non-editable install: matched by the package-data patterns

@@ -125,9 +125,9 @@ def _codegen(args: argparse.Namespace) -> int:
 
 
 def _codegen_transmission(args: argparse.Namespace) -> int:
-    """``scdk codegen MODEL --outputs ...``: the C transmission (scdk_sym.codegen.transmission)."""
-    from ..codegen.transmission import compile_transmission, write_transmission
+    """``scdk codegen MODEL --outputs ...``: the C transmission (solvers/transmission_c.py)."""
     from ..errors import InputError
+    from ..solvers.transmission_c import compile_transmission, write_transmission
 
     if args.stages:
         raise InputError("--outputs and --stages do not go together: choose one")

@@ -25,12 +25,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import BuildError, InputError, OutputError
-from ..kernels.compile import compile_parallel
-from ..robot import Model
-from ..solvers.transmission import SINGULAR_MARGIN, Transmission, transmission
-from . import templates
-from .generate import (
+from ..codegen import templates
+from ..codegen.generate import (
     COMPILE_FLAGS,
     LINK_FLAGS,
     GeneratedSources,
@@ -38,6 +34,10 @@ from .generate import (
     generate,
     output_directory,
 )
+from ..errors import BuildError, InputError, OutputError
+from ..kernels.compile import compile_parallel
+from ..robot import Model
+from .transmission import SINGULAR_MARGIN, Transmission, transmission
 
 #: The template files in ``scdk_sym/codegen/c``.
 HEADER = "transmission.h.in"
