@@ -94,14 +94,30 @@ def test_loads_with_no_option_and_closes_on_pinocchio(name: str) -> None:
     assert err <= 1e-9
 
 
-@pytest.mark.parametrize("name", SOLVED)
-def test_both_branches_at_home_plus_five_hundredths(name: str) -> None:
+#: The legs whose compiled kernels take minutes to build: solved with CVODES in the default
+#: suite (the same answers, checked on the same references), compiled under ``SCDK_SLOW=1``.
+COMPILE_HEAVY = (
+    "battobot_6d",
+    "digit_like_2legs",
+    "digit_like_2legs_6D",
+    "digit_like_2legs_old",
+    "disney_robot",
+    "wl16_like",
+)
+BRANCH_CASES = [
+    *((name, "cvodes" if name in COMPILE_HEAVY else "compiled") for name in SOLVED),
+    *(pytest.param(name, "compiled", marks=pytest.mark.slow) for name in COMPILE_HEAVY),
+]
+
+
+@pytest.mark.parametrize(("name", "backend"), BRANCH_CASES)
+def test_both_branches_at_home_plus_five_hundredths(name: str, backend: str) -> None:
     m = model(name)
     gm = gepetto(name)
     theta = m.home.theta + 0.05
     answers = []
     for branch in ("convergent", "divergent"):
-        r = sc.solve(m, theta, branch=branch, backend="compiled")
+        r = sc.solve(m, theta, branch=branch, backend=backend)
         assert r.residual <= m.tolerance
         np.testing.assert_allclose(r.theta, theta, rtol=0, atol=1e-12)
         q = pinocchio_q(m, r.configuration, gm.model)
@@ -115,7 +131,7 @@ def test_both_branches_at_home_plus_five_hundredths(name: str) -> None:
 def test_convergent_answer_matches_an_independent_pinocchio_continuation(name: str) -> None:
     m, gm = model(name), gepetto(name)
     theta = m.home.theta + 0.02
-    r = sc.solve(m, theta, backend="compiled")
+    r = sc.solve(m, theta, backend="cvodes" if name in COMPILE_HEAVY else "compiled")
     q0 = pinocchio_q(m, m.home, gm.model)
     q, info = gl.continuation(gm, q0, theta)
     assert info.residual <= 1e-10
