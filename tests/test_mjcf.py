@@ -447,3 +447,26 @@ def test_joints_only_a_passive_tendons_limits_hold_are_refused_and_locked_resolv
         res = sc.solve(model, theta, start=model.home)
         assert mujoco_residual(path, res.qpos) <= 1e-9
         assert res.joints["right"] == pytest.approx(0.05, abs=1e-15)
+
+
+def test_atlas_and_codegen_of_an_mjcf_model(tmp_path: Path) -> None:
+    """Downstream of loading, an MJCF model is a model: an atlas over its input, standalone C."""
+    path = MJCF / "planar_fourbar.xml"
+    model = sc.load_model(path)
+    crank = float(model.home.theta[0])
+    run = sc.atlas(model, {"crank": (crank - 0.1, crank + 0.1, 3)}, tmp_path / "a.zarr",
+                   progress=False)  # fmt: skip
+    store = sc.open_atlas(tmp_path / "a.zarr")
+    assert run.points == 3 and dict(run.counts) == {0: 3}
+    assert np.all(np.asarray(store["status"]) == 0)
+    # each point's x is the convergent solve's, which closes in MuJoCo
+    for theta, x in zip(np.linspace(crank - 0.1, crank + 0.1, 3), np.asarray(store["x"]),
+                        strict=True):  # fmt: skip
+        res = sc.solve(model, [theta], start=model.home)
+        np.testing.assert_allclose(x, res.x, rtol=0, atol=1e-9)
+        assert mujoco_residual(path, res.qpos) <= 1e-9
+    from scdk_sym.cli import main
+
+    assert main(["codegen", str(path), "--out", str(tmp_path / "c"), "--no-shared"]) == 0
+    header = (tmp_path / "c" / "scdk_tracker.h").read_text()
+    assert "scdk_tracker_step" in header
