@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -245,6 +246,10 @@ class Transmission:
     def blocks(self) -> tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]:
         """``(motors, outputs)`` of each independent block of the map at home (a leg's knee
         loop, its ankle loop; a motor that is its own output is a block of its own)."""
+        return self._blocks
+
+    @cached_property
+    def _blocks(self) -> tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]:
         J = np.abs(self._output_rows(*self._parts(self.model.home))) > 1e-12
         n = len(self.outputs)
         # connected components of the bipartite graph outputs - motors
