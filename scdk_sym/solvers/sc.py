@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..backends import resolve
+from ..backends import Resolved, resolve
 from ..errors import (
     InputError,
     NotAssembledError,
@@ -35,6 +35,7 @@ from ..follower.singular import det_sign
 from ..kernels.fastcall import model_calls
 from ..results import Configuration, Crossing, PathSamples, SolveResult
 from ..robot import Model, as_vector
+from .background import without_waiting
 from .blocks import solve_blocks
 from .solve_c import solve_c
 
@@ -172,9 +173,20 @@ def solve(
             solution at ``theta0`` is listed by :func:`scdk_sym.assembly_modes`).
         VerificationError: the final configuration failed its residual check.
     """
-    name = resolve(backend, "solve")
+    name = without_waiting(
+        model,
+        resolve(backend, "solve"),
+        lambda built: _warm(model, built),
+    )
     res = _solve(model, theta0, start, branch, b, name, max_arc, record_path, fast)
     return res if res.backend else replace(res, backend=name)
+
+
+def _warm(model: Model, backend: Resolved) -> None:
+    """One solve at home with ``backend`` each way it can run (the C follower's one call,
+    and the compiled follower it hands a recorded path to): what builds its products."""
+    solve(model, model.home.theta, model.home, backend=backend, record_path=False)
+    solve(model, model.home.theta, model.home, backend=backend)
 
 
 def _solve(

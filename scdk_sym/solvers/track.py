@@ -140,6 +140,7 @@ from ..model.rotations import gibbs, gibbs_product, rot_exp
 from ..products import TRACK_KERNELS
 from ..results import Configuration, Crossing, TrackResult
 from ..robot import Model
+from .background import without_waiting
 from .sc import null_direction, trace, validate_start
 
 #: Status codes shared with the C tracker (:data:`scdk_sym.codegen.library.STATUS`).
@@ -198,7 +199,11 @@ def track(
             solution was met (``ERR_NO_SOLUTION``: the readings leave the reachable set or
             jump too far), or a sample failed its verification.
     """
-    backend = resolve(backend, "track")
+    backend = without_waiting(
+        model,
+        resolve(backend, "track"),
+        lambda built: track(model, model.home.theta[None], model.home, backend=built),
+    )
     if len(model.stages) > 1:  # a leg's knee, then its ankle (each leg in turn): one each
         from .blocks import track_blocks
 

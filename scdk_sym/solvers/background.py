@@ -1,0 +1,98 @@
+"""``auto`` never makes a user wait on a compiler.
+
+Where ``backend="auto"`` resolves to a compiled backend (``c`` or ``compiled``) whose products
+this model has not built yet in this process, :func:`without_waiting` starts building them in a
+background thread (the compiled libraries land in the on-disk cache, as a call with that
+backend would leave them: the thread makes that call once, at home), says so once per model
+on stderr, and hands back ``cvodes`` for this call. Once the thread is done, ``auto`` runs the
+compiled backend, whose products the thread stored in ``model.products``. An explicit
+``backend="c"`` or ``"compiled"`` still waits (with the ``compiling kernels for ...`` line).
+
+The compiler runs in a child process, outside the interpreter's lock, so the answers in the
+meantime cost what ``cvodes`` costs. ``SCDK_AUTO_WAITS=1`` restores the waiting behaviour
+(``auto`` then compiles in the call, as before).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+from collections.abc import Callable
+from typing import Any
+
+from ..backends import Resolved
+
+#: Backends whose first use compiles.
+COMPILED = ("c", "compiled")
+
+_lock = threading.Lock()
+_jobs: dict[tuple[int, str], threading.Thread] = {}
+_ready: set[tuple[int, str]] = set()
+_failed: dict[tuple[int, str], str] = {}
+_said: set[int] = set()
+
+
+def _key(model: Any, backend: str) -> tuple[int, str]:
+    return (id(model.products), str(backend))
+
+
+def without_waiting(model: Any, backend: Resolved, warm: Callable[[Resolved], object]) -> Resolved:
+    """The backend to run now: ``backend`` itself unless it is ``auto``'s choice of a compiled
+    backend not built yet for ``model``; then ``cvodes``, with ``warm(backend)`` (a call with
+    that backend) started in a background thread that builds it.
+
+    Args:
+        model: the model.
+        backend: the resolved backend of the call.
+        warm: makes one call of the function with a given backend (at home), building its
+            products.
+    """
+    if getattr(backend, "asked", None) != "auto" or backend not in COMPILED:
+        return backend
+    if os.environ.get("SCDK_AUTO_WAITS") == "1":
+        return backend
+    key = _key(model, backend)
+    if key in _ready:
+        return backend
+    if key in _failed:  # no compiler, or it failed: cvodes, as auto would without one
+        return Resolved("cvodes", "auto")
+    with _lock:
+        if key not in _jobs:
+            job = threading.Thread(target=_build, args=(key, warm, backend), daemon=True,
+                                   name=f"scdk-build-{model.name}-{backend}")  # fmt: skip
+            _jobs[key] = job
+            job.start()
+        if id(model.products) not in _said:
+            _said.add(id(model.products))
+            print(
+                f"note: building the {backend} kernels of {model.name} in the background; "
+                "backend='auto' answers with cvodes until they are ready",
+                file=sys.stderr,
+                flush=True,
+            )
+    return Resolved("cvodes", "auto")
+
+
+def _build(key: tuple[int, str], warm: Callable[[Resolved], object], backend: str) -> None:
+    try:
+        warm(Resolved(backend, backend))
+    except BaseException as exc:  # noqa: BLE001 - recorded: auto keeps answering with cvodes
+        _failed[key] = f"{type(exc).__name__}: {exc}"
+        return
+    _ready.add(key)
+
+
+def wait(model: Any, timeout: float | None = None) -> bool:
+    """Wait for the background builds of ``model`` (every backend); True when none is left
+    running. For scripts that want the compiled backend from the next call on."""
+    with _lock:
+        jobs = [job for (pid, _), job in _jobs.items() if pid == id(model.products)]
+    for job in jobs:
+        job.join(timeout)
+    return not any(job.is_alive() for job in jobs)
+
+
+def ready(model: Any, backend: str) -> bool:
+    """Whether ``auto`` runs ``backend`` for ``model`` now (built in the background)."""
+    return _key(model, backend) in _ready
