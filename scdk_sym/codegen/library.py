@@ -10,6 +10,7 @@ without compiling.
 from __future__ import annotations
 
 import ctypes
+import hashlib
 import math
 import shutil
 import tempfile
@@ -19,8 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import BuildError, SolveError
-from ..kernels.cache import cache_dir, cached_file
-from ..kernels.compile import announce
+from ..kernels.cache import cache_dir, cached_file, damage, read_entry, write_entry
+from ..kernels.compile import announce, cache_key, compiler_tag, source_digest
 from ..products import C_TRACKER
 from .generate import compile_library, generate, source_key
 
@@ -427,9 +428,37 @@ def tracker_library(model) -> CTracker:
     return model.products.get(C_TRACKER, lambda: _build_tracker(model))
 
 
+#: What the C tracker's sources are made from besides the model (its index key covers them).
+TRACKER_SOURCES = ("codegen", "codegen/c/tracker.c.in", "codegen/c/tracker.h.in",
+                   "kernels/c/scdk_lu.h")  # fmt: skip
+
+
+def _index(model) -> Path:
+    """The cache's index entry of the model's C tracker: the name of its library, keyed by
+    the model's kernels (:func:`~scdk_sym.kernels.compile.cache_key`), the generator's own
+    sources and the compiler, so that a cached tracker is found without generating C."""
+    h = hashlib.sha256(cache_key(model).encode())
+    h.update(source_digest(TRACKER_SOURCES))
+    h.update(compiler_tag().encode())
+    return cache_dir() / f"tracker_index_{h.hexdigest()[:24]}.txt"
+
+
+def cached_tracker(model) -> Path | None:
+    """The model's C tracker library in the cache, found through its index (no C generated),
+    or ``None`` when it is not there (or the index or library is damaged)."""
+    name = read_entry(_index(model), lambda p: p.read_text(encoding="utf-8").strip(), "index")
+    if not name:
+        return None
+    target = cache_dir() / name
+    return target if damage(target) is None else None
+
+
 def _build_tracker(model) -> CTracker:
     """Generate, compile (or find on disk) and load the model's C tracker (without the
     inverse kinematics, which Python does not call)."""
+    found = cached_tracker(model)
+    if found is not None:
+        return CTracker(found, model.m, model.k, model.chart.size, len(model.workspace))
     with tempfile.TemporaryDirectory() as tmp:
         src = generate(model, Path(tmp), PREFIX, split=True, inverse_kinematics=False)
         key = source_key(src)
@@ -441,4 +470,5 @@ def _build_tracker(model) -> CTracker:
             shutil.copyfile(compiled, path)
 
         target = cached_file(cache_dir() / f"tracker_{key}.so", build, "C tracker library")
+    write_entry(_index(model), lambda p: p.write_text(target.name, encoding="utf-8"))
     return CTracker(target, model.m, model.k, model.chart.size, len(model.workspace))

@@ -9,12 +9,16 @@ compiled backend, whose products the thread stored in ``model.products``. An exp
 ``backend="c"`` or ``"compiled"`` still waits (with the ``compiling kernels for ...`` line).
 
 The compiler runs in a child process, outside the interpreter's lock, so the answers in the
-meantime cost what ``cvodes`` costs. ``SCDK_AUTO_WAITS=1`` restores the waiting behaviour
-(``auto`` then compiles in the call, as before).
+meantime cost what ``cvodes`` costs. A build still running when the program ends is finished
+before it exits (one line says so; Ctrl-C skips it), so that the next run finds the libraries
+in the cache: a one-shot ``scdk solve --backend auto`` prints its answer first.
+``SCDK_AUTO_WAITS=1`` restores the waiting behaviour (``auto`` then compiles in the call).
 """
 
 from __future__ import annotations
 
+import atexit
+import concurrent.futures.thread  # noqa: F401 - its exit hook first (see the end of this module)
 import os
 import sys
 import threading
@@ -22,6 +26,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..backends import Resolved
+from ..codegen.library import cached_tracker
 
 #: Backends whose first use compiles.
 COMPILED = ("c", "compiled")
@@ -53,8 +58,8 @@ def without_waiting(model: Any, backend: Resolved, warm: Callable[[Resolved], ob
     if os.environ.get("SCDK_AUTO_WAITS") == "1":
         return backend
     key = _key(model, backend)
-    if key in _ready:
-        return backend
+    if key in _ready or (backend == "c" and cached_tracker(model) is not None):
+        return backend  # built, or in the cache from an earlier run: loads without compiling
     if key in _failed:  # no compiler, or it failed: cvodes, as auto would without one
         return Resolved("cvodes", "auto")
     with _lock:
@@ -96,3 +101,30 @@ def wait(model: Any, timeout: float | None = None) -> bool:
 def ready(model: Any, backend: str) -> bool:
     """Whether ``auto`` runs ``backend`` for ``model`` now (built in the background)."""
     return _key(model, backend) in _ready
+
+
+def _finish_at_exit() -> None:
+    """Let the running builds end before the interpreter does (their libraries then land in
+    the cache for the next run)."""
+    with _lock:
+        alive = [job for job in _jobs.values() if job.is_alive()]
+    if not alive:
+        return
+    names = ", ".join(job.name.removeprefix("scdk-build-") for job in alive)
+    print(f"note: finishing the background build ({names}) before exiting; Ctrl-C skips it",
+          file=sys.stderr, flush=True)  # fmt: skip
+    try:
+        for job in alive:
+            job.join()
+    except KeyboardInterrupt:
+        pass
+
+
+# run before the interpreter's threads shut down, and before concurrent.futures stops taking
+# work (its hook, registered at its import, runs after this one: they run in reverse order),
+# for the compiler's thread pool to finish the build
+_register = getattr(threading, "_register_atexit", None)
+if _register is not None:
+    _register(_finish_at_exit)
+else:  # pragma: no cover - an interpreter without the hook: at least try at exit
+    atexit.register(_finish_at_exit)
