@@ -81,6 +81,11 @@ PLACING_BLOCK = Key(
 ROD_REDUCTION = Key(
     "rod_reduction", "rods between balls and the model with them as distances", "the model only"
 )
+#: The compiled backends ``auto`` builds in the background (:mod:`scdk_sym.solvers.background`).
+BACKGROUND_BUILDS = Key(
+    "background_builds", "the background builds of the compiled backends and their state",
+    "the model only",
+)  # fmt: skip
 #: Every declared key, by name.
 KEYS: dict[str, Key] = {
     k.name: k
@@ -99,6 +104,7 @@ KEYS: dict[str, Key] = {
         PLACING_BLOCK,
         CLOSURE_FUNCTION,
         ROD_REDUCTION,
+        BACKGROUND_BUILDS,
     )
 }
 

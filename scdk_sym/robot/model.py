@@ -489,7 +489,6 @@ class Model:
                 worst = np.maximum(worst, np.abs(np.array(f(y, theta, c)[2])).ravel())
         bad = [r for r in dropped if worst[r] > self.tolerance]
         if not bad:
-            self.__dict__["symbolic"] = sym  # what :attr:`symbolic` builds: kept, not redone
             return ()
         labels = self.row_labels()
         big = [labels[r] for r in bad if worst[r] > REDUNDANT_TOL * self.length_scale]

@@ -23,23 +23,40 @@ import os
 import sys
 import threading
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
 from ..backends import Resolved
 from ..codegen.library import cached_tracker
+from ..products import BACKGROUND_BUILDS
 
 #: Backends whose first use compiles.
 COMPILED = ("c", "compiled")
 
 _lock = threading.Lock()
-_jobs: dict[tuple[int, str], threading.Thread] = {}
-_ready: set[tuple[int, str]] = set()
-_failed: dict[tuple[int, str], str] = {}
-_said: set[int] = set()
+#: The builds started in this process (what the exit hook waits for).
+_STARTED: list[threading.Thread] = []
 
 
-def _key(model: Any, backend: str) -> tuple[int, str]:
-    return (id(model.products), str(backend))
+@dataclass
+class _Builds:
+    """One model's background builds (a product of the model: ``BACKGROUND_BUILDS``).
+
+    Attributes:
+        jobs: backend -> the thread building it.
+        ready: the backends built.
+        failed: backend -> why its build failed (``auto`` then keeps answering with cvodes).
+        said: the one line on stderr was printed.
+    """
+
+    jobs: dict[str, threading.Thread] = field(default_factory=dict)
+    ready: set[str] = field(default_factory=set)
+    failed: dict[str, str] = field(default_factory=dict)
+    said: bool = False
+
+
+def _builds(model: Any) -> _Builds:
+    return model.products.get(BACKGROUND_BUILDS, _Builds)
 
 
 def without_waiting(model: Any, backend: Resolved, warm: Callable[[Resolved], object]) -> Resolved:
@@ -57,21 +74,23 @@ def without_waiting(model: Any, backend: Resolved, warm: Callable[[Resolved], ob
         return backend
     if os.environ.get("SCDK_AUTO_WAITS") == "1":
         return backend
-    key = _key(model, backend)
-    if key in _ready or (backend == "c" and cached_tracker(model) is not None):
+    state = _builds(model)
+    name = str(backend)
+    if name in state.ready or (name == "c" and cached_tracker(model) is not None):
         return backend  # built, or in the cache from an earlier run: loads without compiling
-    if key in _failed:  # no compiler, or it failed: cvodes, as auto would without one
+    if name in state.failed:  # no compiler, or it failed: cvodes, as auto would without one
         return Resolved("cvodes", "auto")
     with _lock:
-        if key not in _jobs:
-            job = threading.Thread(target=_build, args=(key, warm, backend), daemon=True,
-                                   name=f"scdk-build-{model.name}-{backend}")  # fmt: skip
-            _jobs[key] = job
+        if name not in state.jobs:
+            job = threading.Thread(target=_build, args=(state, name, warm), daemon=True,
+                                   name=f"{model.name}-{name}")  # fmt: skip
+            state.jobs[name] = job
+            _STARTED.append(job)
             job.start()
-        if id(model.products) not in _said:
-            _said.add(id(model.products))
+        if not state.said:
+            state.said = True
             print(
-                f"note: building the {backend} kernels of {model.name} in the background; "
+                f"note: building the {name} kernels of {model.name} in the background; "
                 "backend='auto' answers with cvodes until they are ready",
                 file=sys.stderr,
                 flush=True,
@@ -79,20 +98,20 @@ def without_waiting(model: Any, backend: Resolved, warm: Callable[[Resolved], ob
     return Resolved("cvodes", "auto")
 
 
-def _build(key: tuple[int, str], warm: Callable[[Resolved], object], backend: str) -> None:
+def _build(state: _Builds, name: str, warm: Callable[[Resolved], object]) -> None:
     try:
-        warm(Resolved(backend, backend))
+        warm(Resolved(name, name))
     except BaseException as exc:  # noqa: BLE001 - recorded: auto keeps answering with cvodes
-        _failed[key] = f"{type(exc).__name__}: {exc}"
+        state.failed[name] = f"{type(exc).__name__}: {exc}"
         return
-    _ready.add(key)
+    state.ready.add(name)
 
 
 def wait(model: Any, timeout: float | None = None) -> bool:
     """Wait for the background builds of ``model`` (every backend); True when none is left
     running. For scripts that want the compiled backend from the next call on."""
     with _lock:
-        jobs = [job for (pid, _), job in _jobs.items() if pid == id(model.products)]
+        jobs = list(_builds(model).jobs.values())
     for job in jobs:
         job.join(timeout)
     return not any(job.is_alive() for job in jobs)
@@ -100,17 +119,17 @@ def wait(model: Any, timeout: float | None = None) -> bool:
 
 def ready(model: Any, backend: str) -> bool:
     """Whether ``auto`` runs ``backend`` for ``model`` now (built in the background)."""
-    return _key(model, backend) in _ready
+    return str(backend) in _builds(model).ready
 
 
 def _finish_at_exit() -> None:
     """Let the running builds end before the interpreter does (their libraries then land in
     the cache for the next run)."""
     with _lock:
-        alive = [job for job in _jobs.values() if job.is_alive()]
+        alive = [job for job in _STARTED if job.is_alive()]
     if not alive:
         return
-    names = ", ".join(job.name.removeprefix("scdk-build-") for job in alive)
+    names = ", ".join(job.name for job in alive)
     print(f"note: finishing the background build ({names}) before exiting; Ctrl-C skips it",
           file=sys.stderr, flush=True)  # fmt: skip
     try:
