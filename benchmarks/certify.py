@@ -28,8 +28,8 @@ import casadi as ca
 import numpy as np
 
 import scdk_sym as sc
-from scdk_sym.algebraic import certify as certify_module
 from scdk_sym.algebraic.certify import closure_function, krawczyk
+from scdk_sym.algebraic.certify import square as certify_module
 from scdk_sym.algebraic.interval import balls, interval_function
 from scdk_sym.kernels.fastcall import Buffered
 

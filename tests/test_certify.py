@@ -369,7 +369,8 @@ def test_configuration_sets_at_once_equal_set_by_set():
     per set, given or not): bit for bit the sets certified one at a time (the loop of
     ``_local`` and ``certify_sets``), and sets whose boxes are disjoint said so by the
     comparison of all sets at once as by the pairwise one."""
-    from scdk_sym.algebraic import certify as cm
+    from scdk_sym.algebraic.certify import configurations as cm
+    from scdk_sym.algebraic.certify.disjoint import certificate_set
 
     model = shipped("stewart_gough")
     rng = np.random.default_rng(2)
@@ -388,7 +389,7 @@ def test_configuration_sets_at_once_equal_set_by_set():
         assert got.overlaps == want.overlaps and got.duplicates == want.duplicates
         for a, b in zip(got.certificates, want.certificates, strict=True):
             assert a.box.tobytes() == b.box.tobytes() and a.x.tobytes() == b.x.tobytes()
-        plain = cm._certificate_set(got.certificates)  # every pair compared again
+        plain = certificate_set(got.certificates)  # every pair compared again
         assert plain.reason == got.reason and plain.overlaps == got.overlaps
 
 
@@ -396,7 +397,7 @@ def test_first_coordinate_screen_agrees_with_the_pairwise_box_test():
     """``_apart_in_first`` (a sort of the first coordinates) says "pairwise disjoint" only for
     sets whose every pair is apart in the first coordinate, checked pair by pair; sets where
     only the first coordinates are tested must include touching ends and NaN bounds."""
-    from scdk_sym.algebraic.certify import _apart_in_first
+    from scdk_sym.algebraic.certify.disjoint import _apart_in_first
 
     rng = np.random.default_rng(11)
     seen = {True: 0, False: 0}

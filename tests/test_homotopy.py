@@ -32,15 +32,10 @@ from scdk_sym.algebraic import (
     start_system,
     trace_test,
 )
-from scdk_sym.algebraic.homotopy import (
-    ParameterHomotopy,
-    dedup,
-    pair_distances,
-    pairs_apart,
-    solve_homotopies,
-    track_parameter_homotopy,
-)
-from scdk_sym.algebraic.tracker import DONE, STEP_LIMIT, TrackerOptions, track
+from scdk_sym.algebraic.distinct import dedup, pair_distances, pairs_apart
+from scdk_sym.algebraic.homotopy import solve_homotopies, track_parameter_homotopy
+from scdk_sym.algebraic.parameter_homotopy import ParameterHomotopy
+from scdk_sym.algebraic.paths.tracker import DONE, STEP_LIMIT, TrackerOptions, track
 from scdk_sym.errors import HomotopyError, InputError, ScdkError
 
 
@@ -447,7 +442,7 @@ def test_rotation_numerator_is_rotation_times_norm():
 def test_dedup_keeps_the_first_of_each_cluster():
     """Clusters of near-copies (1e-10 apart, relative) of rows of very different sizes: one
     row per cluster, the first one, sorted lexicographically; a NaN row matches nothing."""
-    from scdk_sym.algebraic.homotopy import dedup
+    from scdk_sym.algebraic.distinct import dedup
 
     rng = np.random.default_rng(7)
     centres = rng.normal(size=(6, 4)) * np.array([1e-3, 1.0, 1e3, 1.0])
@@ -515,7 +510,7 @@ def test_path_jumps_fail_as_the_per_target_rule_says():
 def test_dedup_groups_equals_dedup_of_each_group():
     """Groups of several sizes (empty, one row, planted near-copies, NaN rows) at once, bit
     for bit as dedup of each, on 300 seeded batches."""
-    from scdk_sym.algebraic.homotopy import dedup, dedup_groups
+    from scdk_sym.algebraic.distinct import dedup, dedup_groups
 
     rng = np.random.default_rng(11)
     merged = 0  # groups where some row went

@@ -145,9 +145,9 @@ PROCESS_MEMOS = {
     "kernels/curve.py:_SOLVERS": "the linear-solve Function of a sparsity pattern, any model",
     "atlases/store.py:_OPEN": "the atlas stores this process has open",
     "atlases/chunk.py:_MODELS": "a worker's models, rebuilt from their sources once per process",
-    "algebraic/certify.py:_SQUARES": "square systems of CasADi Functions, by Function identity",
+    "algebraic/certify/square.py:_SQUARES": "square systems of CasADi Functions, by identity",
     "algebraic/interval.py:_CACHE": "interval translations of CasADi Functions, by identity",
-    "algebraic/ckrawczyk.py:_LIBRARIES": "the loaded interval library, per instruction-set flags",
+    "algebraic/certify/ckrawczyk.py:_LIBRARIES": "the loaded interval library, per SIMD flags",
     "cli/common.py:COMMANDS": "the subcommands' registry, filled as their modules import",
 }
 

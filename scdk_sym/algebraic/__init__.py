@@ -22,8 +22,8 @@ from .form import AlgebraicForm, algebraic_form
 from .homotopy import HomotopyResult, solve_homotopy
 from .interval import IntervalFunction, interval_function
 from .monodromy import ENGINE_VERSION, StartSystem, monodromy_solve, start_system, trace_test
+from .paths import TrackerOptions
 from .system import PolynomialSystem
-from .tracker import TrackerOptions
 
 __all__ = [
     "AlgebraicForm",

@@ -13,6 +13,10 @@ targets but a set of measure zero the real segment from ``(p*, b*)`` meets it at
 ``t = 1`` (the parameter homotopy of HomotopyContinuation.jl is this segment). It is
 shorter than an arc (about half the steps on 6-6 platforms; an arc with ``gamma`` near -1
 swings far out). A path that fails on it is retried on arcs with random ``gamma``.
+
+The homotopy itself is :class:`~scdk_sym.algebraic.parameter_homotopy.ParameterHomotopy`;
+the real points among the endpoints are :mod:`scdk_sym.algebraic.real_endpoints`, distinct
+rows :mod:`scdk_sym.algebraic.distinct`.
 """
 
 from __future__ import annotations
@@ -22,50 +26,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import HomotopyError, InputError
-from .ctracker import c_tracker
+from .distinct import dedup, pair_distances
 from .endgame import EG_INFINITY, EG_SINGULAR, cauchy_endgame
+from .parameter_homotopy import ParameterHomotopy
+from .paths.ctracker import c_tracker
+from .paths.tracker import DIVERGED, DONE, TrackerOptions, newton, track
+from .real_endpoints import real_endpoints, real_endpoints_many
 from .system import PolynomialSystem
-from .tracker import DIVERGED, DONE, TrackerOptions, newton, rel_norm, track
 
 #: Path statuses of :class:`PathEndpoints` and :class:`HomotopyResult`.
 STATUSES = ("success", "singular", "at_infinity", "failed")
-
-
-class ParameterHomotopy:
-    """H(z, t) = G(z, p(s(t))) + b(s(t)) for a batch of paths, each with its own segment.
-
-    Args:
-        system: the polynomial system.
-        p_from: (D, n_params) complex parameters at t = 0 (one row per path datum).
-        p_to: (D, n_params) complex parameters at t = 1.
-        b_from: (D, n) complex offsets at t = 0 (zero on structural rows).
-        b_to: (D, n) complex offsets at t = 1.
-        gamma: (D,) complex gamma of each path (1 for a straight segment).
-    """
-
-    def __init__(self, system, p_from, p_to, b_from, b_to, gamma) -> None:
-        self.system = system
-        self.p_from = np.asarray(p_from, dtype=complex)
-        self.dp = np.asarray(p_to, dtype=complex) - self.p_from
-        self.b_from = np.asarray(b_from, dtype=complex)
-        self.db = np.asarray(b_to, dtype=complex) - self.b_from
-        self.gamma = np.asarray(gamma, dtype=complex)
-
-    def __call__(self, z: np.ndarray, t: np.ndarray, idx: np.ndarray):
-        """z (M, n), t (M,) complex, idx (M,) -> H (M, n), H_z (M, n, n), H_t (M, n).
-
-        Paths going to infinity overflow to non-finite values, which the tracker tells and
-        ends (status "at_infinity" or "failed"): no warning is raised for them."""
-        g = self.gamma[idx]
-        den = 1.0 + (g - 1.0) * t
-        s = (g * t / den)[:, None]
-        ds = (g / den**2)[:, None]
-        dp, db = self.dp[idx], self.db[idx]
-        with np.errstate(over="ignore", invalid="ignore"):
-            G, Gz, Gp = self.system.evaluate(z, self.p_from[idx] + s * dp)
-            H = G + self.b_from[idx] + s * db
-            Ht = (np.einsum("mij,mj->mi", Gp, dp) + db) * ds
-        return H, Gz, Ht
 
 
 @dataclass(frozen=True)
@@ -148,7 +118,7 @@ def track_parameter_homotopy(
         cond_max: largest condition number of H_z (rows and columns scaled) at a regular
             endpoint.
         tracker: ``"python"`` (numpy), ``"c"`` or ``"auto"`` (see
-            :func:`~scdk_sym.algebraic.ctracker.c_tracker`): who tracks the straight part of
+            :func:`~scdk_sym.algebraic.paths.ctracker.c_tracker`): who tracks the straight part of
             the paths; the endgame always runs in numpy.
 
     Returns:
@@ -213,49 +183,6 @@ def track_parameter_homotopy(
         out[good], status[good], winding[good] = zr[reg], "success", 1
     _fail_jumps(out, status, idx)
     return PathEndpoints(out, status.astype(str), winding, steps)
-
-
-#: Machine epsilon of binary64.
-EPS = float(np.finfo(float).eps)
-
-
-def pair_distances(z: np.ndarray, bound: np.ndarray | float) -> np.ndarray:
-    """``max_k |z[g, i, k] - z[g, j, k]|`` (G, M, M) of complex (or real) rows ``z``
-    (G, M, n) wherever it may be at most ``bound`` (broadcast to (G, M, M)); ``inf`` where it
-    is surely above.
-
-    The full moduli are computed only for the pairs whose first coordinates' real parts, a
-    lower bound of the distance, are not already farther apart than ``bound``; those pairs
-    get the values the full computation gives, bit for bit (NaN included; the others are
-    ``inf`` even where a later coordinate is NaN), so a test ``<= bound`` (or with a larger
-    bound) answers as on the full matrix. When every two rows are apart so
-    (:func:`pairs_apart` with the largest bound), only the diagonal is computed.
-    """
-    if pairs_apart(z, float(np.max(bound))):
-        out = np.full(z.shape[:-1] + z.shape[-2:-1], np.inf)
-        with np.errstate(invalid="ignore"):
-            diag = np.abs(z - z).max(axis=-1)  # 0, or NaN in a row with a NaN
-        i = np.arange(z.shape[-2])
-        out[:, i, i] = diag
-        return out
-    with np.errstate(invalid="ignore"):
-        x = np.ascontiguousarray(z[..., 0].real)
-        lower = np.abs(x[:, :, None] - x[:, None])  # |z| >= (1 - 2 eps) |Re z| after rounding
-        near = ~(lower * (1.0 - 4.0 * EPS) > bound)  # NaN: computed
-        out = np.full(lower.shape, np.inf)
-        g, i, j = np.nonzero(near)
-        out[g, i, j] = np.abs(z[g, i] - z[g, j]).max(axis=1)
-    return out
-
-
-def pairs_apart(z: np.ndarray, bound: float) -> bool:
-    """Whether every two rows of each group of ``z`` (G, M, n) are surely farther apart than
-    ``bound``: their first coordinates' real parts are (sorted, neighbours compared; False
-    where one is NaN). :func:`pair_distances` with any bound up to ``bound`` is then
-    ``inf`` off the diagonal."""
-    x = np.sort(z[..., 0].real, axis=-1)
-    with np.errstate(invalid="ignore"):  # a NaN gap (a NaN entry, inf - inf): not apart
-        return bool(((x[..., 1:] - x[..., :-1]) * (1.0 - 4.0 * EPS) > bound).all())
 
 
 def _fail_jumps(out: np.ndarray, status: np.ndarray, idx: np.ndarray) -> None:
@@ -333,152 +260,6 @@ class HomotopyResult:
     gamma: complex
     steps: np.ndarray
     attempts: int
-
-
-def real_endpoints(
-    system: PolynomialSystem,
-    z: np.ndarray,
-    p0: np.ndarray,
-    real_tol: float = 1e-8,
-    dedup_tol: float = 1e-8,
-    polish: bool = True,
-    ctrack=None,
-) -> np.ndarray:
-    """Distinct real points among endpoints, each polished by two real Newton steps.
-
-    Args:
-        system: the polynomial system.
-        z: (M, n) complex endpoints (NaN rows are skipped).
-        p0: (n_params,) the target parameters.
-        real_tol: largest ``max|Im z| / (1 + max|z|)`` of a real endpoint.
-        dedup_tol: relative distance under which two real points are one.
-        polish: run the real Newton steps (not at singular endpoints).
-        ctrack: the system's C tracker (:func:`~scdk_sym.algebraic.ctracker.c_tracker`):
-            the Newton steps in C (at real points and parameters they stay real); ``None``:
-            in numpy.
-
-    Returns:
-        (K, n) float, sorted lexicographically.
-    """
-    p = np.asarray(p0, dtype=complex)[None]
-    return real_endpoints_many(system, [z], p, real_tol, dedup_tol, polish, ctrack)[0]
-
-
-def real_endpoints_many(
-    system: PolynomialSystem,
-    zs: list[np.ndarray],
-    P0: np.ndarray,
-    real_tol: float = 1e-8,
-    dedup_tol: float = 1e-8,
-    polish: bool = True,
-    ctrack=None,
-) -> list[np.ndarray]:
-    """:func:`real_endpoints` of several targets, the C Newton steps of all in one call.
-
-    Args:
-        system: the polynomial system.
-        zs: W arrays (M_w, n) of complex endpoints, one per target.
-        P0: (W, n_params) the targets' parameters.
-        real_tol: as :func:`real_endpoints`.
-        dedup_tol: as :func:`real_endpoints`.
-        polish: as :func:`real_endpoints`.
-        ctrack: as :func:`real_endpoints`.
-
-    Returns:
-        W arrays (K_w, n) float, each as :func:`real_endpoints` returns it (each row's Newton
-        steps are those of a single call).
-    """
-    n = system.n
-    owner = np.repeat(np.arange(len(zs)), [len(z) for z in zs])
-    z = np.concatenate(zs) if zs else np.zeros((0, n), dtype=complex)
-    z = z.reshape(len(owner), n)
-    keep = np.isfinite(z).all(axis=1)
-    keep[keep] = rel_norm(z[keep].imag, z[keep]) <= real_tol
-    owner = owner[keep]
-    sizes = np.bincount(owner, minlength=len(zs)).tolist()
-    xs = np.split(z[keep].real.astype(complex), np.cumsum(sizes)[:-1]) if zs else []
-    if sum(sizes) and polish and ctrack is not None:
-        P = np.asarray(P0, dtype=complex).reshape(len(zs), system.n_params)
-        b = np.zeros((len(zs), system.n), dtype=complex)
-        at_p0 = ParameterHomotopy(system, P, P, b, b, np.ones(len(zs)))
-        idx = np.repeat(np.arange(len(zs)), sizes)
-        x = ctrack.newton(at_p0, np.concatenate(xs), np.zeros(len(idx)), idx, 2, False)[0]
-        xs = np.split(x, np.cumsum(sizes)[:-1])
-    elif sum(sizes) and polish:
-        xs = [_real_newton(system, x, p) for x, p in zip(xs, P0, strict=True)]
-    return dedup_groups([x.real for x in xs], dedup_tol)
-
-
-def _real_newton(system: PolynomialSystem, x: np.ndarray, p0: np.ndarray) -> np.ndarray:
-    """Two real Newton steps in numpy at ``p0`` (all stop where one Jacobian is singular)."""
-    if not len(x):
-        return x
-    P = np.broadcast_to(np.asarray(p0, dtype=complex), (len(x), system.n_params))
-    for _ in range(2):
-        G, Gz, _ = system.evaluate(x, P)
-        try:
-            dx = np.linalg.solve(Gz.real, G.real[..., None])[..., 0]
-        except np.linalg.LinAlgError:
-            break
-        x = x - np.where(np.isfinite(dx), dx, 0.0)
-    return x
-
-
-def dedup_groups(xs: list[np.ndarray], tol: float, block: int = 1 << 20) -> list[np.ndarray]:
-    """:func:`dedup` of each of several arrays (each (M_g, n)), the pairs of all groups
-    compared at once (about ``block`` entries at a time); a group runs :func:`dedup` itself
-    only where two of its rows meet."""
-    out: list[np.ndarray] = [np.zeros((0, 0))] * len(xs)
-    small = [g for g, x in enumerate(xs) if len(x) <= 1]
-    for g in small:
-        out[g] = dedup(xs[g], tol)
-    by_size: dict[tuple, list[int]] = {}
-    for g, x in enumerate(xs):
-        if len(x) > 1:
-            by_size.setdefault(x.shape, []).append(g)
-    for (M, n), groups in by_size.items():
-        step = max(1, block // (M * M * max(n, 1)))
-        for a in range(0, len(groups), step):
-            rows = groups[a : a + step]
-            x = np.stack([xs[g] for g in rows])  # (G, M, n)
-            scale = 1.0 + np.abs(x).max(axis=2)
-            with np.errstate(invalid="ignore"):
-                # the distances only where a pair may be near (margin: the division)
-                d = pair_distances(x, tol * (1.0 + 1e-9) * scale[:, None, :])
-                close = d / scale[:, None, :] <= tol  # as dedup: relative to the column's row
-            diag = np.arange(M)
-            close[:, diag, diag] = False
-            meet = close.any(axis=(1, 2))
-            for g, m, xg in zip(rows, meet.tolist(), x, strict=True):
-                out[g] = dedup(xs[g], tol) if m else xg[np.lexsort(xg.real.T[::-1])]
-    return out
-
-
-def dedup(x: np.ndarray, tol: float, block: int = 256) -> np.ndarray:
-    """Distinct rows of x (M, n), relative distance ``tol``; sorted lexicographically.
-
-    A row is kept unless it lies within ``tol`` of a row kept before it, the distance relative
-    to the kept row (``max|row - k| / (1 + max|k|)``); NaN distances never match. The
-    distances are computed ``block`` rows at a time.
-    """
-    x = np.asarray(x)
-    if len(x) <= 1:  # nothing to merge
-        return np.zeros((0, x.shape[1]), dtype=x.dtype) if not len(x) else x.copy()
-    scale = 1.0 + np.abs(x).max(axis=1)
-    close = np.zeros((len(x), len(x)), dtype=bool)
-    with np.errstate(invalid="ignore"):
-        for a in range(0, len(x), block):
-            d = np.abs(x[a : a + block, None] - x[None, : a + block]).max(axis=2)
-            close[a : a + block, : a + block] = d / scale[None, : a + block] <= tol
-    np.fill_diagonal(close, False)
-    kept = list(range(len(x)))
-    if close.any() and np.tril(close).any():  # in order: an earlier match counts if kept
-        rows, kept = close.tolist(), []
-        for i, row in enumerate(rows):
-            if not any(row[j] for j in kept):
-                kept.append(i)
-    out = x[kept]
-    return out[np.lexsort(out.real.T[::-1])]
 
 
 def solve_homotopy(

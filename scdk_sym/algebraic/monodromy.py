@@ -28,15 +28,18 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..errors import HomotopyError
-from .homotopy import ParameterHomotopy, dedup, track_parameter_homotopy
+from .distinct import dedup
+from .homotopy import track_parameter_homotopy
+from .parameter_homotopy import ParameterHomotopy
+from .paths.tracker import TrackerOptions, newton, rel_norm
 from .system import PolynomialSystem
-from .tracker import TrackerOptions, newton, rel_norm
 
 #: Version of the engine; part of the cache key of start systems.
 ENGINE_VERSION = "1"
@@ -74,6 +77,31 @@ class StartSystem:
     reason: str = ""
     root_bound: int = -1
     certificate: str = ""
+
+
+@dataclass(frozen=True)
+class LoopRules:
+    """When the loops of :func:`monodromy_solve` run the completeness test, and when they stop.
+
+    Attributes:
+        stable_loops: loops without a new solution before the trace test.
+        max_loops: bound on the loops.
+        trace_tol: largest trace residual of a complete set.
+        target: the number of solutions at which the test runs at once (an upper bound on
+            the isolated solutions: no loop can add one beyond it); ``None``: no target.
+        budget: CPU time [s] after which no new loop starts (``None``: no limit); the set
+            found so far is returned, its test not passed.
+    """
+
+    stable_loops: int = 5
+    max_loops: int = 200
+    trace_tol: float = 1e-8
+    target: int | None = None
+    budget: float | None = None
+
+
+#: The keywords of :func:`monodromy_solve` that are :class:`LoopRules`.
+_RULES = tuple(f.name for f in fields(LoopRules))
 
 
 def _cnormal(rng: np.random.Generator, shape) -> np.ndarray:
@@ -167,16 +195,12 @@ def monodromy_solve(
     system: PolynomialSystem,
     seed: int = 0,
     *,
-    stable_loops: int = 5,
-    max_loops: int = 200,
-    trace_tol: float = 1e-8,
     trace_map: Callable[[np.ndarray], np.ndarray] | None = None,
     options: TrackerOptions | None = None,
     progress: bool = True,
     test: Callable[[np.ndarray, np.ndarray, np.ndarray], float] | None = None,
-    target: int | None = None,
     start: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
-    budget: float | None = None,
+    **rules: Any,
 ) -> StartSystem:
     """A complete start system by monodromy loops and a trace test.
 
@@ -188,21 +212,17 @@ def monodromy_solve(
     Args:
         system: the polynomial system.
         seed: seed of every random choice (start pair, loops, pencil).
-        stable_loops: loops without a new solution before the trace test.
-        max_loops: bound on the loops.
-        trace_tol: largest trace residual of a complete set.
         trace_map: the traced functions (see :func:`trace_test`).
         options: tracker step control.
         progress: show a tqdm progress bar (on stderr, after the first 2 s).
         test: ``test(solutions, p, b) -> residual``, the completeness test (default:
             :func:`trace_test` with ``trace_map``); the set is complete when the residual is
             at most ``trace_tol``.
-        target: the number of solutions at which the test runs at once (an upper bound on
-            the isolated solutions: no loop can add one beyond it); ``None``: no target.
         start: ``(z0 (n,), p (n_params,), b (n,))``, a known solution ``G(z0, p) + b = 0``
             to start the loops from (default: ``system.random_point`` with ``b = -G``).
-        budget: CPU time [s] after which no new loop starts (``None``: no limit); the set
-            found so far is returned, its test not passed.
+        **rules: the fields of :class:`LoopRules` as keywords (``stable_loops``,
+            ``max_loops``, ``trace_tol``, ``target``, ``budget``), each defaulting to its
+            default there.
 
     Returns:
         A :class:`StartSystem` (``trace_passed`` False if the budget ran out, ``reason``
@@ -210,8 +230,14 @@ def monodromy_solve(
 
     Raises:
         HomotopyError: the random point does not satisfy the structural rows.
+        TypeError: a keyword that is no field of :class:`LoopRules`.
     """
     from tqdm.auto import tqdm
+
+    unknown = [name for name in rules if name not in _RULES]
+    if unknown:
+        raise TypeError(f"monodromy_solve() got an unexpected keyword argument {unknown[0]!r}")
+    r = LoopRules(**rules)
 
     rng = np.random.default_rng(seed)
     offs = np.asarray(system.offset_rows, dtype=bool)
@@ -228,12 +254,12 @@ def monodromy_solve(
             return trace_test(system, sols, p, b, rng, trace_map=trace_map, options=options)
 
     bar = tqdm(
-        total=max_loops, desc="monodromy", unit="loop", disable=not progress, leave=False, delay=2
+        total=r.max_loops, desc="monodromy", unit="loop", disable=not progress, leave=False, delay=2
     )
-    deadline = math.inf if budget is None else time.process_time() + budget
+    deadline = math.inf if r.budget is None else time.process_time() + r.budget
     out_of_time = False
     try:
-        while loops < max_loops:
+        while loops < r.max_loops:
             if time.process_time() > deadline:
                 out_of_time = True
                 break
@@ -243,9 +269,9 @@ def monodromy_solve(
             stable = stable + 1 if len(sols) == before else 0
             bar.update(1)
             bar.set_postfix(solutions=len(sols))
-            if stable >= stable_loops or (len(sols) != before and len(sols) == target):
+            if stable >= r.stable_loops or (len(sols) != before and len(sols) == r.target):
                 residual = float(test(sols, p, b))
-                passed = residual <= trace_tol
+                passed = residual <= r.trace_tol
                 bar.set_postfix(solutions=len(sols), trace=f"{residual:.0e}")
                 if passed:
                     break
@@ -257,7 +283,9 @@ def monodromy_solve(
                 stable = 0
     finally:
         bar.close()
-    reason = "" if passed else _failure(residual, trace_tol, loops, len(sols), out_of_time, budget)
+    reason = (
+        "" if passed else _failure(residual, r.trace_tol, loops, len(sols), out_of_time, r.budget)
+    )
     return StartSystem(p, b, sols, len(sols), residual, passed, loops, seed, reason=reason)
 
 

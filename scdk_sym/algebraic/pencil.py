@@ -43,9 +43,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .homotopy import ParameterHomotopy, dedup, track_parameter_homotopy
+from .distinct import dedup
+from .homotopy import track_parameter_homotopy
+from .parameter_homotopy import ParameterHomotopy
+from .paths.tracker import TrackerOptions
 from .system import PolynomialSystem
-from .tracker import TrackerOptions
 
 #: Modulus of the two pencil values ``t1``, ``t2`` the union is tracked to.
 PENCIL_RADIUS = 0.5

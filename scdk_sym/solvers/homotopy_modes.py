@@ -602,7 +602,7 @@ def _complete_set(res, root_count: int) -> bool:
 def _complete_sets(results: list, root_count: int, block: int = 1 << 22) -> np.ndarray:
     """:func:`_complete_set` of each result (W,) bool, the pairwise distances of up to
     ``block`` entries at once."""
-    from ..algebraic.homotopy import pair_distances
+    from ..algebraic.distinct import pair_distances
 
     out = np.zeros(len(results), dtype=bool)
     full = [
@@ -871,7 +871,7 @@ def _first_of_images(feats: np.ndarray, tol: float) -> list[int]:
     """The rows of ``feats`` (R, d) kept in order, each unless some kept row lies within
     ``tol`` of it (max-norm): all pairs compared at once (by their first coordinate, then,
     where two may meet, by all), the in-order rule run only where two rows meet."""
-    from ..algebraic.homotopy import pairs_apart
+    from ..algebraic.distinct import pairs_apart
 
     R = len(feats)
     if R < 2 or pairs_apart(feats[None], tol):  # no two rows meet

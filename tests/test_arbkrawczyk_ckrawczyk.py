@@ -1,4 +1,5 @@
-"""The binary64 interval Krawczyk test in C (scdk_sym.algebraic.ckrawczyk).
+"""The binary64 interval Krawczyk test in C (scdk_sym.algebraic.certify.ckrawczyk) against its
+Python twin, the Arb test (scdk_sym.algebraic.certify.arbkrawczyk).
 
 References are independent of the code under test: the exact results of the operations on
 binary64 endpoints in Arb at 300 bits, roots known exactly in binary64 (every term of the
@@ -17,9 +18,9 @@ from flint import arb, arb_mat, ctx
 from stewart import DIETMAIER_BASE, DIETMAIER_LENGTHS, DIETMAIER_PLATFORM
 
 import scdk_sym as sc
-from scdk_sym.algebraic import certify as certify_module
 from scdk_sym.algebraic import certify_all, certify_configurations, closure_function, krawczyk
-from scdk_sym.algebraic.ckrawczyk import replay, tape
+from scdk_sym.algebraic.certify import points as certify_module
+from scdk_sym.algebraic.certify.ckrawczyk import replay, tape
 from scdk_sym.errors import InputError
 
 EPS = float(np.finfo(float).eps)
@@ -192,10 +193,10 @@ def _rational_system(rng: np.random.Generator, n: int) -> tuple[ca.Function, np.
 
 def _c_only(f: ca.Function, xs: np.ndarray, p: list) -> list:
     """The certificates of the C test alone (None where it proves nothing)."""
-    sq = certify_module._SQUARES(f)
+    sq = certify_module.square_system(f)
     assert sq.fast is not None  # rational: the C test applies
-    _, bounds, _ = certify_module._parameters(p, sq.n_params)
-    return certify_module._fast(sq, np.atleast_2d(xs), bounds, certify_module.TIGHTEN)
+    _, bounds, _ = certify_module.parameters(p, sq.n_params)
+    return certify_module.first_boxes(sq, np.atleast_2d(xs), bounds, certify_module.TIGHTEN)
 
 
 @pytest.mark.parametrize("n", [1, 3, 6])
@@ -337,7 +338,7 @@ def test_the_lane_width_changes_no_outcome():
     three of them moved off their zero, one to a NaN and one with a parameter box per point
     -- every build gives the same statuses, radii and boxes to the bit, and the proven boxes
     hold the Arb test's."""
-    from scdk_sym.algebraic.ctracker import _cpu_flags
+    from scdk_sym.algebraic.clibrary import _cpu_flags
 
     model = sc.builders.stewart_gough(DIETMAIER_BASE, DIETMAIER_PLATFORM)
     sols = sc.assembly_modes(model, DIETMAIER_LENGTHS)
@@ -348,8 +349,8 @@ def test_the_lane_width_changes_no_outcome():
     local = np.array(np.vstack([c.x for c in fast.certificates]))
     local[[3, 17, 30]] += np.array([1e-3, -1e-2, 0.5])[:, None]  # no zero close enough
     local[22, 1] = np.nan
-    sq = certify_module._SQUARES(f)
-    _, bounds, _ = certify_module._parameters(list(q), sq.n_params)
+    sq = certify_module.square_system(f)
+    _, bounds, _ = certify_module.parameters(list(q), sq.n_params)
     boxes = np.repeat(bounds[None], 37, axis=0)
     boxes[5] = bounds + np.array([-1e-12, 1e-12])  # a box of parameters for one point
     cpu = _cpu_flags()

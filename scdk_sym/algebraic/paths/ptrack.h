@@ -5,7 +5,7 @@
  *   s(t) = gamma[d] t / (1 + (gamma[d] - 1) t),
  * with t real (the path variable), W the row weights and G a square polynomial system, its
  * evaluation on real pairs generated for lane vectors and compiled in (ptrack.c). The step
- * rules are those of scdk_sym/algebraic/tracker.py.
+ * rules are those of tracker.py beside it.
  */
 #ifndef SCDK_PTRACK_H
 #define SCDK_PTRACK_H

@@ -1,6 +1,6 @@
 /* Predictor-corrector tracking of complex parameter homotopies (see ptrack.h).
  *
- * One step of a path, as in scdk_sym/algebraic/tracker.py:
+ * One step of a path, as in tracker.py beside it:
  *   predictor: classical RK4 on dz/dt = -H_z^{-1} H_t (the first stage is the velocity kept
  *              from the previous corrector);
  *   corrector: two Newton iterations at the new t; norms nu1, nu2 of the updates relative to

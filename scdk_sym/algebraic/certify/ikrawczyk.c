@@ -9,7 +9,7 @@
  * interval may hold), never from the C library's. The library is compiled without contraction into fused multiply-adds
  * and without value-changing optimisations (ckrawczyk.py's flags). A bound that is not
  * finite, or a divisor interval holding 0, fails the evaluation: the point is then left
- * to the ball-arithmetic test (certify.py), never proven here.
+ * to the ball-arithmetic test (arbkrawczyk.py), never proven here.
  */
 #include "ikrawczyk.h"
 #include "scdk_lu.h"

@@ -1,23 +1,24 @@
 """Krawczyk tests of many points in one C call, in binary64 interval arithmetic.
 
-``c/ikrawczyk.c`` replays the instruction lists of a square system's value and Jacobian
-Functions on intervals ``[lo, hi]`` of binary64 numbers: each operation rounds to nearest
-and moves each bound one binary64 number outward, which encloses the exact result of the
-operations IEEE 754 rounds correctly (``+ - * /``, and squares, negation, doubling,
+``ikrawczyk.c`` (beside this module) replays the instruction lists of a square system's value
+and Jacobian Functions on intervals ``[lo, hi]`` of binary64 numbers: each operation rounds to
+nearest and moves each bound one binary64 number outward, which encloses the exact result of
+the operations IEEE 754 rounds correctly (``+ - * /``, and squares, negation, doubling,
 reciprocal and ``|.|`` built from them; the sign function is exact); ``sin`` and ``cos`` are
 enclosed from those operations alone (reduction by an enclosure of pi/2, a Taylor polynomial
 with the bound of its rest, the extrema an interval may hold), so revolute joints' rows
-qualify. The test itself is the
-first box of :func:`scdk_sym.algebraic.certify.krawczyk` (the box built the same way from the
-Newton correction at the point, the same operator and tightening), so a point proven here is
-proven by the same theorem; a point it does not prove (or a Function with other operations,
-or no C compiler) goes to the ``arb`` test, which tries more boxes and says why it fails.
+qualify. The test itself is the first box of its Python twin,
+:func:`scdk_sym.algebraic.certify.arbkrawczyk.arb_krawczyk` (the box built the same way from
+the Newton correction at the point, the same operator and tightening), so a point proven here
+is proven by the same theorem; a point it does not prove (or a Function with other
+operations, or no C compiler) goes to the ``arb`` test, which tries more boxes and says why
+it fails.
 
 The replays of 2, 4 or 8 points run at once, one per lane of a register of doubles (SSE2,
 AVX2, AVX-512): each lane makes the operations of its point alone, so a point's outcome does
 not depend on the width (:func:`replay` with ``lanes=True`` checks that a lane's values do
 not depend on its neighbours). The library is compiled once and cached
-(:func:`~scdk_sym.algebraic.ctracker.source_library`) with flags that keep every operation as
+(:func:`~scdk_sym.algebraic.clibrary.source_library`) with flags that keep every operation as
 written: no contraction into fused multiply-adds, no value-changing optimisations; the
 rounding mode is the default round-to-nearest.
 """
@@ -26,13 +27,15 @@ from __future__ import annotations
 
 import ctypes
 from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
 
-from ..errors import BuildError, InputError
-from ..symbolic.instructions import instructions
-from .ctracker import simd_flags, source_library
+from ...errors import BuildError, InputError
+from ...symbolic.instructions import instructions
+from ..clibrary import simd_flags, source_library
 
 #: Flags of the interval library (warnings are errors; ISO C without fused multiply-adds or
 #: other value-changing optimisations: -O3 inlines and unrolls, every operation still rounds
@@ -129,13 +132,20 @@ def tape(f: ca.Function) -> Tape | None:
 _LIBRARIES: dict[tuple[str, ...], ctypes.CDLL] = {}
 
 
+def source_dir() -> Path:
+    """The directory of ``ikrawczyk.c`` and ``ikrawczyk.h`` (package data, beside this
+    module)."""
+    return Path(str(resources.files("scdk_sym.algebraic.certify")))
+
+
 def _library(simd: tuple[str, ...] | None = None) -> ctypes.CDLL:
     """The interval library, compiled once per instruction-set flags (default
-    :func:`~scdk_sym.algebraic.ctracker.simd_flags`; the points tested at once are the doubles
+    :func:`~scdk_sym.algebraic.clibrary.simd_flags`; the points tested at once are the doubles
     of one register of that set, and each point's outcome does not depend on it)."""
     simd = simd_flags() if simd is None else simd
     if simd not in _LIBRARIES:
-        lib = ctypes.CDLL(str(source_library("ikrawczyk", (*IKRAWCZYK_CFLAGS, *simd))))
+        source = source_dir() / "ikrawczyk.c"
+        lib = ctypes.CDLL(str(source_library(source, (*IKRAWCZYK_CFLAGS, *simd))))
         f = lib.scdk_ikrawczyk
         dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
         i64 = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")

@@ -1,31 +1,30 @@
-"""The path tracker of :mod:`scdk_sym.algebraic.tracker` in C, for parameter homotopies of a
-model's algebraic form.
+"""The path tracker of :mod:`scdk_sym.algebraic.paths.tracker` in C, for parameter homotopies
+of a model's algebraic form.
 
-``c/ptrack.c`` tracks every path of a :class:`~scdk_sym.algebraic.homotopy.ParameterHomotopy`
-in one call, with the predictor, corrector and step rules of the numpy tracker (which stays
-the reference). :func:`lanes` paths (4 with AVX2, 8 with AVX-512) advance in lock step, one
-per lane of a vector of doubles: the real-pair evaluation of ``G``
-(:func:`~scdk_sym.algebraic.pairs.complexify`) is written for lane vectors
-(:func:`~scdk_sym.kernels.lanes.lane_source`) and compiled into the tracker with the
-system's sizes, so one library per system, compiled once and cached on disk under the hash
-of everything it is built from. Only straight segments in ``t`` are tracked
-here; the endgame's circles stay in numpy.
+``ptrack.c`` (beside this module) tracks every path of a
+:class:`~scdk_sym.algebraic.parameter_homotopy.ParameterHomotopy` in one call, with the
+predictor, corrector and step rules of the numpy tracker (which stays the reference).
+:func:`lanes` paths (4 with AVX2, 8 with AVX-512) advance in lock step, one per lane of a
+vector of doubles: the real-pair evaluation of ``G`` (:func:`~scdk_sym.algebraic.pairs.complexify`)
+is written for lane vectors (:func:`~scdk_sym.kernels.lanes.lane_source`) and compiled into
+the tracker with the system's sizes, so one library per system, compiled once and cached on
+disk under the hash of everything it is built from
+(:func:`~scdk_sym.algebraic.clibrary.source_library`). Only straight segments in ``t`` are
+tracked here; the endgame's circles stay in numpy.
 """
 
 from __future__ import annotations
 
 import ctypes
-import functools
-import hashlib
-import tempfile
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import BuildError, HomotopyError, InputError
-from ..products import HOMOTOPY_TRACKER
+from ...errors import BuildError, HomotopyError, InputError
+from ...products import HOMOTOPY_TRACKER
+from ..clibrary import simd_flags, source_library
 from .tracker import DONE, TrackerOptions, TrackOutcome
 
 #: Tracker choices of :func:`~scdk_sym.algebraic.solve_homotopy`.
@@ -61,73 +60,8 @@ class _Options(ctypes.Structure):
 
 
 def source_dir() -> Path:
-    """The directory of ``ptrack.c`` and ``ptrack.h`` (package data)."""
-    return Path(str(resources.files("scdk_sym.algebraic") / "c"))
-
-
-def source_library(
-    stem: str, flags: tuple[str, ...], generated: dict[str, str] | None = None
-) -> Path:
-    """A library compiled from ``c/<stem>.c`` (and ``c/<stem>.h``, and the package's LU
-    factorisation :data:`~scdk_sym.kernels.compile.LU_HEADER` it may include), cached under
-    the hash of its sources, flags and compiler.
-
-    Args:
-        stem: the source's name in ``c/``.
-        flags: compiler flags.
-        generated: file name -> text of generated sources, written beside each other and
-            on the include path (their texts hashed too); a ``main.c`` among them is
-            compiled instead of ``c/<stem>.c`` (it includes it).
-
-    Raises:
-        BuildError: no C compiler, or the compilation failed.
-    """
-    from ..kernels.cache import cache_dir, cached_file
-    from ..kernels.compile import LU_HEADER, compiler_tag, run_compiler
-
-    src = source_dir()
-    generated = generated or {}
-    h = hashlib.sha256()
-    for path in (src / f"{stem}.h", src / f"{stem}.c", LU_HEADER):
-        h.update(path.read_bytes())
-    h.update(" ".join(flags).encode())
-    h.update(compiler_tag().encode())
-    for name, text in sorted(generated.items()):
-        h.update(name.encode() + b"\0" + text.encode() + b"\0")
-    target = cache_dir() / f"{stem}_{h.hexdigest()[:20]}.so"
-
-    def build(path: Path) -> None:
-        with tempfile.TemporaryDirectory() as tmp:
-            for name, text in generated.items():
-                (Path(tmp) / name).write_text(text)
-            main = Path(tmp) / "main.c" if "main.c" in generated else src / f"{stem}.c"
-            run_compiler([*flags, f"-I{src}", f"-I{LU_HEADER.parent}", f"-I{tmp}", str(main),
-                          "-o", str(path), "-lm"])  # fmt: skip
-
-    return cached_file(target, build, "compiled library")
-
-
-@functools.cache
-def _cpu_flags() -> tuple[str, ...]:
-    """The processor's feature flags (Linux ``/proc/cpuinfo``; none elsewhere), read once per
-    process (every interval test asks for its library's flags)."""
-    try:
-        info = Path("/proc/cpuinfo").read_text()
-    except OSError:
-        return ()
-    return tuple(next((ln.split(":", 1)[1].split() for ln in info.splitlines()
-                       if ln.startswith("flags")), []))  # fmt: skip
-
-
-def simd_flags() -> tuple[str, ...]:
-    """``-mavx2`` where the processor has AVX2, and ``-mavx512f`` where it has AVX-512F too,
-    else nothing: the lanes then run on the baseline instruction set. No ``-mfma`` (and
-    ``-std=c99`` keeps GCC from contracting): each lane rounds as the scalar evaluation
-    does, whatever the vector width."""
-    flags = _cpu_flags()
-    if "avx2" not in flags:
-        return ()
-    return ("-mavx2", "-mavx512f") if "avx512f" in flags else ("-mavx2",)
+    """The directory of ``ptrack.c`` and ``ptrack.h`` (package data, beside this module)."""
+    return Path(str(resources.files("scdk_sym.algebraic.paths")))
 
 
 def lanes() -> int:
@@ -144,14 +78,14 @@ def tracker_library(form, flags: tuple[str, ...] | None = None, width: int = 0) 
 
     Args:
         form: the form.
-        flags: instruction-set flags (default :func:`simd_flags`).
+        flags: instruction-set flags (default :func:`~scdk_sym.algebraic.clibrary.simd_flags`).
         width: paths in lock step (default :func:`lanes`).
 
     Raises:
         BuildError: no C compiler, the compilation failed, or ``G`` uses an operation with no
             lane evaluation.
     """
-    from ..kernels.lanes import lane_source
+    from ...kernels.lanes import lane_source
 
     main = (
         f"#define SCDK_N {form.n}\n#define SCDK_K {form.n_params}\n"
@@ -160,7 +94,7 @@ def tracker_library(form, flags: tuple[str, ...] | None = None, width: int = 0) 
     )
     evaluation = lane_source(form.G_pairs, "scdk_eval")
     return source_library(
-        "ptrack",
+        source_dir() / "ptrack.c",
         (*TRACKER_CFLAGS, *(simd_flags() if flags is None else flags)),
         {"scdk_eval.c": evaluation, "main.c": main},
     )
@@ -168,8 +102,8 @@ def tracker_library(form, flags: tuple[str, ...] | None = None, width: int = 0) 
 
 def _form_and_weights(system) -> tuple[object, np.ndarray] | None:
     """``(AlgebraicForm, row weights)`` of a form or a scaled form; ``None`` otherwise."""
-    from .form import AlgebraicForm
-    from .scaled import ScaledForm
+    from ..form import AlgebraicForm
+    from ..scaled import ScaledForm
 
     if isinstance(system, ScaledForm):
         return system.form, np.asarray(system.weights, dtype=float)
@@ -189,7 +123,7 @@ class SplitOutcome:
     """What :meth:`CTracker.track_split` returns.
 
     Attributes:
-        end: the :class:`~scdk_sym.algebraic.tracker.TrackOutcome` of every path (M paths)
+        end: the :class:`~scdk_sym.algebraic.paths.tracker.TrackOutcome` of every path (M paths)
             at its last stop (``steps`` and ``accepted`` count both parts).
         reached: (K,) int, the paths that reached the split time.
         z_split: (K, n) complex, their points there.
@@ -261,7 +195,8 @@ class CTracker:
         weights: np.ndarray,
         condition: bool = True,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]:
-        """Newton's method on ``H(., t) = 0`` in C, as :func:`~scdk_sym.algebraic.tracker.newton`.
+        """Newton's method on ``H(., t) = 0`` in C, as
+        :func:`~scdk_sym.algebraic.paths.tracker.newton`.
 
         Args:
             homotopy: as :meth:`track`'s.
@@ -314,8 +249,8 @@ class CTracker:
         """Track every path along ``t = tau`` from ``tau0`` to ``tau1`` (one C call).
 
         Args:
-            homotopy: a :class:`~scdk_sym.algebraic.homotopy.ParameterHomotopy` of the form
-                whose rows are scaled by ``weights``.
+            homotopy: a :class:`~scdk_sym.algebraic.parameter_homotopy.ParameterHomotopy` of
+                the form whose rows are scaled by ``weights``.
             z0: (M, n) complex start points.
             idx: (M,) int, each path's datum in the homotopy.
             tau0: (M,) start times.
@@ -325,8 +260,8 @@ class CTracker:
             h0: (M,) initial steps (default ``options.h0``).
 
         Returns:
-            A :class:`~scdk_sym.algebraic.tracker.TrackOutcome`, as
-            :func:`~scdk_sym.algebraic.tracker.track` with the identity time map returns it.
+            A :class:`~scdk_sym.algebraic.paths.tracker.TrackOutcome`, as
+            :func:`~scdk_sym.algebraic.paths.tracker.track` with the identity time map returns it.
 
         Raises:
             HomotopyError: the C tracker reported a failure.
@@ -410,7 +345,7 @@ class CTracker:
 
 class BoundTracker:
     """The C tracker of one system (its row weights bound): call it to track, as
-    :func:`~scdk_sym.algebraic.tracker.track` with the identity time map; :meth:`newton`
+    :func:`~scdk_sym.algebraic.paths.tracker.track` with the identity time map; :meth:`newton`
     refines points."""
 
     def __init__(self, tracker: CTracker, weights: np.ndarray) -> None:
