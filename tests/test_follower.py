@@ -16,8 +16,10 @@ from factories import SEED_THETA0, SEED_X1, shipped
 from references import reference
 
 import scdk_sym as sc
-from scdk_sym.follower.curve import Line, follow
-from scdk_sym.follower.singular import nearest_singular
+from scdk_sym.follower.curve import follow
+from scdk_sym.follower.nearest import nearest_singular
+from scdk_sym.follower.options import FollowOptions
+from scdk_sym.follower.walk import Line
 
 GEPETTO = "tests/fixtures/gepetto/robot_delta"
 
@@ -34,8 +36,8 @@ def test_steps_straight_over_the_flat_parallelogram(predictor):
     home = model.home
     line = Line(home.theta, theta0 - home.theta)
     direction = -1.0 if home.y is not None else 1.0
-    walks = [follow(model, line, home.y, 0.0, d, predictor=predictor, max_hits=1, max_arc=5.0)
-             for d in (direction, -direction)]  # fmt: skip
+    options = FollowOptions(predictor=predictor, max_hits=1, max_arc=5.0)
+    walks = [follow(model, line, home.y, 0.0, d, options) for d in (direction, -direction)]
     walk = next(w for w in walks if w.hits)
     assert [c.kind for c in walk.singular[: walk.hits[0].crossings]] == ["bifurcation"]
     cr = walk.singular[0]
@@ -51,7 +53,8 @@ def test_both_predictors_meet_the_same_points():
     start = model.inverse_kinematics(SEED_X1)
     line = Line(start.theta, SEED_THETA0 - start.theta)
     a, b = (
-        follow(model, line, start.y, 0.0, 1.0, predictor=p, max_hits=1) for p in ("rk4", "cvodes")
+        follow(model, line, start.y, 0.0, 1.0, FollowOptions(predictor=p, max_hits=1))
+        for p in ("rk4", "cvodes")
     )
     assert len(a.hits) == len(b.hits) == 1
     np.testing.assert_allclose(a.hits[0].y, b.hits[0].y, atol=1e-12)
@@ -94,7 +97,7 @@ def test_nearest_singular_configuration_is_singular_and_assembled():
 
 def test_a_turn_of_s_inside_one_step_is_refined_not_stepped_over():
     """Two crossings of s = 1 on either side of a fold, both within the first step."""
-    from scdk_sym.follower.curve import _hidden_pair
+    from scdk_sym.follower.levels import hidden_pair as _hidden_pair
 
     # s goes 0.9 -> 0.9 over a step of length 1, rising then falling: above 1 in between
     assert _hidden_pair(0.9, 0.9, 1.0, -1.0, 1.0, 1.0) is True
@@ -106,8 +109,8 @@ def test_a_turn_of_s_inside_one_step_is_refined_not_stepped_over():
     fold = sc.solve(model, SEED_THETA0, start=start, branch="divergent").crossings[0]
     theta0 = start.theta + (fold.theta - start.theta) / 1.01
     line = Line(start.theta, theta0 - start.theta)
-    walks = [follow(model, line, start.y, 0.0, d, predictor="rk4", max_hits=2, step=0.5,
-                    max_arc=5.0) for d in (1.0, -1.0)]  # fmt: skip
+    options = FollowOptions(predictor="rk4", max_hits=2, step=0.5, max_arc=5.0)
+    walks = [follow(model, line, start.y, 0.0, d, options) for d in (1.0, -1.0)]
     walk = max(walks, key=lambda w: len(w.hits))
     assert len(walk.hits) == 2
     a, b = (model.configuration(h.y, theta0) for h in walk.hits)

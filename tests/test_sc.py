@@ -271,7 +271,7 @@ def test_a_grazed_fold_is_a_fold_and_the_convergent_branch_bends_past_it():
     )
 
     import scdk_sym as sc
-    from scdk_sym.follower.singular import grazes
+    from scdk_sym.follower.surface import grazes
 
     ref = stewart_reference(DIETMAIER_BASE, DIETMAIER_PLATFORM, DIETMAIER_LENGTHS, 3000, seed=5)
     model = sc.builders.stewart_gough(DIETMAIER_BASE, DIETMAIER_PLATFORM)

@@ -300,11 +300,11 @@ def _c_literals(module, floats: tuple[str, ...], ints: tuple[str, ...]) -> dict[
 def _follower_constants() -> dict[str, str]:
     """The step-control constants of the curve follower (:mod:`scdk_sym.follower.curve`),
     which the C tracker's ``follow`` mirrors, and its bound telling folds from bifurcations."""
-    from ..follower import curve
+    from ..follower import follow_rule
 
     floats = ("MAX_PREDICTOR_ERROR", "NEWTON_TOL", "MIN_COS", "SMOOTH_CORRECTION", "SMOOTH_COS")
     limits = ("GROW", "STRUCTURAL", "RECENTRE", "CHART_LIMIT")
-    return _c_literals(curve, (*floats, *limits), ("FINE",))
+    return _c_literals(follow_rule, (*floats, *limits), ("FINE",))
 
 
 def _rule_constants() -> dict[str, str]:

@@ -1,8 +1,9 @@
 """CVODES, CasADi's integrator, on the stabilised singularity-consistent field.
 
 The field (:mod:`scdk_sym.kernels.functions`) is integrated over one chunk of arc length at a
-time with ``GRID`` output samples; :mod:`scdk_sym.follower.curve` judges each chunk (its
-``cvodes`` predictor) exactly as it judges the explicit predictor-corrector steps.
+time with ``GRID`` output samples; the curve follower judges each chunk (its ``cvodes``
+predictor, :mod:`scdk_sym.follower.predictors`) exactly as it judges the explicit
+predictor-corrector steps.
 """
 
 from __future__ import annotations

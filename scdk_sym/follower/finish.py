@@ -16,7 +16,7 @@ from ..errors import PathError
 from ..kernels.fastcall import model_calls
 from ..results import SolveResult
 from .kernels import follower_calls
-from .singular import det_sign
+from .surface import det_sign
 
 
 def jacobian(model, y_loc, theta, c) -> np.ndarray:

@@ -47,9 +47,11 @@ from numpy.typing import ArrayLike
 
 from ..backends import resolve
 from ..errors import InputError, ScdkError
-from ..follower.curve import Line, follow
+from ..follower.curve import follow
 from ..follower.geometry import difference, features, kinds  # noqa: F401
 from ..follower.kernels import follower_kernels
+from ..follower.options import FollowOptions
+from ..follower.walk import Line
 from ..model.rotations import quaternion_matrix
 from ..results import AssemblyModes, Configuration, mode_order
 from ..robot import Model, as_vector
@@ -149,10 +151,19 @@ def follow_curve(
     """
     line = Line(np.asarray(theta1, float), np.asarray(dtheta, float))
     h = 0.02 * _scale(model) if step is None else float(step)
-    walk = follow(model, line, y_start, s_start, direction, predictor="rk4", backend=backend,
-                  max_hits=max_hits, max_arc=max_arc, max_steps=max_steps, deadline=deadline,
-                  step=h, record=record, locate=False,
-                  min_cos=SEARCH_MIN_COS)  # fmt: skip
+    options = FollowOptions(
+        predictor="rk4",
+        backend=backend,
+        max_hits=max_hits,
+        max_arc=max_arc,
+        max_steps=max_steps,
+        deadline=deadline,
+        step=h,
+        record=record,
+        locate=False,
+        min_cos=SEARCH_MIN_COS,
+    )
+    walk = follow(model, line, y_start, s_start, direction, options)
     out = Curve(
         hits=[hit.y for hit in walk.hits],
         hit_arcs=[hit.arc for hit in walk.hits],

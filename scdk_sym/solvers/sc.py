@@ -28,10 +28,13 @@ from ..errors import (
     SolveError,
     VerificationError,
 )
-from ..follower.curve import Hit, Line, Walk, follow, null_direction  # noqa: F401
+from ..follower.curve import follow
 from ..follower.cvodes import GRID, Engine, engine  # noqa: F401
 from ..follower.finish import jacobian, parity_checked, singular_jp, touching
-from ..follower.singular import det_sign
+from ..follower.options import FollowOptions
+from ..follower.surface import det_sign
+from ..follower.tangent import null_direction
+from ..follower.walk import Hit, Line, Walk  # noqa: F401
 from ..kernels.fastcall import model_calls
 from ..results import Configuration, Crossing, PathSamples, SolveResult
 from ..robot import Model, as_vector
@@ -117,9 +120,10 @@ def trace(
     """
     theta1 = np.array(start.theta, dtype=float)
     line = Line(theta1, np.asarray(theta0, float) - theta1)
-    return follow(model, line, start.y, 0.0, direction, predictor=predictor, backend=backend,
-                  max_hits=max_hits, max_arc=max_arc, record=record_path,
-                  tangent=tangent)  # fmt: skip
+    options = FollowOptions(
+        predictor=predictor, backend=backend, max_hits=max_hits, max_arc=max_arc, record=record_path
+    )
+    return follow(model, line, start.y, 0.0, direction, options, tangent=tangent)
 
 
 def solve(
@@ -357,7 +361,7 @@ def _detour(
     only met before ``theta0``: a line cutting a small cap off the start's side (e.g. Gepetto's
     5-bar with ``theta0`` just before a singular surface) leaves it and comes back just after.
     """
-    from ..follower.singular import grazes, inward_normal
+    from ..follower.surface import grazes, inward_normal
 
     if fold.kind != "fold" or not 0.0 < fold.s <= 1.0:
         return None
@@ -371,8 +375,10 @@ def _detour(
         cfg = start
         for target in (np.asarray(fold.theta, float) + offset * span * n, theta0):
             line = Line(np.array(cfg.theta, dtype=float), target - cfg.theta)
-            tr = follow(model, line, cfg.y, 0.0, direction, predictor="cvodes", backend=backend,
-                        max_hits=1, max_singular=1, max_arc=max_arc)  # fmt: skip
+            options = FollowOptions(
+                predictor="cvodes", backend=backend, max_hits=1, max_singular=1, max_arc=max_arc
+            )
+            tr = follow(model, line, cfg.y, 0.0, direction, options)
             if not tr.hits or tr.hits[0].crossings:
                 cfg = None
                 break
@@ -497,7 +503,7 @@ class _DivergentSearch:
     def nearest(self) -> tuple[Crossing | None, Configuration | None]:
         """The nearest singular configuration to the start and, where branches cross there,
         the convergent answer to exclude (any other solution is on its other side)."""
-        from ..follower.singular import nearest_singular
+        from ..follower.nearest import nearest_singular
 
         if not self._near:
             fold = nearest_singular(self.model, self.start, self.backend)
@@ -558,7 +564,7 @@ class _DivergentSearch:
     def across_from(self, near, exclude, how: str) -> SolveResult | None:
         """The solution at ``theta0`` on the other side of the singular configuration
         ``near`` (found from the start), crossed on the way from the start."""
-        from ..follower.singular import across_fold
+        from ..follower.other_sheet import across_fold
 
         model, theta0, start = self.model, self.theta0, self.start
         leg = across_fold(model, start, near, theta0, backend=self.backend, exclude=exclude)
@@ -639,7 +645,8 @@ def _across_by_modes(
     singular manifold from the midpoint (:func:`~scdk_sym.follower.singular.singular_from`:
     a singular configuration, not necessarily the nearest).
     """
-    from ..follower.singular import nearest_across, nearest_singular, singular_from
+    from ..follower.nearest import nearest_singular, singular_from
+    from ..follower.other_sheet import nearest_across
     from ..robot.rods import rod_reduction, seat
     from .modes import assembly_modes
 
