@@ -9,6 +9,7 @@ from factories import ROOT, shipped
 
 from scdk_sym.codegen import templates
 from scdk_sym.codegen.generate import generate
+from scdk_sym.codegen.status import STATUS, SweepCode, TrackerStatus
 from scdk_sym.errors import BuildError, ScdkError
 from scdk_sym.kernels.compile import compiler
 
@@ -57,8 +58,9 @@ def test_templates_are_the_package_data_files():
     from scdk_sym.solvers import transmission_c
 
     assert names == sorted(
-        [templates.HEADER, templates.SOURCE, transmission_c.HEADER, transmission_c.SOURCE]
+        [templates.HEADER, *templates.SOURCE_PARTS, transmission_c.HEADER, transmission_c.SOURCE]
     )
+    assert templates.SOURCE_PARTS[0] == templates.SOURCE
     for name in names:
         assert templates.template(name) == (TEMPLATE_DIR / name).read_text()
     # shipped by a non-editable install: matched by the package-data patterns
@@ -80,3 +82,34 @@ def test_a_placeholder_without_a_value_is_a_build_error():
 def test_a_missing_template_is_a_build_error():
     with pytest.raises(BuildError, match="reinstall scdk_sym"):
         templates.template("absent.c.in")
+
+
+def test_the_source_is_its_parts_in_order(planar):
+    text = planar.tracker_c.read_text()
+    assert text.startswith("/* scdk_tracker.c: standalone")
+    heads = [
+        templates.template(name).splitlines()[0].replace("@P@", "scdk")
+        for name in templates.SOURCE_PARTS
+    ]
+    at = [text.index(head) for head in heads]
+    assert at == sorted(at) and len(set(heads)) == len(heads)
+    for name in templates.SOURCE_PARTS:  # one idea per file
+        assert len(templates.template(name).splitlines()) < 500, name
+
+
+def test_status_codes_come_from_one_table(planar):
+    """The header's codes and the status strings are those of TrackerStatus and SweepCode."""
+    header = planar.tracker_h.read_text()
+    defined = dict(re.findall(r"#define SCDK_(\w+) \(?(-?\d+)\)? +/\*", header))
+    expected = {code.name: str(int(code)) for code in TrackerStatus}
+    expected.update({f"SWEEP_{code.name}": str(int(code)) for code in SweepCode})
+    assert defined == expected
+    source = planar.tracker_c.read_text()
+    for code in TrackerStatus:
+        assert re.search(rf'case SCDK_{code.name}:\s+return "{re.escape(code.message)}";', source)
+    from scdk_sym.codegen import library
+    from scdk_sym.solvers import track
+
+    assert library.STATUS is STATUS and STATUS[-9] == TrackerStatus.ERR_UNDECIDABLE.message
+    assert library.ERR_UNDECIDABLE is track.ERR_UNDECIDABLE is TrackerStatus(-9)
+    assert library.SWEEP_DIRECT is SweepCode.DIRECT and library.OK_PATH == 1

@@ -7,9 +7,10 @@
   predictor-corrector step, the RK4 step in ``s``, the Newton corrector and polish), the chart
   re-centring and an inverse-kinematics step (self-contained C, see
   :mod:`scdk_sym.codegen.kernels`);
-- ``P_tracker.c`` / ``P_tracker.h``: the tracker, the templates ``codegen/c/tracker.c.in`` and
-  ``codegen/c/tracker.h.in`` (package data, :mod:`scdk_sym.codegen.templates`) filled with the
-  model's sizes, tolerances and home configuration.
+- ``P_tracker.c`` / ``P_tracker.h``: the tracker, the templates ``codegen/c/tracker*.c.in``
+  (parts joined into one source) and ``codegen/c/tracker.h.in`` (package data,
+  :mod:`scdk_sym.codegen.templates`) filled with the model's sizes, tolerances and home
+  configuration, and the status codes of :mod:`scdk_sym.codegen.status`.
 
 The four files compile with ``gcc -std=c99 -O2 -Wall -Wextra`` (no warnings) and ``-lm``
 alone.
@@ -35,7 +36,7 @@ from ..kernels.compile import (
     write_c,
     write_c_parts,
 )
-from . import templates
+from . import status, templates
 from .kernels import UNOPTIMISED, build_tracker_kernels
 
 #: Flags compiling each source of the shared library built for Python (the optimisation
@@ -249,9 +250,10 @@ def _generate(
         "PERIODIC": _periodic(model),
         "ROTATION": ", ".join(str(i) for idx in model.chart.rotations for i in idx) or "0",
         "NROT_ALLOC": str(max(1, 3 * len(model.chart.rotations))),
+        **status.template_values(prefix),
     }
     header = templates.fill(templates.template(templates.HEADER), values)
-    source = templates.fill(templates.template(templates.SOURCE), values)
+    source = templates.fill(templates.source(), values)
     (out / f"{prefix}_tracker.h").write_text(header)
     (out / f"{prefix}_tracker.c").write_text(source)
     (out / LU_HEADER.name).write_bytes(LU_HEADER.read_bytes())

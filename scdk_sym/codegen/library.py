@@ -23,32 +23,31 @@ from ..errors import BuildError, SolveError
 from ..kernels.cache import cache_dir, cached_file, damage, read_entry, write_entry
 from ..kernels.compile import announce, cache_key, compiler_tag, source_digest
 from ..products import C_TRACKER
+from . import status, templates
 from .generate import compile_library, generate, source_key
+from .status import SweepCode, TrackerStatus
 
 PREFIX = "scdk"
 
-#: Status codes of the generated tracker (``<PREFIX>_OK`` ... in its header).
-STATUS = {
-    0: "ok",
-    1: "ok (followed the singularity-consistent curve)",
-    2: "ok (corrected from the predicted motion)",
-    -1: "a required pointer is NULL",
-    -2: "an array size does not match the model",
-    -3: "an input is NaN or infinite",
-    -4: "the start configuration violates the closures",
-    -5: "the solution curve did not reach theta within budget",
-    -6: "the solution failed its residual check",
-    -7: "the tracker state is not initialised",
-    -8: "an option is out of range",
-    -9: "the readings are too coarse to decide between two candidate solutions",
-    -10: "the path met a singular point before the solution (not solved in C)",
-}
-OK, OK_PATH, OK_PREDICTED = 0, 1, 2
-ERR_NULL, ERR_SIZE, ERR_NONFINITE, ERR_NOT_ASSEMBLED = -1, -2, -3, -4
-ERR_NO_SOLUTION, ERR_VERIFY, ERR_STATE, ERR_OPTIONS = -5, -6, -7, -8
-ERR_UNDECIDABLE, ERR_SINGULAR_PATH = -9, -10
+#: The messages of the generated tracker's status codes (``<PREFIX>_OK`` ... in its header),
+#: by value (:class:`~scdk_sym.codegen.status.TrackerStatus`).
+STATUS = status.STATUS
+OK = TrackerStatus.OK
+OK_PATH = TrackerStatus.OK_PATH
+OK_PREDICTED = TrackerStatus.OK_PREDICTED
+ERR_NULL = TrackerStatus.ERR_NULL
+ERR_SIZE = TrackerStatus.ERR_SIZE
+ERR_NONFINITE = TrackerStatus.ERR_NONFINITE
+ERR_NOT_ASSEMBLED = TrackerStatus.ERR_NOT_ASSEMBLED
+ERR_NO_SOLUTION = TrackerStatus.ERR_NO_SOLUTION
+ERR_VERIFY = TrackerStatus.ERR_VERIFY
+ERR_STATE = TrackerStatus.ERR_STATE
+ERR_OPTIONS = TrackerStatus.ERR_OPTIONS
+ERR_UNDECIDABLE = TrackerStatus.ERR_UNDECIDABLE
+ERR_SINGULAR_PATH = TrackerStatus.ERR_SINGULAR_PATH
 #: Codes of a point of ``<PREFIX>_sweep`` (the error codes otherwise).
-SWEEP_CONTINUED, SWEEP_DIRECT = 0, 1
+SWEEP_CONTINUED = SweepCode.CONTINUED
+SWEEP_DIRECT = SweepCode.DIRECT
 
 
 class Options(ctypes.Structure):
@@ -429,8 +428,11 @@ def tracker_library(model) -> CTracker:
 
 
 #: What the C tracker's sources are made from besides the model (its index key covers them).
-TRACKER_SOURCES = ("codegen", "codegen/c/tracker.c.in", "codegen/c/tracker.h.in",
-                   "kernels/c/scdk_lu.h")  # fmt: skip
+TRACKER_SOURCES = (
+    "codegen",
+    *(f"codegen/c/{name}" for name in (*templates.SOURCE_PARTS, templates.HEADER)),
+    "kernels/c/scdk_lu.h",
+)
 
 
 def _index(model) -> Path:

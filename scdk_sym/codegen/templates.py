@@ -1,10 +1,15 @@
 """The C templates of the standalone tracker, shipped as package data in ``codegen/c/``.
 
-``tracker.h.in`` and ``tracker.c.in`` are C files with placeholders ``@NAME@`` (no braces, so
-the templates read as C); :mod:`scdk_sym.codegen.generate` fills them with :func:`fill`.
-``@P@`` is the lower-case C prefix of every exported name, ``@PU@`` its upper-case form for
-macros; the others are the model's sizes, names, home configuration and the constants of the
-judging rule (:mod:`scdk_sym.solvers.track`).
+The templates are C files with placeholders ``@NAME@`` (no braces, so the templates read as
+C); :mod:`scdk_sym.codegen.generate` fills them with :func:`fill`. ``tracker.h.in`` is the
+header; the source ``<prefix>_tracker.c`` is one file made of the parts
+:data:`SOURCE_PARTS`, one idea each, joined in that order by :func:`source`: the constants
+and the small public functions (``tracker.c.in``), the numerics and kernel calls, the context
+of a step, the curve follower, the divergent walk, the judging rule, the tracker's state and
+tracks, the solves and the atlas sweep. ``@P@`` is the lower-case C prefix of every exported
+name, ``@PU@`` its upper-case form for macros; the others are the model's sizes, names, home
+configuration, the constants of the judging rule (:mod:`scdk_sym.solvers.track`) and the
+status codes (:mod:`scdk_sym.codegen.status`).
 """
 
 from __future__ import annotations
@@ -17,6 +22,18 @@ from ..errors import BuildError
 #: The template files, in the package directory ``scdk_sym/codegen/c``.
 HEADER = "tracker.h.in"
 SOURCE = "tracker.c.in"
+#: The parts of the tracker's source, in the order :func:`source` joins them.
+SOURCE_PARTS = (
+    SOURCE,  # the model's constants, the options and the status strings
+    "tracker_numerics.c.in",  # small numerics, the LU wrappers, the kernel calls, Newton
+    "tracker_context.c.in",  # what one step knows (step_ctx)
+    "tracker_follow.c.in",  # the curve follower (follow)
+    "tracker_walk.c.in",  # the divergent solve's walk, judged step by step
+    "tracker_rule.c.in",  # the judging rule: cheap continuations, candidates, the choice
+    "tracker_track.c.in",  # the state, a step, whole tracks
+    "tracker_solve.c.in",  # the convergent and divergent solves, the inverse kinematics
+    "tracker_sweep.c.in",  # the atlas sweep
+)
 
 _PLACEHOLDER = re.compile(r"@([A-Z_]+)@")
 
@@ -25,7 +42,8 @@ def template(name: str) -> str:
     """The text of a template file.
 
     Args:
-        name: file name in ``scdk_sym/codegen/c`` (:data:`HEADER` or :data:`SOURCE`).
+        name: file name in ``scdk_sym/codegen/c`` (:data:`HEADER`, one of
+            :data:`SOURCE_PARTS`, ...).
 
     Raises:
         BuildError: the file is missing (an installation without the package data).
@@ -37,6 +55,16 @@ def template(name: str) -> str:
             f"C template {name!r} not found in the scdk_sym package: reinstall scdk_sym "
             "(the package data codegen/c/*.in must be installed)"
         ) from exc
+
+
+def source() -> str:
+    """The template of the tracker's source: the parts :data:`SOURCE_PARTS` joined in order,
+    a blank line between two.
+
+    Raises:
+        BuildError: a part is missing.
+    """
+    return "\n".join(template(name) for name in SOURCE_PARTS)
 
 
 def placeholders(text: str) -> set[str]:

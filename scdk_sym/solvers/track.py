@@ -17,7 +17,7 @@ which :mod:`scdk_sym.codegen.generate` writes into the generated tracker) and th
 ``backend="cvodes"`` (this module) follows the SC curve with CVODES
 (:func:`~scdk_sym.solvers.sc.trace`), ``backend="c"`` with the follower's RK4
 predictor-corrector steps (:mod:`scdk_sym.follower.kernels`, code-generated) in the generated C
-tracker (``scdk_sym/codegen/c/tracker.c.in``, whose header states the same rule).
+tracker (``scdk_sym/codegen/c/tracker_rule.c.in``; the tracker's header states the same rule).
 Only the way the curve is followed differs; the prediction, the cheap step, the Newton
 correctors, the choice and the refusal are the same computation.
 
@@ -120,6 +120,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..backends import resolve
+from ..codegen.status import TrackerStatus as _S  # the status codes shared with the C tracker
 from ..errors import InputError, PathError, TrackError
 from ..follower.geometry import periodic
 from ..follower.track_rule import (  # the rule's constants (stated above)
@@ -143,9 +144,8 @@ from ..robot import Model
 from .background import without_waiting
 from .sc import null_direction, trace, validate_start
 
-#: Status codes shared with the C tracker (:data:`scdk_sym.codegen.library.STATUS`).
-OK, OK_PATH, OK_PREDICTED = 0, 1, 2
-ERR_NO_SOLUTION, ERR_VERIFY, ERR_UNDECIDABLE = -5, -6, -9
+OK, OK_PATH, OK_PREDICTED = _S.OK, _S.OK_PATH, _S.OK_PREDICTED  # codegen.status.TrackerStatus
+ERR_NO_SOLUTION, ERR_VERIFY, ERR_UNDECIDABLE = _S.ERR_NO_SOLUTION, _S.ERR_VERIFY, _S.ERR_UNDECIDABLE
 
 
 def _thetas(model: Model, thetas) -> np.ndarray:

@@ -25,7 +25,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..codegen import templates
+from ..codegen import status, templates
 from ..codegen.generate import (
     COMPILE_FLAGS,
     LINK_FLAGS,
@@ -114,6 +114,7 @@ def write_transmission(
         "FWDU": fwd.upper(),
         "INV": inv,
         "INVU": inv.upper(),
+        "STATUS_DEFINES": status.transmission_defines(prefix),
         **_description(trans),
         **_tables(trans),
     }
