@@ -35,9 +35,16 @@ HIPS = ("motor_hip_x", "motor_hip_y", "motor_hip_z")
 OUTPUTS = {
     "digit_like": (*HIPS, "free_knee", "free_foot1", "free_foot2"),
     "cassie_like": ("motor_hip1", "motor_hip2", "motor_tigh", "free_knee", "free_ankle"),
+    # MuJoCo Menagerie's Cassie as published: both legs, hips, tarsus and foot joints
+    "cassie.xml": tuple(
+        f"{side}-{joint}"
+        for side in ("left", "right")
+        for joint in ("hip-roll", "hip-yaw", "hip-pitch", "tarsus", "foot")
+    ),
 }
-#: C prefixes (distinct: both libraries are loaded in one process; the example expects scdk)
-PREFIX = {"digit_like": "scdk", "cassie_like": "cassie"}
+#: C prefixes (distinct: the libraries are loaded in one process; the example expects scdk)
+PREFIX = {"digit_like": "scdk", "cassie_like": "cassie", "cassie.xml": "mjcassie"}
+MENAGERIE_CASSIE = ROOT / "tests" / "fixtures" / "mjcf" / "menagerie" / "agility_cassie"
 STRICT = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-O2")
 OK, ERR_NULL, ERR_SIZE, ERR_NONFINITE, ERR_STATE, ERR_SINGULAR = 0, -1, -2, -3, -7, -11
 
@@ -82,9 +89,11 @@ class CTransmission:
 
 
 def load(name: str) -> sc.Model:
+    if name.endswith(".xml"):
+        pytest.importorskip("mujoco")  # MuJoCo's compiler reads MJCF
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ModelWarning)
-        return sc.load_model(GEPETTO / name)
+        return sc.load_model(MENAGERIE_CASSIE / name if name.endswith(".xml") else GEPETTO / name)
 
 
 _BUILT: dict[str, tuple[sc.Model, TransmissionSources, Path]] = {}

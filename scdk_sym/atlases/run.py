@@ -12,40 +12,34 @@ not grow with the grid.
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import multiprocessing
-import os
-import sys
 import time
-import uuid
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import AtlasError, InputError, Interrupted
-from ..interrupts import check, on_stop, stop_for, stop_on_signals
-from ..optional import require
-from .chunk import STATUS, ModelSource, keep_model, model_source, solve_chunk, worker_model
+from ..interrupts import check, stop_for, stop_on_signals
+from .chunk import STATUS, keep_model, model_source
 from .grid import Grid, make_grid
 from .lock import store_lock
-from .store import FORMAT, Layout, create_or_check, remove_partial_writes, write_chunk
+from .store import FORMAT, Layout, create_or_check, remove_partial_writes
+from .task import solve_and_write
 
 if TYPE_CHECKING:
+    from typing_extensions import Unpack
+
     from ..results import Configuration
     from ..robot import Model
 
 _pkg = "scdk_sym"
 #: Points per chunk (one task; also the Zarr chunk length) unless told.
 DEFAULT_CHUNK = 4096
-#: Tasks in flight per worker.
-IN_FLIGHT = 3
-#: Seconds the client and the local cluster get to close (an interrupt must end in ~2 s).
-CLOSE_TIMEOUT = 1.0
 #: What produced n_modes (recorded in the store).
 MODES_METHOD = (
     "the number of real solutions of the certified set of scdk_sym.assembly_modes(model, theta, "
@@ -95,47 +89,52 @@ def _version() -> str:
         return "unknown"
 
 
-def _task(
-    source: ModelSource,
-    start: tuple[list[float], list[float]],
-    out: str,
-    layout: Layout,
-    index: int,
-    grid: Grid | None,
-    thetas: np.ndarray | None,
-    modes: bool,
-    solve: bool = True,
-) -> tuple[int, float, float, int]:
-    """Solve and write chunk ``index``; returns (index, wall seconds, CPU seconds of this
-    thread, points swept)."""
-    t0, c0 = time.perf_counter(), time.thread_time()
-    model = worker_model(source)
-    cfg = model.configuration(np.array(start[0]), np.array(start[1]))
-    a, b = layout.bounds(index)
-    th = grid.thetas(a, b) if grid is not None else thetas
-    assert th is not None  # _points gives a grid or the thetas
-    if grid is not None:
-        res = solve_chunk(model, cfg, th, modes, offset=a, shape=grid.shape, solve=solve)
-    else:
-        res = solve_chunk(model, cfg, th, modes, solve=solve)
-    write_chunk(out, layout, index, th, res)
-    return index, time.perf_counter() - t0, time.thread_time() - c0, res.swept
+@dataclass(frozen=True)
+class AtlasOptions:
+    """The options of an :func:`atlas` run (its keyword arguments; see there).
+
+    Attributes:
+        workers: local worker processes (None or 0: this process, without Dask).
+        scheduler: a Dask scheduler's address or a ``distributed.Client``.
+        modes: also store the number of real assembly modes at each point.
+        solve: the convergent solve at every point.
+        start: the assembled start Configuration (None: ``model.home``).
+        chunk: points per chunk (task and Zarr chunk).
+        progress: a tqdm progress bar on stderr.
+        on_chunk: called on the client after each chunk as ``on_chunk(points_done, total)``.
+        wait: wait for another run writing the store instead of refusing.
+    """
+
+    workers: int | None = None
+    scheduler: Any = None
+    modes: bool = False
+    solve: bool = True
+    start: Configuration | None = None
+    chunk: int = DEFAULT_CHUNK
+    progress: bool = True
+    on_chunk: Callable[[int, int], None] | None = None
+    wait: bool = False
+
+
+class AtlasKeywords(TypedDict, total=False):
+    """The keyword arguments of :func:`atlas`: the fields of :class:`AtlasOptions`."""
+
+    workers: int | None
+    scheduler: Any
+    modes: bool
+    solve: bool
+    start: Configuration | None
+    chunk: int
+    progress: bool
+    on_chunk: Callable[[int, int], None] | None
+    wait: bool
 
 
 def atlas(
     model: Model,
     grid_or_thetas: str | Mapping[str, tuple[float, float, int]] | Grid | ArrayLike,
     out: str | Path,
-    *,
-    workers: int | None = None,
-    scheduler: Any = None,
-    modes: bool = False,
-    solve: bool = True,
-    start: Configuration | None = None,
-    chunk: int = DEFAULT_CHUNK,
-    progress: bool = True,
-    on_chunk: Callable[[int, int], None] | None = None,
-    wait: bool = False,
+    **options: Unpack[AtlasKeywords],
 ) -> AtlasRun:
     """Convergent direct kinematics at every point of a joint grid, into a Zarr store.
 
@@ -182,20 +181,21 @@ def atlas(
     re-import the calling script, so a script needs no ``if __name__ == "__main__":`` guard.
     """
     t0 = time.perf_counter()
-    start = _check_call(model, start, chunk, workers, scheduler)
-    if not solve and not modes:
+    opts = _options(options)
+    start = _check_call(model, opts)
+    if not opts.solve and not opts.modes:
         raise InputError("atlas: solve=False leaves nothing to compute; pass modes=True")
     grid, thetas, what = _points(model, grid_or_thetas, start)
     assert grid is not None or thetas is not None  # _points gives one of them
     points = grid.size if grid is not None else len(thetas)  # type: ignore[arg-type]
-    layout = Layout(points, model.k, len(model.workspace), int(min(chunk, max(points, 1))), modes)
-    meta = _metadata(model, what, points, layout, start, modes, solve)
+    chunk = int(min(opts.chunk, max(points, 1)))
+    layout = Layout(points, model.k, len(model.workspace), chunk, opts.modes)
+    meta = _metadata(model, what, points, layout, start, opts.modes, opts.solve)
     out = Path(out)
-    with stop_on_signals(), store_lock(out, wait=wait):
+    with stop_on_signals(), store_lock(out, wait=opts.wait):
         try:
-            plan = _Plan(model, out, layout, grid, thetas, start, modes, solve, progress,
-                         on_chunk)  # fmt: skip
-            return _run(plan, meta, workers, scheduler, t0)
+            plan = _Plan(model, out, layout, grid, thetas, start, opts)
+            return _run(plan, meta, t0)
         except (Interrupted, Exception) as exc:  # a stop, or the error a library made of one
             stop = stop_for(exc)
             if stop is None:
@@ -209,11 +209,25 @@ def atlas(
             ) from None
 
 
-def _check_call(model, start, chunk, workers, scheduler) -> Any:
+def _options(options: Mapping[str, Any]) -> AtlasOptions:
+    """The keyword arguments of an :func:`atlas` call as its options (a TypeError names an
+    unknown one, as for any keyword)."""
+    names = {f.name for f in fields(AtlasOptions)}
+    unknown = sorted(set(options) - names)
+    if unknown:
+        raise TypeError(
+            f"atlas() got an unexpected keyword argument {unknown[0]!r} "
+            f"(valid: {', '.join(sorted(names))})"
+        )
+    return AtlasOptions(**options)
+
+
+def _check_call(model, opts: AtlasOptions) -> Any:
     """The start of an :func:`atlas` call, validated with its other options (see there)."""
     from ..solvers.sc import singular_start, validate_start
 
-    start = validate_start(model, start)
+    chunk, workers, scheduler = opts.chunk, opts.workers, opts.scheduler
+    start = validate_start(model, opts.start)
     if singular_start(model, start):
         raise InputError("atlas: the start configuration is singular; start from a regular one")
     if not isinstance(chunk, int | np.integer) or chunk < 1:
@@ -266,18 +280,16 @@ class _Plan:
     grid: Grid | None
     thetas: np.ndarray | None
     start: Any
-    modes: bool
-    solve: bool
-    progress: bool
-    on_chunk: Callable[[int, int], None] | None
+    options: AtlasOptions
 
 
-def _run(plan: _Plan, meta: dict, workers, scheduler, t0: float) -> AtlasRun:
+def _run(plan: _Plan, meta: dict, t0: float) -> AtlasRun:
     """The run of :func:`atlas` on its checked inputs, under the store's lock."""
     model, out, layout, grid, thetas, start = (
         plan.model, plan.out, plan.layout, plan.grid, plan.thetas, plan.start
     )  # fmt: skip
-    modes, progress, on_chunk, points = plan.modes, plan.progress, plan.on_chunk, layout.points
+    opts, points = plan.options, layout.points
+    modes, progress, on_chunk = opts.modes, opts.progress, opts.on_chunk
     done = create_or_check(out, layout, meta)
     todo = [i for i in range(layout.chunks) if not done[i]]
     _prebuild(model)
@@ -305,16 +317,18 @@ def _run(plan: _Plan, meta: dict, workers, scheduler, t0: float) -> AtlasRun:
     def args(i: int):
         a, b = layout.bounds(i)
         rows = None if grid is not None else thetas[a:b]  # type: ignore[index]
-        return (source, st, str(out), layout, i, grid, rows, modes, plan.solve)
+        return (source, st, str(out), layout, i, grid, rows, modes, opts.solve)
 
     try:
-        if scheduler is None and not workers:
+        if opts.scheduler is None and not opts.workers:
             keep_model(model)  # this process: the caller's model
             for i in todo:
                 check()
-                finished(*_task(*args(i)))
+                finished(*solve_and_write(*args(i)))
         else:
-            _distributed(todo, args, finished, workers, scheduler)
+            from .distributed import run_distributed  # Dask, imported when used
+
+            run_distributed(todo, args, finished, opts.workers, opts.scheduler)
     finally:
         if bar is not None:
             bar.close()
@@ -367,154 +381,6 @@ def _bar(progress: bool, total: int, initial: int):
     from tqdm.auto import tqdm
 
     return tqdm(total=total, initial=initial, unit="pt", desc="atlas", smoothing=0.05)
-
-
-def _distributed(todo, args, finished, workers, scheduler) -> None:
-    require(
-        "distributed",
-        needed_for="an atlas with workers or a scheduler",
-        install="pip install 'dask[distributed]'",
-        error=AtlasError,
-    )
-    from distributed import Client, LocalCluster, as_completed
-
-    cluster = client = None
-    hidden = contextlib.ExitStack()
-    try:
-        if scheduler is None:
-            hidden.enter_context(_main_not_reimported())
-            hidden.enter_context(on_stop(_silence_distributed))
-            cluster = LocalCluster(
-                n_workers=int(workers), threads_per_worker=1, processes=True, dashboard_address=":0"
-            )
-            client = Client(cluster)
-        elif isinstance(scheduler, str):
-            client = Client(scheduler)
-        else:
-            client = scheduler
-        slots = IN_FLIGHT * max(1, len(client.scheduler_info().get("workers", {})))
-        queue = iter(todo)
-        run = uuid.uuid4().hex[:12]  # task keys unique to this call
-        pending = as_completed()
-        for i in queue:
-            pending.add(client.submit(_task, *args(i), key=f"scdk-atlas-{run}-{i}", pure=False))
-            if pending.count() >= slots:
-                break
-        for fut in pending:
-            try:
-                done_task = fut.result()
-            except Exception as exc:
-                from ..errors import ScdkError
-
-                if isinstance(exc, ScdkError):
-                    raise
-                raise AtlasError(
-                    f"atlas: a task failed ({type(exc).__name__}: {exc}); re-run the same "
-                    "command to resume from the chunks already written"
-                ) from exc
-            finished(*done_task)
-            nxt = next(queue, None)
-            if nxt is not None:
-                pending.add(
-                    client.submit(_task, *args(nxt), key=f"scdk-atlas-{run}-{nxt}", pure=False)
-                )
-    except BaseException as exc:
-        if cluster is not None:  # an interrupt or a failure: end the chunks in flight now
-            if isinstance(exc, KeyboardInterrupt) or stop_for(exc) is not None:
-                _silence_distributed()  # the closing loop's callbacks outlive this call
-            else:
-                hidden.enter_context(_quiet_distributed())
-            _kill_workers(cluster)
-        raise
-    finally:
-        with contextlib.suppress(Exception):
-            if client is not None and client is not scheduler:
-                client.close(timeout=CLOSE_TIMEOUT)
-            if cluster is not None:
-                cluster.close(timeout=CLOSE_TIMEOUT)
-        if cluster is not None:
-            # closed as far as it closes in CLOSE_TIMEOUT (after an interrupt its killed
-            # workers may not answer): Dask's exit hook must not wait 10 s more for it
-            cluster.shutdown_on_close = False
-        hidden.close()
-
-
-#: The loggers of Dask and of the event loop under it.
-_DASK_LOGGERS = ("distributed", "tornado", "asyncio")
-
-
-def _silence_distributed() -> None:
-    """After a stop: Dask's loggers say nothing below CRITICAL for the rest of the process.
-
-    Run in the signal handler (before the main thread's raise lets Dask cancel its futures
-    on the event loop, which logs a traceback), and again on the way out of an interrupt. The
-    levels are not restored: the closing cluster's callbacks run after the call has returned,
-    and the process is stopping.
-    """
-    import logging
-
-    for name in _DASK_LOGGERS:
-        logging.getLogger(name).setLevel(logging.CRITICAL)
-
-
-@contextlib.contextmanager
-def _quiet_distributed():
-    """While a killed cluster closes, Dask's loggers (and those of the event loop under it)
-    say nothing below CRITICAL.
-
-    Closing the connections of killed workers makes ``distributed`` log the closed comms
-    with their tracebacks (at INFO); the failure is reported on its own.
-    """
-    import logging
-
-    loggers = [logging.getLogger(name) for name in _DASK_LOGGERS]
-    levels = [logger.level for logger in loggers]
-    _silence_distributed()
-    try:
-        yield
-    finally:
-        for logger, level in zip(loggers, levels, strict=True):
-            logger.setLevel(level)
-
-
-def _kill_workers(cluster) -> None:
-    """SIGKILL the worker processes of a local cluster (their nannies stay to be closed).
-
-    What a killed worker was writing has no done-marker yet, so a rerun solves it again:
-    nothing finished is lost, and closing does not wait for chunks that take seconds.
-    """
-    import signal
-
-    for nanny in list(getattr(cluster, "workers", {}).values()):
-        pid = getattr(getattr(getattr(nanny, "process", None), "process", None), "pid", None)
-        if pid:
-            with contextlib.suppress(OSError):
-                os.kill(pid, signal.SIGKILL)
-
-
-@contextlib.contextmanager
-def _main_not_reimported():
-    """While local workers live, their processes do not run the caller's ``__main__``.
-
-    A spawned process re-imports the main script (or module) of its parent before it
-    unpickles its task, so a script that calls :func:`atlas` with workers outside an ``if
-    __name__ == "__main__":`` block would start workers within workers. The workers only
-    run this package's tasks, so they are started as from an interactive session: the main
-    module's ``__file__`` and ``__spec__`` are hidden from multiprocessing meanwhile.
-    """
-    main = sys.modules.get("__main__")
-    names = ("__file__", "__spec__")
-    saved: dict[str, Any] = {k: getattr(main, k) for k in names if hasattr(main, k)}
-    try:
-        if main is not None:
-            if hasattr(main, "__file__"):
-                delattr(main, "__file__")
-            main.__spec__ = None
-        yield
-    finally:
-        if main is not None:
-            for k, v in saved.items():
-                setattr(main, k, v)
 
 
 def _chunks_done(out: Path) -> int:

@@ -37,6 +37,7 @@ from ..codegen.generate import (
 from ..errors import BuildError, InputError, OutputError
 from ..kernels.compile import compile_parallel
 from ..robot import Model
+from ..robot.blocks import Block
 from .transmission import SINGULAR_MARGIN, Transmission, transmission
 
 #: The template files in ``scdk_sym/codegen/c``.
@@ -221,6 +222,7 @@ def _tables(trans: Transmission) -> dict[str, str]:
     block_motors = [[trans.motors.index(m) for m in ms] for ms, _ in trans.blocks()]
     block_outputs = [[trans.outputs.index(o) for o in os] for _, os in trans.blocks()]
     sizes = [len(st.rows) for st in stages]
+    stage_motors = _stage_motors(model, stages)
     sizes += [max(len(a), len(b)) for a, b in zip(block_motors, block_outputs, strict=True)]
     return {
         "OUT_Y": _ints(_position(model, o) for o in trans.outputs),
@@ -231,6 +233,8 @@ def _tables(trans: Transmission) -> dict[str, str]:
         "STAGE_COLS": _ints(u for st in stages for u in st.unknowns),
         "STAGE_INPUT_START": _starts([st.inputs for st in stages]),
         "STAGE_INPUTS": _ints(u for st in stages for u in st.inputs),
+        "STAGE_MOTOR_START": _starts(stage_motors),
+        "STAGE_MOTORS": _ints(j for ids in stage_motors for j in ids),
         "BLOCK_STAGE_START": _starts(block_stages),
         "BLOCK_STAGES": _ints(s for ids in block_stages for s in ids),
         "BLOCK_MOTOR_START": _starts(block_motors),
@@ -242,6 +246,26 @@ def _tables(trans: Transmission) -> dict[str, str]:
         "JS_ALLOC": str(max(1, model.m * model.k)),
         "NSTAGES_ALLOC": str(max(1, len(stages))),
     }
+
+
+def _stage_motors(model: Model, stages: Sequence[Block]) -> list[list[int]]:
+    """For each stage (dependencies first), the motors its unknowns depend on: those whose
+    column of ``J_s`` is structurally nonzero on its rows, and those of the stages its inputs
+    belong to (the other columns of ``J_p^-1 J_s`` are zero on its unknowns)."""
+    pattern = model.symbolic.J_s.sparsity()
+    rows, cols = pattern.get_triplet()
+    direct: dict[int, set[int]] = {}
+    for r, c in zip(rows, cols, strict=True):
+        direct.setdefault(int(r), set()).add(int(c))
+    owner: dict[int, int] = {}
+    found: list[list[int]] = []
+    for i, st in enumerate(stages):
+        motors = {c for r in st.rows for c in direct.get(r, ())}
+        for u in st.inputs:
+            motors.update(found[owner[u]])
+        found.append(sorted(motors))
+        owner.update((u, i) for u in st.unknowns)
+    return found
 
 
 def _position(model: Model, joint: str) -> int:
