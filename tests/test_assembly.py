@@ -14,7 +14,8 @@ import scdk_sym as sc
 from scdk_sym.errors import ModelError, ModelWarning
 from scdk_sym.model.urdf import TreeBuilder
 from scdk_sym.robot.assembly import Assembly, closure_rows
-from scdk_sym.robot.model import Model, distal_link
+from scdk_sym.robot.mechanism import distal_link
+from scdk_sym.robot.model import Model
 
 FIXTURES = Path(__file__).resolve().parent / "fixtures" / "gepetto"
 

@@ -14,12 +14,16 @@ its row-column graph), so they do not depend on a configuration.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TypeVar
 
 import casadi as ca
 import numpy as np
 
 from ..graphs import triangular_decomposition
-from .model import Model
+from .evaluation import ModelEvaluation
+
+#: A model class (the models of a model's blocks are of its class).
+ModelT = TypeVar("ModelT", bound=ModelEvaluation)
 
 #: Smallest number of unknowns at which a block-triangular system is worked one block at a
 #: time (``assembly_modes``, :attr:`Model.stages`); below it the whole system is one: Gepetto's
@@ -48,7 +52,7 @@ class Block:
     inputs: tuple[int, ...] = ()
 
 
-def independent_blocks(model: Model) -> tuple[Block, ...]:
+def independent_blocks(model: ModelEvaluation) -> tuple[Block, ...]:
     """The independent blocks of ``model`` (one block when the system does not split), in
     the order of their first unknown."""
     sym = model.symbolic
@@ -81,7 +85,7 @@ def independent_blocks(model: Model) -> tuple[Block, ...]:
     return tuple(blocks)
 
 
-def triangular_blocks(model: Model) -> tuple[Block, ...]:
+def triangular_blocks(model: ModelEvaluation) -> tuple[Block, ...]:
     """The block-triangular decomposition of ``model``'s closure system, dependencies first.
 
     The rows are matched to the unknowns they determine (a perfect matching of the
@@ -112,7 +116,7 @@ def triangular_blocks(model: Model) -> tuple[Block, ...]:
     return tuple(blocks)
 
 
-def triangular_models(model: Model) -> tuple[Model, ...]:
+def triangular_models(model: ModelT) -> tuple[ModelT, ...]:
     """One model per block of :func:`triangular_blocks`, the model itself when it does not
     split. A block's inputs (unknowns of earlier blocks) are actuators of its model, after
     the model's own: its modes at ``(theta, inputs)`` are the block's solutions given the
@@ -127,12 +131,12 @@ def triangular_models(model: Model) -> tuple[Model, ...]:
     return tuple(_block_model(model, b, i) for i, b in enumerate(blocks))
 
 
-def _row_closures(model: Model) -> list[int]:
+def _row_closures(model: ModelEvaluation) -> list[int]:
     """Closure index of each row of ``g_all``."""
     return np.repeat(np.arange(len(model.closures)), np.diff(model.row_offsets)).tolist()
 
 
-def block_models(model: Model) -> tuple[Model, ...]:
+def block_models(model: ModelT) -> tuple[ModelT, ...]:
     """One model per independent block (the model itself when it does not split).
 
     Each block model has the block's unknowns (in the model's order), its closures and rows,
@@ -146,8 +150,8 @@ def block_models(model: Model) -> tuple[Model, ...]:
     return tuple(_block_model(model, b, i) for i, b in enumerate(blocks))
 
 
-def _block_model(model: Model, block: Block, index: int) -> Model:
-    """The model of one block (see :meth:`Model.restricted`)."""
+def _block_model(model: ModelT, block: Block, index: int) -> ModelT:
+    """The model of one block (see :meth:`~scdk_sym.robot.model.Model.restricted`)."""
     unknowns = tuple(model.unknowns[i] for i in block.unknowns)
     actuated = tuple(model.actuated[a] for a in block.actuated)
     actuated += tuple(model.unknowns[i] for i in block.inputs)
@@ -171,6 +175,6 @@ def _block_model(model: Model, block: Block, index: int) -> Model:
         for r in model.unchecked
         if owner[r] in offsets
     )
-    return Model.restricted(
+    return type(model).restricted(
         model, unknowns, actuated, closures, tuple(rows), held, (index, block), unchecked
     )

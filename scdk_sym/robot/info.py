@@ -3,13 +3,10 @@ joints, home, joint ranges, blocks and the reduction made, as text (``scdk info`
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from .model import Model
+from .parts import ModelParts
 
 
-def _range(model: Model, name: str) -> str:
+def _range(model: ModelParts, name: str) -> str:
     try:
         j = model.tree.joint(name)
     except Exception:  # a coordinate of a ball or floating joint
@@ -24,7 +21,7 @@ def _listed(names) -> str:
     return ", ".join(names) if names else "(none)"
 
 
-def describe(model: Model) -> str:
+def describe(model: ModelParts) -> str:
     """Several lines describing ``model`` (see the module docstring)."""
     home = model.home
     units = model.units

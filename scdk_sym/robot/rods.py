@@ -60,8 +60,8 @@ def _ball(
 ) -> list[Joint] | None:
     """The ball ending a loop side, with only fixed joints after it: a spherical joint, a
     ball whose spin was locked by turning it into a universal joint (``<ball>_U1``,
-    ``<ball>_U2``, see :meth:`Model._lock_spins`), or three revolutes with axes through one
-    point that span every rotation; else ``None``."""
+    ``<ball>_U2``, see :func:`~scdk_sym.robot.locking.lock_spins`), or three revolutes with
+    axes through one point that span every rotation; else ``None``."""
     movable = [i for i, j in enumerate(side) if j.movable]
     if not movable:
         return None

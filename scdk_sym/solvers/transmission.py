@@ -35,7 +35,7 @@ from ..kernels.fastcall import model_calls
 from ..results import Configuration
 from ..robot import Model
 from ..robot.blocks import triangular_blocks
-from ..robot.model import as_vector
+from ..robot.validation import as_vector
 from .track import track
 from .transmission_range import RangeCertificate, certify_range
 
