@@ -154,3 +154,25 @@ def test_a_divergent_solve_crosses_the_fold_met_along_an_actuator_s_axis():
     s0 = ref.det_sign(ref.coords(start), start.theta)
     assert s0 * ref.det_sign(u, theta0) == -1 and len(res.crossings) == 1
     assert float(np.abs(wrap(res.y - conv.y)).max()) > 0.1
+
+
+def test_singular_test_decides_as_the_singular_values_do():
+    """``singular_jp``'s determinant bound never decides otherwise than the singular values:
+    seeded matrices of sizes 1-10 with relative smallest singular values around the 1e-6
+    threshold and far above it (1e-8 to 1, log-uniform), scaled by 1e-3 to 1e3."""
+    from scdk_sym.follower.finish import singular_jp
+
+    rng = np.random.default_rng(11)
+    decided = {True: 0, False: 0}
+    for _ in range(3000):
+        n = int(rng.integers(1, 11))
+        U, _r = np.linalg.qr(rng.standard_normal((n, n)))
+        V, _r = np.linalg.qr(rng.standard_normal((n, n)))
+        s = np.sort(rng.uniform(0.1, 1.0, n))[::-1]
+        s[-1] = s[0] * 10.0 ** rng.uniform(-8, 0)
+        J = 10.0 ** rng.uniform(-3, 3) * (U * s) @ V.T
+        S = np.linalg.svd(J, compute_uv=False)
+        want = not S[-1] > 1e-6 * S[0]
+        assert singular_jp(J) == want, (n, S[-1] / S[0])
+        decided[want] += 1
+    assert min(decided.values()) > 250  # both answers were asked for

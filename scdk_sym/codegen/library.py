@@ -107,6 +107,7 @@ class Refusal:
 
 
 _dp = ctypes.POINTER(ctypes.c_double)
+_vp = ctypes.c_void_p
 _ip = ctypes.POINTER(ctypes.c_int)
 _lp = ctypes.POINTER(ctypes.c_long)
 
@@ -177,13 +178,14 @@ class CTracker:
         self._defaults = defaults
         self._solve = getattr(lib, f"{p}_solve_convergent")
         self._solve.restype = ctypes.c_int
+        # arrays by address (an int: a third of the cost of a typed pointer per call)
         self._solve.argtypes = [
-            _dp, ctypes.c_int, _dp, ctypes.c_int, _dp, ctypes.c_int, _dp,
-            ctypes.POINTER(Options), _dp, _dp, _dp, _dp, _dp,
+            _vp, ctypes.c_int, _vp, ctypes.c_int, _vp, ctypes.c_int, _vp,
+            ctypes.POINTER(Options), _vp, _vp, _vp, _dp, _dp,
         ]  # fmt: skip
         self._solve_divergent = getattr(lib, f"{p}_solve_divergent")
         self._solve_divergent.restype = ctypes.c_int
-        self._solve_divergent.argtypes = [*self._solve.argtypes, _dp]
+        self._solve_divergent.argtypes = [*self._solve.argtypes, _vp]
         self._sweep = getattr(lib, f"{p}_sweep")
         self._sweep.restype = ctypes.c_int
         self._sweep.argtypes = [
@@ -352,12 +354,13 @@ class CTracker:
         x = np.full(self.n, np.nan)
         res, det = ctypes.c_double(np.nan), ctypes.c_double(np.nan)
         extra = np.full(1 + self.m + self.n + self.nc, np.nan) if fold else None
+        nc1, c1 = c1.size, c1 if c1.size else np.zeros(1)  # C has no empty arrays
         status = fn(
-            _ptr(y1), y1.size, _ptr(c1) if c1.size else _ptr(np.zeros(1)), c1.size,
-            _ptr(theta1), theta1.size, _ptr(theta0) if theta0.size == self.k else None,
+            y1.ctypes.data, y1.size, c1.ctypes.data, nc1,
+            theta1.ctypes.data, theta1.size, theta0.ctypes.data if theta0.size == self.k else None,
             ctypes.byref(options) if options is not None else None,
-            _ptr(y), _ptr(c), _ptr(x), ctypes.byref(res), ctypes.byref(det),
-            *(() if extra is None else (_ptr(extra),)),
+            y.ctypes.data, c.ctypes.data, x.ctypes.data, ctypes.byref(res), ctypes.byref(det),
+            *(() if extra is None else (extra.ctypes.data,)),
         )  # fmt: skip
         out = SolveOutput(int(status), y, c[: self.nc], x, float(res.value), float(det.value))
         if extra is None:

@@ -25,7 +25,19 @@ def jacobian(model, y_loc, theta, c) -> np.ndarray:
 
 
 def singular_jp(Jp: np.ndarray) -> bool:
-    """``J_p`` singular to 1e-6 relative (a singular solution)."""
+    """``J_p`` singular to 1e-6 relative (a singular solution): its smallest singular value at
+    most 1e-6 times its largest.
+
+    A small regular ``J_p`` is told without its singular values: ``sigma_min / sigma_max >=
+    |det| / |J_p|_F^n`` (``|det|`` is the product of the singular values, each at most
+    ``|J_p|_F``), so a bound above 2e-6 decides as the singular values would (the factor 2
+    covers the rounding of both); elsewhere the singular values decide.
+    """
+    n = len(Jp)
+    if 0 < n <= 8:
+        frob = float(np.sqrt(np.einsum("ij,ij->", Jp, Jp)))
+        if frob > 0.0 and abs(float(np.linalg.det(Jp))) > 2e-6 * frob**n:
+            return False
     S = np.linalg.svd(Jp, compute_uv=False)
     return not S[-1] > 1e-6 * S[0]
 
