@@ -28,7 +28,7 @@ import numpy as np
 
 import scdk_sym as sc
 from scdk_sym.kernels.fastcall import Buffered
-from scdk_sym.solvers.sc import solve
+from scdk_sym.solvers.solve import solve
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = ROOT / "tests" / "fixtures" / "gepetto" / "5bar_linkage_iso3d"

@@ -27,7 +27,7 @@ import scdk_sym as sc  # noqa: E402
 from scdk_sym.algebraic import algebraic_form, solve_homotopy  # noqa: E402
 from scdk_sym.algebraic.paths.tracker import TrackerOptions  # noqa: E402
 from scdk_sym.algebraic.scaled import scaled_form  # noqa: E402
-from scdk_sym.solvers.homotopy_modes import model_start_system  # noqa: E402
+from scdk_sym.solvers.start_system import model_start_system  # noqa: E402
 
 stewart = test_references("stewart")  # the references shared with the tests
 

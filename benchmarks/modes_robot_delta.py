@@ -34,7 +34,7 @@ def main() -> None:
     import scdk_sym as sc
     from scdk_sym.algebraic import algebraic_form
     from scdk_sym.algebraic.scaled import scaled_form
-    from scdk_sym.solvers.homotopy_modes import model_start_system
+    from scdk_sym.solvers.start_system import model_start_system
 
     def start_of(model):
         form = scaled_form(algebraic_form(model, "compiled"))

@@ -25,7 +25,7 @@ import numpy as np
 import scdk_sym as sc
 from scdk_sym.builders.planar import seed_geometry
 from scdk_sym.codegen.library import OK_PATH, tracker_library
-from scdk_sym.solvers.sc import solve
+from scdk_sym.solvers.solve import solve
 
 ROOT = Path(__file__).resolve().parents[1]
 X1 = np.array([0.0, 0.0, 0.4])

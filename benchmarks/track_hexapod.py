@@ -47,7 +47,7 @@ import scdk_sym as sc
 from scdk_sym.codegen.library import CTracker, tracker_library
 from scdk_sym.kernels.compile import compile_parallel
 from scdk_sym.model.rotations import rpy_matrix
-from scdk_sym.solvers.sc import solve
+from scdk_sym.solvers.solve import solve
 from scdk_sym.solvers.track_c import track_c
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -15,8 +15,9 @@ if TYPE_CHECKING:
     from .errors import ScdkError
     from .results import Configuration, Crossing, SolveResult, TrackResult
     from .robot import Model, load_model
+    from .solvers.batch import SolveBatch, solve_many
     from .solvers.modes import assembly_modes
-    from .solvers.sc import solve
+    from .solvers.solve import solve
     from .solvers.track import track
     from .solvers.transmission import Transmission, transmission
     from .verify.report import VerifyReport, verify_model
@@ -34,7 +35,9 @@ _PUBLIC: dict[str, tuple[str, str | None]] = {
     "builders": (".builders", None),
     "load_model": (".robot", "load_model"),
     "open_atlas": (".atlases", "open_atlas"),
-    "solve": (".solvers.sc", "solve"),
+    "solve": (".solvers.solve", "solve"),
+    "solve_many": (".solvers.batch", "solve_many"),
+    "SolveBatch": (".solvers.batch", "SolveBatch"),
     "track": (".solvers.track", "track"),
     "Transmission": (".solvers.transmission", "Transmission"),
     "transmission": (".solvers.transmission", "transmission"),
@@ -56,6 +59,8 @@ __all__ = [
     "load_model",
     "open_atlas",
     "solve",
+    "solve_many",
+    "SolveBatch",
     "track",
     "transmission",
     "Transmission",

@@ -327,7 +327,7 @@ def plot_solve(
         start: start configuration (default ``model.home``).
         out_dir: directory of the figures (created if needed).
         prefix: file name prefix (default: the model name).
-        backend: a backend :func:`~scdk_sym.solvers.sc.solve` offers (:mod:`scdk_sym.backends`).
+        backend: a backend :func:`~scdk_sym.solvers.solve.solve` offers (:mod:`scdk_sym.backends`).
 
     Returns:
         The three paths written.
@@ -335,7 +335,7 @@ def plot_solve(
     Raises:
         PathError: a branch does not reach ``theta0`` (the error names it).
     """
-    from .solvers.sc import solve
+    from .solvers.solve import solve
 
     require_matplotlib()
     theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")

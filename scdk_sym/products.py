@@ -59,7 +59,7 @@ ALGEBRAIC_FORM = Key("algebraic_form", "polynomial form of the closure system", 
 HOMOTOPY_TRACKER = Key(
     "homotopy_tracker", "compiled homotopy path tracker of the algebraic form", "the model only"
 )
-#: Start systems of the homotopy (:func:`scdk_sym.solvers.homotopy_modes.start_system`).
+#: Start systems of the homotopy (:func:`scdk_sym.solvers.start_system.model_start_system`).
 START_SYSTEM = Key("start_system", "monodromy start system", "(backend, seed, max_loops)")
 
 #: The Pinocchio model of an edited joint tree (:func:`scdk_sym.verify.pinocchio.pinocchio_model`).

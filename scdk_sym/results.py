@@ -248,7 +248,7 @@ class SolveResult:
             generated C follower met a singular path and handed over to "compiled"); empty
             when the backend asked for answered.
         strategy: the divergent branch's way that answered
-            (:data:`scdk_sym.solvers.sc.DIVERGENT_STRATEGIES`: ``"paper"``, ``"nearest"``,
+            (:data:`scdk_sym.solvers.divergent.DIVERGENT_STRATEGIES`: ``"paper"``, ``"nearest"``,
             ...); empty on the convergent branch.
     """
 

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import scdk_sym as sc
-from scdk_sym.solvers.sc import solve
+from scdk_sym.solvers.solve import solve
 from scdk_sym.verify.pinocchio import closure_residuals, placement_error
 
 MODELS = Path(__file__).resolve().parents[1] / "models"

@@ -6,7 +6,7 @@ import math
 import pytest
 from factories import MODELS, shipped
 
-import scdk_sym.solvers.sc as sc_module
+import scdk_sym.solvers.solve as sc_module
 from scdk_sym.cli import main
 from scdk_sym.errors import PathError
 

@@ -22,7 +22,7 @@ import yaml
 import scdk_sym as sc
 from scdk_sym.cli import main
 from scdk_sym.errors import NonSquareSystemError, UnknownNameError
-from scdk_sym.solvers.sc import solve
+from scdk_sym.solvers.solve import solve
 from scdk_sym.verify.pinocchio import closure_residuals, pin_configuration, placement_error
 
 FIXTURES = Path(__file__).resolve().parent / "fixtures" / "gepetto"

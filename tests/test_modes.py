@@ -363,7 +363,7 @@ def test_images_of_one_configuration_keep_the_first_as_the_in_order_rule():
     """The rows kept by the all-pairs rule against the plain in-order loop (a row goes when a
     kept row lies within tol, max-norm, of it) on 2000 seeded cases with planted near-copies,
     chains and NaN entries."""
-    from scdk_sym.solvers.homotopy_modes import _first_of_images
+    from scdk_sym.solvers.mode_polish import _first_of_images
 
     def in_order(feats, tol):
         kept: list[int] = []

@@ -363,7 +363,7 @@ def test_root_bound_certificate_rejects_an_incomplete_or_degenerate_set():
     from scdk_sym.algebraic import algebraic_form
     from scdk_sym.algebraic.rootbound import root_bound
     from scdk_sym.algebraic.scaled import scaled_form
-    from scdk_sym.solvers.homotopy_modes import complete_by_bound, model_start_system
+    from scdk_sym.solvers.start_system import complete_by_bound, model_start_system
 
     form = scaled_form(algebraic_form(shipped("planar_hexa")))
     start = model_start_system(form, 0)
@@ -399,7 +399,7 @@ def test_shipped_stewart_gough_is_certified_with_its_own_root_count():
     from scdk_sym.algebraic import algebraic_form
     from scdk_sym.algebraic.scaled import scaled_form
     from scdk_sym.backends import resolve
-    from scdk_sym.solvers.homotopy_modes import model_start_system
+    from scdk_sym.solvers.start_system import model_start_system
 
     model = shipped("stewart_gough")
     theta = np.array([0.66, 0.63, 0.65, 0.62, 0.64, 0.66])

@@ -81,7 +81,7 @@ def test_talos_ankle_start_system_is_the_random_start_set_and_only_the_pencil_pr
     for r in reference:
         assert np.abs(start.solutions - r).max(axis=1).min() < 1e-8
     # the offset trace of the frames' placements is no polynomial of degree 1 here
-    from scdk_sym.solvers.homotopy_modes import frame_trace_map
+    from scdk_sym.solvers.form_maps import frame_trace_map
 
     tmap = frame_trace_map(form, start.p)
     offset = trace_test(form, start.solutions, start.p, start.b, rng, trace_map=tmap)

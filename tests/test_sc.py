@@ -1,4 +1,4 @@
-"""The singularity-consistent solver on the paper's example (scdk_sym.solvers.sc)."""
+"""The singularity-consistent solver on the paper's example (scdk_sym.solvers.solve)."""
 
 import numpy as np
 import pytest
@@ -6,7 +6,8 @@ from factories import SEED_THETA0, SEED_X1, compiler_missing, seed_models, shipp
 
 from scdk_sym.errors import InputError, NotAssembledError, PathError, ScdkError
 from scdk_sym.results import Configuration
-from scdk_sym.solvers.sc import solve, trace
+from scdk_sym.solvers.solve import solve
+from scdk_sym.solvers.trace import trace
 
 
 @pytest.fixture(scope="module", params=["planar_hexa", "planar_hexa_reduced"])
@@ -39,7 +40,7 @@ def test_divergent_branch_crosses_the_singular_manifold_once(seed):
 def test_divergent_answer_names_its_strategy_and_every_strategy_is_a_way(seed):
     """The paper's example is answered by the first way, the paper's divergent path; the
     declared strategies and the search's ways are the same list (no undeclared way)."""
-    from scdk_sym.solvers.sc import DIVERGENT_STRATEGIES, _DivergentSearch
+    from scdk_sym.solvers.divergent import DIVERGENT_STRATEGIES, _DivergentSearch
 
     model, start = seed
     res = solve(model, SEED_THETA0, start=start, branch="divergent")
@@ -303,7 +304,7 @@ def test_warm_fast_path_reports_the_branch_sign_of_the_full_path(name, monkeypat
     """``b`` of a convergent solve is the sign of det J_p at the start (``b det J_p > 0``),
     whether the warm kernel answers or the path is integrated; the two modelings of the seed
     robot have opposite signs there (DESIGN section 2)."""
-    import scdk_sym.solvers.sc as sc_module
+    import scdk_sym.solvers.convergent as sc_module
 
     model = shipped(name)
     start = model.inverse_kinematics(SEED_X1)
@@ -316,7 +317,7 @@ def test_warm_fast_path_reports_the_branch_sign_of_the_full_path(name, monkeypat
     def no_path(*args, **kwargs):
         raise AssertionError("the warm fast path should have answered")
 
-    monkeypatch.setattr(sc_module, "_along_line", no_path)
+    monkeypatch.setattr(sc_module, "along_line", no_path)
     fast = solve(model, theta0, start=start, record_path=False)
     assert fast.path is None and fast.branch == "convergent"
     assert fast.b == full.b

@@ -84,7 +84,7 @@ def test_solve_both_json_validates_with_a_failed_branch(capsys, monkeypatch):
     out = run_json(capsys, "solve", HEXA, *SEED, "--branch", "both")
     validate(out, "solve-both")
     assert [round(s["x"][2], 3) for s in out["solutions"]] == [0.207, 1.0]
-    import scdk_sym.solvers.sc as sc_module
+    import scdk_sym.solvers.solve as sc_module
     from scdk_sym.errors import PathError
 
     real = sc_module.solve

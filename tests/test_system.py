@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from factories import SEED_THETA0, SEED_X1, hexapod, seed_models
 
-from scdk_sym.solvers.sc import solve
+from scdk_sym.solvers.solve import solve
 from scdk_sym.verify.pinocchio import closure_residuals, placement_error
 
 

@@ -157,19 +157,19 @@ def test_fast_continuation_on_regular_samples_never_across_the_fold(monkeypatch,
     """R2's Newton from the prediction answers the regular samples where the Euler step from
     the previous sample is accurate, never where it is not, and never the reading where the
     motion crosses the singular manifold (the inverse-kinematics truth)."""
-    from scdk_sym.solvers import track as rule
+    from scdk_sym.solvers import tracker as rule
 
     model = shipped("planar_hexa")
     phis, thetas, truth = seed_path(model, count)
     taken: list[bool] = []
-    fast = rule._Tracker._fast
+    fast = rule.Tracker._fast
 
     def record(self, theta, pred):
         out = fast(self, theta, pred)
         taken.append(out[0] is not None)
         return out
 
-    monkeypatch.setattr(rule._Tracker, "_fast", record)
+    monkeypatch.setattr(rule.Tracker, "_fast", record)
     result = sc.track(model, thetas, start=truth[0])
     # sample 0 is the start's reading (R0: no call); taken[i - 1] is sample i
     assert len(taken) == count - 1
@@ -239,7 +239,8 @@ def test_c_backend_is_dispatched_to_track_c(monkeypatch):
 def test_the_choice_rule_orders_by_miss_and_refuses_near_ties():
     """R4 on its own: the best candidate is the least miss (the first of equal ones), taken
     only when the runner-up misses MARGIN times more and the best agrees with the motion."""
-    from scdk_sym.solvers.track import ACCEPT, MARGIN, choose
+    from scdk_sym.follower.track_rule import ACCEPT, MARGIN
+    from scdk_sym.solvers.tracker import choose
 
     tol = 1e-12
     # clearly nearer and within ACCEPT of the step: taken, wherever it is in the list
@@ -288,7 +289,8 @@ def test_fast_continuation_never_takes_another_root_next_to_the_prediction():
     the step). A prediction next to the continuation is taken, and equals the continuation
     (Newton along the reading's homotopy in 50 steps, independent of the tracker)."""
     from scdk_sym.errors import TrackError
-    from scdk_sym.solvers import track as rule
+    from scdk_sym.solvers import tracker as rule
+    from scdk_sym.solvers.track import ERR_UNDECIDABLE, OK
 
     model = hexapod()
     theta_k = model.home.theta
@@ -305,25 +307,25 @@ def test_fast_continuation_never_takes_another_root_next_to_the_prediction():
     assert np.max(np.abs(jump - cont)) > 0.5  # far apart: taking one for the other is a jump
 
     def tracker():
-        t = rule._Tracker(model, model.configuration(y_k, theta_k))
+        t = rule.Tracker(model, model.configuration(y_k, theta_k))
         t.n, t.d = 1, [np.zeros(model.m)]
         return t
 
     t = tracker()
     assert np.sign(t._det(t.local(jump), theta)) == np.sign(t.det) != 0
-    step = rule._inf(t.local(jump) - t.y)
+    step = rule.inf_norm(t.local(jump) - t.y)
     on_other = rule._Prediction(t.local(jump), step, step, step)
     assert t._fast(theta, on_other)[0] is None
     t._prediction = lambda w: on_other
     with pytest.raises(TrackError) as err:
         t.step(theta, 5)
-    assert err.value.status == rule.ERR_UNDECIDABLE and err.value.index == 5
+    assert err.value.status == ERR_UNDECIDABLE and err.value.index == 5
     # a prediction next to the continuation is taken: it is the continuation
     t = tracker()
     near = t.local(cont) + 1e-6 * rng.uniform(-1.0, 1.0, model.m)
-    pred = rule._Prediction(near, rule._inf(near - t.y), 0.0, 1.0)
+    pred = rule._Prediction(near, rule.inf_norm(near - t.y), 0.0, 1.0)
     y, det, code = t._fast(theta, pred)
-    assert y is not None and code == rule.OK
+    assert y is not None and code == OK
     np.testing.assert_allclose(model.chart.to_canonical(y, t.c), cont, rtol=0, atol=1e-10)
 
 

@@ -10,7 +10,7 @@ import scdk_sym as sc
 from scdk_sym.codegen import library as clib
 from scdk_sym.errors import InputError
 from scdk_sym.model.rotations import rot_log, rpy_matrix
-from scdk_sym.solvers.sc import solve
+from scdk_sym.solvers.solve import solve
 from scdk_sym.solvers.track_c import TrackError, track_c
 
 pytestmark = needs_compiler()

@@ -33,7 +33,7 @@ from scdk_sym.kernels.compile import LU_HEADER, run_compiler
 from scdk_sym.kernels.lanes import lane_source
 from scdk_sym.model.chart import rot_exp, rot_log
 from scdk_sym.products import START_SYSTEM
-from scdk_sym.solvers import homotopy_modes as hm
+from scdk_sym.solvers import start_system as hm
 
 #: Largest relative difference of a C endpoint from the numpy one.
 ENDPOINT_TOL = 1e-9

@@ -3,7 +3,7 @@
 The offset trace test of :mod:`scdk_sym.algebraic.monodromy` sums the solutions along a line
 ``b(lambda) = b* + lambda v`` of offsets. That sum is a polynomial in ``lambda`` only where no
 solution escapes to infinity along the line, and of degree 1 only for some traced functions
-(:func:`~scdk_sym.solvers.homotopy_modes.frame_trace_map` on the zoo's families); on other
+(:func:`~scdk_sym.solvers.form_maps.frame_trace_map` on the zoo's families); on other
 forms (a 3-RPS, a robot leg) a complete set fails it.
 
 This module tests completeness with a map that is linear for every system (Leykin,

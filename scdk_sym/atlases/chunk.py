@@ -182,7 +182,7 @@ def solve_chunk(
 
 def _direct(model, start, thetas, todo, x, det, status) -> None:
     """``sc.solve`` at the points ``todo``, written into ``x``, ``det`` and ``status``."""
-    from ..solvers.sc import solve
+    from ..solvers.solve import solve
 
     for i in todo:
         check()  # a stop between points: the chunk is not written, a rerun redoes it

@@ -224,7 +224,7 @@ def _options(options: Mapping[str, Any]) -> AtlasOptions:
 
 def _check_call(model, opts: AtlasOptions) -> Any:
     """The start of an :func:`atlas` call, validated with its other options (see there)."""
-    from ..solvers.sc import singular_start, validate_start
+    from ..solvers.query import singular_start, validate_start
 
     chunk, workers, scheduler = opts.chunk, opts.workers, opts.scheduler
     start = validate_start(model, opts.start)

@@ -118,7 +118,7 @@ def _view(args: argparse.Namespace) -> int:
     start = start_configuration(model, args)
     what: SolveResult | TrackResult | Configuration
     if args.theta:
-        from ..solvers.sc import solve
+        from ..solvers.solve import solve
 
         theta = floats(args.theta, "--theta")
         what = solve(model, theta, start=start, branch=args.branch, record_path=True)

@@ -75,7 +75,7 @@ def _solve(args: argparse.Namespace) -> int:
     the other branch is still printed; the exit code is 1 only when every branch failed. Errors
     that do not depend on the branch (bad input, model, start, build) end the command as usual.
     """
-    from ..solvers import sc
+    from ..solvers import solve as solving  # looked up at each call (tests replace it)
 
     backend = backend_of(args.backend, "solve")
     model = load(args)
@@ -86,8 +86,8 @@ def _solve(args: argparse.Namespace) -> int:
     results: list[tuple[str, SolveResult | SolveError]] = []
     for br in branches:
         try:
-            res = sc.solve(model, theta, start=start, branch=br, b=args.b, backend=backend,
-                           record_path=False)  # fmt: skip
+            res = solving.solve(model, theta, start=start, branch=br, b=args.b, backend=backend,
+                                record_path=False)  # fmt: skip
         except SolveError as exc:
             if not both:
                 raise

@@ -19,6 +19,8 @@ from ..products import PLACING_BLOCK
 from ..results import Configuration, Crossing, SolveResult, TrackResult
 from ..robot import Model
 from ..robot.blocks import Block
+from .result import verified_result
+from .track_errors import verify_samples
 
 
 def _block(sub: Model) -> Block:
@@ -103,8 +105,6 @@ def solve_blocks(
         y[list(block.unknowns)] = r.y
         results.append((sub, r))
     crossings = tuple(_expand(model, sub, c, y, theta0) for sub, r in results for c in r.crossings)
-    from .sc import verified_result
-
     first = results[0][1]
     res = verified_result(model, y, theta0, crossings, first.branch, first.b, start, None)
     # each block's way, in block order, where the divergent branch answered
@@ -150,8 +150,6 @@ def track_blocks(
         for c in r.crossings:
             crossings.append(_expand(model, sub, c, ys[max(c.index, 0)], thetas[max(c.index, 0)]))
     crossings.sort(key=lambda c: (c.index, c.s))
-    from .track import verify_samples
-
     verify_samples(model, residual, thetas)
     return TrackResult(
         x=xs,

@@ -46,22 +46,20 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..backends import resolve
-from ..errors import InputError, ScdkError
+from ..errors import InputError
 from ..follower.curve import follow
-from ..follower.geometry import difference, features, kinds  # noqa: F401
+from ..follower.geometry import features
 from ..follower.kernels import follower_kernels
 from ..follower.options import FollowOptions
 from ..follower.walk import Line
-from ..model.rotations import quaternion_matrix
 from ..results import AssemblyModes, Configuration, mode_order
 from ..robot import Model, as_vector
-from .sc import validate_start
+from .query import validate_start
+from .random_starts import RandomStarts
 
 #: The search accepts explicit steps whose tangent turned by up to acos(0.7) (it collects
 #: solutions; a jump between nearby branches only changes the curve it explores).
 SEARCH_MIN_COS = 0.7
-#: Random starts: coordinates other than angles within this many model sizes of home.
-RANDOM_SPREAD = 1.5
 
 
 def curve_kernels(model: Model, backend: str = "cvodes"):
@@ -111,6 +109,29 @@ class Curve:
     path: list[np.ndarray] = field(default_factory=list, repr=False)
 
 
+@dataclass(frozen=True)
+class CurveOptions:
+    """How far :func:`follow_curve` follows one curve, and with which kernels.
+
+    Attributes:
+        max_arc: arc-length budget, in the metric ``|dy|^2 + (|dtheta| ds)^2``.
+        deadline: ``time.perf_counter()`` value at which to stop [s].
+        backend: "cvodes" or "compiled" kernels (see :mod:`scdk_sym.backends`).
+        record: keep the accepted samples in ``curve.path``.
+        max_hits: stop after this many solutions.
+        max_steps: stop after this many accepted steps.
+        step: initial arc-length step (default 0.02 model sizes).
+    """
+
+    max_arc: float
+    deadline: float = math.inf
+    backend: str = "cvodes"
+    record: bool = False
+    max_hits: int | float = math.inf
+    max_steps: int = 20000
+    step: float | None = None
+
+
 def follow_curve(
     model: Model,
     theta1: np.ndarray,
@@ -118,14 +139,7 @@ def follow_curve(
     y_start: np.ndarray,
     s_start: float,
     direction: float,
-    *,
-    max_arc: float,
-    deadline: float = math.inf,
-    backend: str = "cvodes",
-    record: bool = False,
-    max_hits: int | float = math.inf,
-    max_steps: int = 20000,
-    step: float | None = None,
+    options: CurveOptions,
 ) -> Curve:
     """Follow the curve ``g(y, theta1 + s dtheta) = 0`` from ``(y_start, s_start)`` with the
     curve follower (:func:`scdk_sym.follower.curve.follow`, explicit predictor-corrector) and
@@ -138,32 +152,27 @@ def follow_curve(
         y_start: (m,) canonical unknowns of an assembled point of the curve.
         s_start: its path parameter.
         direction: +1 follows ``nu`` (``s' = det J_p``), -1 follows ``-nu``.
-        max_arc: arc-length budget, in the metric ``|dy|^2 + (|dtheta| ds)^2``.
-        deadline: ``time.perf_counter()`` value at which to stop.
-        backend: "cvodes" or "compiled" kernels (see :mod:`scdk_sym.backends`).
-        record: keep the accepted samples in ``curve.path``.
-        max_hits: stop after this many solutions.
-        max_steps: stop after this many accepted steps.
-        step: initial arc-length step (default 0.02 model sizes).
+        options: the budgets, the kernels and the recording (:class:`CurveOptions`).
 
     Returns:
         A :class:`Curve`.
     """
+    step, record = options.step, options.record
     line = Line(np.asarray(theta1, float), np.asarray(dtheta, float))
     h = 0.02 * _scale(model) if step is None else float(step)
-    options = FollowOptions(
+    follow_options = FollowOptions(
         predictor="rk4",
-        backend=backend,
-        max_hits=max_hits,
-        max_arc=max_arc,
-        max_steps=max_steps,
-        deadline=deadline,
+        backend=options.backend,
+        max_hits=options.max_hits,
+        max_arc=options.max_arc,
+        max_steps=options.max_steps,
+        deadline=options.deadline,
         step=h,
         record=record,
         locate=False,
         min_cos=SEARCH_MIN_COS,
     )
-    walk = follow(model, line, y_start, s_start, direction, options)
+    walk = follow(model, line, y_start, s_start, direction, follow_options)
     out = Curve(
         hits=[hit.y for hit in walk.hits],
         hit_arcs=[hit.arc for hit in walk.hits],
@@ -224,6 +233,23 @@ def _actuator_scale(model: Model) -> np.ndarray:
     return np.array([_scale(model) if types[a] == "prismatic" else 1.0 for a in model.actuated])
 
 
+@dataclass(frozen=True)
+class StoppingRule:
+    """When :func:`explore` stops (besides its time budget), and how far one curve goes.
+
+    Attributes:
+        patience: curves of each kind in a row without a new solution before stopping.
+        cover: times each known solution must be met again since the last new one.
+        max_curves: bound on the curves followed.
+        max_arc: arc-length budget of one curve (default 200 model sizes).
+    """
+
+    patience: int = 8
+    cover: int = 2
+    max_curves: int = 400
+    max_arc: float | None = None
+
+
 def explore(
     model: Model,
     theta0: ArrayLike,
@@ -232,23 +258,23 @@ def explore(
     seed: int = 0,
     time_budget: float | None = None,
     progress: bool = False,
-    patience: int = 8,
-    cover: int = 2,
-    max_curves: int = 400,
-    max_arc: float | None = None,
     backend: str = "cvodes",
+    rule: StoppingRule | None = None,
 ) -> ModeSearch:
     """Search the real direct-kinematics solutions at ``theta0`` (see :func:`assembly_modes`).
 
     Args:
-        model, theta0, start, seed, time_budget, progress, patience, cover, max_curves,
-            backend: as :func:`assembly_modes`.
-        max_arc: arc-length budget of one curve (default 200 model sizes).
+        model, theta0, start, seed, time_budget, progress, backend: as
+            :func:`assembly_modes`.
+        rule: the stopping rule (default :class:`StoppingRule`: ``patience`` 8, ``cover`` 2,
+            ``max_curves`` 400, ``max_arc`` 200 model sizes).
 
     Returns:
         A :class:`ModeSearch` with the solutions and statistics of the search.
     """
     t_begin = time.perf_counter()
+    rule = StoppingRule() if rule is None else rule
+    patience, cover, max_curves, max_arc = rule.patience, rule.cover, rule.max_curves, rule.max_arc
     theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
     backend = resolve(backend, "curves")
     if time_budget is not None and not (time_budget > 0):
@@ -336,9 +362,9 @@ class _Search:
         (the second way skipped where the first closed or ran out of time)."""
         new = 0
         for direction in (1.0, -1.0):
-            curve = follow_curve(self.model, theta1, dtheta, y, s, direction,
-                                 max_arc=self.arc_budget, deadline=self.deadline,
-                                 backend=self.backend, max_hits=max_hits)  # fmt: skip
+            options = CurveOptions(max_arc=self.arc_budget, deadline=self.deadline,
+                                   backend=self.backend, max_hits=max_hits)  # fmt: skip
+            curve = follow_curve(self.model, theta1, dtheta, y, s, direction, options)
             new += self.record(curve, origin)
             if (curve.closed and not curve.reversed) or curve.timed_out:
                 break
@@ -403,97 +429,6 @@ class _Search:
         self.out.met = [self.met[i] for i in order]
         self.out.elapsed = time.perf_counter() - t_begin
         return self.out
-
-
-class RandomStarts:
-    """Random assembled starts (the paper's kind: ``theta1 = IK(y1)``) for the search.
-
-    With as many unknowns as actuators, batches of random unknowns (revolute angles and
-    rotations uniform, other coordinates within ``RANDOM_SPREAD`` model sizes of home) are
-    ranked by their closure residual at ``theta0`` (the nearer the fibre over ``theta0``, the
-    likelier the curve from there reaches ``s = 1``); a candidate near a known solution is
-    skipped, the others get ``theta`` by Newton on ``g(y, theta) = 0``. Otherwise the inverse
-    kinematics of random poses near home.
-
-    Args:
-        model: the model.
-        rng: random generator.
-        theta0: (k,) target actuated values.
-        batch: candidates drawn at a time.
-    """
-
-    def __init__(self, model: Model, rng: np.random.Generator, theta0: np.ndarray, batch=256):
-        self.model, self.rng, self.theta0, self.batch = model, rng, theta0, batch
-        self.queue: list[np.ndarray] = []
-        self.drawn = 0
-
-    def _refill(self) -> None:
-        model, n = self.model, self.batch
-        Y = np.tile(np.array(model.home.y, dtype=float), (n, 1))
-        per, _, plain = kinds(model)
-        Y[:, per] = self.rng.uniform(-math.pi, math.pi, (n, per.size))
-        spread = RANDOM_SPREAD * model.length_scale
-        Y[:, plain] += self.rng.uniform(-spread, spread, (n, len(plain)))
-        C = np.zeros((n, model.chart.size))
-        for r, idx in enumerate(model.chart.rotations):
-            quat = self.rng.normal(size=(n, 4))
-            quat /= np.linalg.norm(quat, axis=1)[:, None]
-            # uniform rotations, as charts (local rotation parameters 0), column-major
-            C[:, 9 * r : 9 * r + 9] = quaternion_matrix(quat).transpose(0, 2, 1).reshape(n, 9)
-            Y[:, list(idx)] = 0.0
-        G = np.array(model.kernels.g.map(n)(Y.T, np.tile(self.theta0[:, None], (1, n)), C.T))
-        score = np.max(np.abs(G), axis=0)
-        score[~np.isfinite(score)] = np.inf
-        order = np.argsort(score, kind="stable")
-        self.queue = [model.chart.to_canonical(Y[j], C[j]) for j in order if np.isfinite(score[j])]
-        self.queue.reverse()  # pop() takes the best
-
-    def next(self, known: np.ndarray, radius: float) -> Configuration | None:
-        """The next start away from the known solutions' features (None if it fails)."""
-        model = self.model
-        self.drawn += 1
-        if model.m != model.k:
-            return self._by_inverse_kinematics()
-        while True:
-            if not self.queue:
-                self._refill()
-            y = self.queue.pop()
-            if (
-                not known.size
-                or np.min(np.max(np.abs(known - features(model, y)), axis=1)) > radius
-            ):
-                break
-        y_loc, c = model.chart.to_local(y)
-        theta = np.array(self.theta0, dtype=float)
-        for _ in range(30):
-            g = np.array(model.kernels.g(y_loc, theta, c)).ravel()
-            if not np.all(np.isfinite(g)):
-                return None
-            if np.max(np.abs(g)) <= 0.1 * model.tolerance:
-                break
-            Js = np.array(model.kernels.jac(y_loc, theta, c)[1])
-            try:
-                theta = theta + np.linalg.solve(Js, g)
-            except np.linalg.LinAlgError:
-                return None
-        return self._checked(model.configuration(y, theta))
-
-    def _by_inverse_kinematics(self) -> Configuration | None:
-        model = self.model
-        x = np.array(model.home.x, dtype=float)
-        for i, name in enumerate(model.workspace):
-            if name in ("phi", "roll", "pitch", "yaw"):
-                x[i] += self.rng.uniform(-math.pi, math.pi) * (0.5 if name == "pitch" else 1.0)
-            else:
-                x[i] += self.rng.uniform(-0.3, 0.3) * model.length_scale
-        try:
-            return self._checked(model.inverse_kinematics(x))
-        except ScdkError:
-            return None
-
-    def _checked(self, cfg: Configuration) -> Configuration | None:
-        ok = cfg.residual <= self.model.tolerance and np.all(np.isfinite(cfg.theta))
-        return cfg if ok else None
 
 
 def _progress_bar(enabled: bool):

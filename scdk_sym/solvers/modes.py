@@ -17,8 +17,10 @@ from ..results import AssemblyModes
 from ..robot import Model, as_vector
 from .curve_modes import (  # noqa: F401  (the curve search's names, also importable from here)
     Curve,
+    CurveOptions,
     ModeSearch,
     RandomStarts,
+    StoppingRule,
     curve_kernels,
     curves_result,
     explore,
@@ -116,12 +118,15 @@ def assembly_modes(
             f"unknown option(s) {', '.join(sorted(extra))} for method='curves'; "
             f"options: {', '.join(_CURVE_DEFAULTS)}"
         )
+    given = {**_CURVE_DEFAULTS, **options}
     search = explore(
         model,
         theta0,
         seed=seed,
         progress=progress,
         backend=resolve(backend or DEFAULTS["curves"], "curves"),
-        **{**_CURVE_DEFAULTS, **options},
+        start=given["start"],
+        time_budget=given["time_budget"],
+        rule=StoppingRule(given["patience"], given["cover"], given["max_curves"]),
     )
     return curves_result(search)

@@ -11,33 +11,50 @@ of :mod:`scdk_sym.follower.kernels`, the step control of
   its first crossing of ``s = 1``; it refuses a path that meets a turn of ``s`` or a sign
   change of ``det J_p`` before the solution (it locates no crossing);
 - the divergent solve where it is the first way (``"paper"``) of
-  :func:`scdk_sym.solvers.sc._divergent`, the paper's divergent path: in the direction
+  :func:`scdk_sym.solvers.divergent.divergent`, the paper's divergent path: in the direction
   where ``s`` decreases, through exactly one fold (located, reported as the answer's one
   crossing) back through ``s = 0`` on the other sheet, then to the first crossing of
   ``s = 1`` without another singular point; it refuses every other walk (a bifurcation, a
   second fold, ``s = -1`` first, ...).
 
 Both refuse a path without an answer within their arc budgets. Those cases, an explicit ``b``,
-a recorded path and an explicit ``max_arc`` are solved by :func:`scdk_sym.solvers.sc.solve`
-with the compiled kernels, as is a divergent answer that is singular or fails its checks. The
-answer is verified in Python (:func:`scdk_sym.solvers.sc.solve`'s own residual check, and the
-parity of ``det J_p`` after the crossings of :func:`scdk_sym.follower.finish.parity_checked`),
-so nothing unverified is returned.
+a recorded path and an explicit ``max_arc`` are handed over (a :class:`HandOver` saying why):
+the caller, :func:`scdk_sym.solvers.solve.solve`, solves them with the compiled kernels, as it
+does a divergent answer that is singular or fails its checks. The answer is verified in Python
+(:func:`scdk_sym.solvers.result.solve_result`'s residual check, and the parity of
+``det J_p`` after the crossings of :func:`scdk_sym.follower.finish.parity_checked`), so
+nothing unverified is returned.
 """
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..backends import Resolved
 from ..errors import NotAssembledError, PathError, SolveError, VerificationError
 from ..results import Configuration, Crossing, SolveResult
 from ..robot import Model, as_vector
+from .query import validate_start
+from .result import solve_result
 
-__all__ = ["solve_c"]
+__all__ = ["HandOver", "solve_c"]
+
+
+@dataclass(frozen=True)
+class HandOver:
+    """A query the C follower does not answer, handed over to the compiled follower.
+
+    Attributes:
+        theta0: the query's actuated values, as the compiled solve is to receive them.
+        start: its start (the checked one once :func:`solve_c` has checked it).
+        why: what the C follower refused (the end of the answer's ``fallback``).
+    """
+
+    theta0: ArrayLike
+    start: Configuration | None
+    why: str
 
 
 def solve_c(
@@ -47,26 +64,26 @@ def solve_c(
     branch: str = "convergent",
     b: float | None = None,
     **kwargs,
-) -> SolveResult:
-    """:func:`scdk_sym.solvers.sc.solve` with the generated C follower (``backend="c"``).
+) -> SolveResult | HandOver:
+    """:func:`scdk_sym.solvers.solve.solve` with the generated C follower (``backend="c"``).
 
     Args:
         model: the model.
         theta0: (k,) actuated joint values [rad or model length unit].
         start: assembled start configuration (default: ``model.home``).
         branch: "convergent" or "divergent", each solved in one C call where the C follower
-            can (see the module documentation), else by ``solve(..., backend="compiled")``.
-        b: the paper's signed scalar (solved by ``solve(..., backend="compiled")``).
-        **kwargs: the other keywords of :func:`scdk_sym.solvers.sc.solve`; ``record_path``
-            (the sampled curve) and ``max_arc`` are solved by
-            ``solve(..., backend="compiled")``.
+            can (see the module documentation), else handed over.
+        b: the paper's signed scalar (handed over).
+        **kwargs: the other keywords of :func:`scdk_sym.solvers.solve.solve`; ``record_path``
+            (the sampled curve) and ``max_arc`` are handed over.
 
     Returns:
-        A verified :class:`~scdk_sym.results.SolveResult`, the same as ``solve``'s (equal to
-        1e-9 in the tests, the same crossings).
+        A verified :class:`~scdk_sym.results.SolveResult`, the same as the compiled solve's
+        (equal to 1e-9 in the tests, the same crossings), or the :class:`HandOver` of a query
+        for ``solve(..., backend="compiled")``.
 
     Raises:
-        The errors of :func:`scdk_sym.solvers.sc.solve`; BuildError without a C compiler.
+        The errors of :func:`scdk_sym.solvers.solve.solve`; BuildError without a C compiler.
     """
     from ..codegen.library import (
         ERR_NO_SOLUTION,
@@ -75,14 +92,9 @@ def solve_c(
         STATUS,
         tracker_library,
     )
-    from .sc import solve, validate_start
 
-    kwargs.pop("backend", None)
-    options = dict(kwargs, backend=Resolved("compiled", "c"))  # handed over, not re-chosen
-
-    def fallback(theta, why: str) -> SolveResult:
-        res = solve(model, theta, start, branch, b, **options)
-        return replace(res, fallback=f"backend 'c' handed over to 'compiled': {why}")
+    def fallback(theta, why: str) -> HandOver:
+        return HandOver(theta, start, why)
 
     if b is not None:
         return fallback(theta0, "b is solved by the compiled follower")
@@ -114,8 +126,6 @@ def solve_c(
         )
     y = model.chart.to_canonical(out.y, out.c)
     if branch == "convergent":
-        from .sc import solve_result
-
         return solve_result(model, y, th0, (), "convergent", float(np.sign(out.det)), start, None)
     res = _divergent_result(model, th0, start, y, out)
     if res is None:
@@ -127,11 +137,10 @@ def _divergent_result(model: Model, theta0: np.ndarray, start: Configuration, y:
                       out) -> SolveResult | None:  # fmt: skip
     """The verified answer of ``<prefix>_solve_divergent`` (its output ``out``, the answer's
     canonical ``y``), with the fold crossed as its one crossing, as the first way (``"paper"``) of
-    :func:`scdk_sym.solvers.sc._divergent` reports it; None where the answer is singular or
+    :func:`scdk_sym.solvers.divergent.divergent` reports it; None where the answer is singular or
     fails its residual or parity check (the compiled solve decides those)."""
     from ..follower.finish import parity_checked
-    from ..follower.singular import det_sign
-    from .sc import solve_result
+    from ..follower.surface import det_sign
 
     sign0 = det_sign(model, start)
     theta_f = start.theta + out.fold_s * (theta0 - start.theta)

@@ -8,7 +8,7 @@ fails it, or a failure status of the C tracker, raises a
 :class:`~scdk_sym.errors.TrackError` naming the sample (re-exported here). The C tracker
 judges every reading by the rule of :mod:`scdk_sym.solvers.track` (the same as
 ``track(backend="cvodes")``), and the crossings are computed from the finished track by the
-same function, :func:`scdk_sym.solvers.track.crossings`.
+same function, :func:`scdk_sym.solvers.crossings.crossings`.
 """
 
 from __future__ import annotations
@@ -20,9 +20,9 @@ from ..errors import InputError, TrackError
 from ..model.rotations import cayley, rot_log
 from ..results import Configuration, TrackResult
 from ..robot import Model
-from .sc import validate_start
-from .track import crossings as track_crossings
-from .track import no_solution_error, undecidable_error, verify_samples
+from .crossings import crossings as track_crossings
+from .query import validate_start
+from .track_errors import no_solution_error, undecidable_error, verify_samples
 
 __all__ = ["TrackError", "track_c"]
 

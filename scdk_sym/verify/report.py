@@ -25,7 +25,7 @@ from ..errors import InputError, ScdkError
 from ..kernels.fastcall import model_calls
 from ..results import Configuration
 from ..robot import Model
-from ..solvers.sc import solve
+from ..solvers.solve import solve
 
 #: Kinds of checks, in report order.
 KINDS = ("placements", "closures", "jacobians")

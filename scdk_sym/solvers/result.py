@@ -1,0 +1,89 @@
+"""The verified answer of a solve, and how two answers compare.
+
+:func:`solve_result` turns the unknowns reached at ``theta0`` into a :class:`SolveResult`,
+verified on the model's closure rows (``status`` "singular" where ``J_p`` is); the other
+functions place an answer relative to the start (its side of the singular surface, the
+crossings it is reported with) and join the legs of the paper's divergent path.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import VerificationError
+from ..follower.finish import jacobian, singular_jp
+from ..follower.surface import det_sign
+from ..results import Configuration, Crossing, PathSamples, SolveResult
+from ..robot import Model
+
+
+def solve_result(model, y, theta0, crossings, branch, direction, start, path) -> SolveResult:
+    """The verified :class:`SolveResult` of unknowns ``y`` at ``theta0`` (raises
+    :class:`~scdk_sym.errors.VerificationError` when it does not close)."""
+    cfg = model.configuration(y, theta0)
+    if not cfg.residual <= model.tolerance:
+        raise VerificationError(
+            f"solution at theta0={np.asarray(theta0).tolist()} failed verification: residual "
+            f"{cfg.residual:.3g} > {model.tolerance:.1e}",
+            cfg.residual,
+        )
+    return SolveResult(
+        x=cfg.x,
+        y=cfg.y,
+        theta=cfg.theta,
+        platform_pose=cfg.platform_pose,
+        joints=cfg.joints,
+        residual=cfg.residual,
+        crossings=crossings,
+        status="singular" if is_singular(model, cfg) else "converged",
+        branch=branch,
+        b=direction,
+        start=start,
+        path=path,
+    )
+
+
+#: The verified result of a solve (also of one assembled from blocks).
+verified_result = solve_result
+
+
+def is_singular(model: Model, cfg: Configuration) -> bool:
+    """``J_p`` singular to 1e-6 relative at a configuration."""
+    y_loc, c = model.chart.to_local(cfg.y)
+    return singular_jp(jacobian(model, y_loc, cfg.theta, c))
+
+
+def is_same_side(model: Model, a: Configuration, b) -> bool:
+    """det J_p has the same sign at two configurations."""
+    return det_sign(model, a) * det_sign(model, b) > 0
+
+
+def same_configuration(model: Model, a, b) -> bool:
+    """Two configurations coincide (chart-free features within 1e-7 model sizes)."""
+    from ..follower.geometry import features
+
+    scale = max(1.0, float(model.length_scale))
+    return float(np.max(np.abs(features(model, a.y) - features(model, b.y)))) <= 1e-7 * scale
+
+
+def joined(first: PathSamples, rest: PathSamples, b: float) -> PathSamples:
+    """The paper's divergent path: the line away from theta0 (``s -> -s``) and back through
+    the start's theta, then the convergent path to theta0 (``s' = b det J_p``)."""
+    det = np.concatenate([first.det_jp, rest.det_jp[1:]])
+    return PathSamples(
+        s=np.concatenate([-first.s, rest.s[1:]]),
+        y=np.vstack([first.y, rest.y[1:]]),
+        x=np.vstack([first.x, rest.x[1:]]),
+        det_jp=det,
+        sdot=b * det,
+        arc=np.concatenate([first.arc, first.arc[-1] + rest.arc[1:]]),
+    )
+
+
+def on_path(cr: Crossing, start: Configuration, theta0: np.ndarray) -> Crossing:
+    """A crossing with ``s`` the projection of its ``theta`` on the line from the start to
+    ``theta0`` (exact when it lies on it; 0 when ``theta0`` is the start's)."""
+    d = theta0 - start.theta
+    dd = float(d @ d)
+    s = float((cr.theta - start.theta) @ d / dd) if dd else 0.0
+    return Crossing(s, cr.x, cr.y, cr.theta, kind=cr.kind)
