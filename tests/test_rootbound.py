@@ -1,4 +1,4 @@
-"""The BKK root bound (scdk_sym/algebraic/rootbound.py) against independent references: mixed
+"""The BKK root bound (scdk_sym/algebraic/rootbound/) against independent references: mixed
 volumes from volumes of Minkowski sums (inclusion-exclusion, scipy's convex hulls), Bezout
 numbers of dense supports, and the known complex root counts of models (the seed robot is a
 3-RPR between its elbows: 6; robot_delta: 2 per circle-circle closure and 2 per rotation row

@@ -29,7 +29,7 @@ def detour(
     ``det J_p ~ 1e-6`` of a surface): the straight path turns back at the fold, while a line
     bent by a little towards the start's side stays there. So the path goes from the start to
     the fold's ``theta`` moved along the surface normal towards the side where the start's
-    solution exists (:func:`~scdk_sym.follower.singular.inward_normal`), then to ``theta0``,
+    solution exists (:func:`~scdk_sym.follower.surface.inward_normal`), then to ``theta0``,
     each leg along the convergent direction; it is taken only if neither leg meets a singular
     point (the answer is on the start's side, reached continuously), at the smallest of the
     ``DETOUR_OFFSETS`` that works. ``result.path`` is None (the path is not one line).

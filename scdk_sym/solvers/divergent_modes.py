@@ -27,7 +27,7 @@ def across_by_modes(
     located from the configuration midway between it and the convergent answer (or the
     start): near a fold the two sheets are mirror images, so the midpoint lies next to it;
     where ``sigma_min`` has no singular minimum near it either, by Gauss-Newton onto the
-    singular manifold from the midpoint (:func:`~scdk_sym.follower.singular.singular_from`:
+    singular manifold from the midpoint (:func:`~scdk_sym.follower.nearest.singular_from`:
     a singular configuration, not necessarily the nearest).
     """
     from ..follower.nearest import nearest_singular, singular_from

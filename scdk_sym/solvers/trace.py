@@ -51,7 +51,7 @@ def trace(
             :func:`~scdk_sym.solvers.query.start_direction`).
 
     Returns:
-        The :class:`~scdk_sym.follower.curve.Walk`: ``hits`` (``s = 1`` crossings),
+        The :class:`~scdk_sym.follower.walk.Walk`: ``hits`` (``s = 1`` crossings),
         ``singular`` (folds and bifurcations), ``stalled``, ``closed``, ``s_range``, ``path``.
     """
     theta1 = np.array(start.theta, dtype=float)
