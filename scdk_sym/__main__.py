@@ -1,3 +1,5 @@
+"""``python -m scdk_sym``: the command line (:mod:`scdk_sym.cli`)."""
+
 import sys
 
 from .cli import main

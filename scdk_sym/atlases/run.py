@@ -147,21 +147,22 @@ def atlas(
             that are not axes stay at the start's value), or explicit (N, k) ``theta`` rows
             in the model's actuated order.
         out: the store directory (``*.zarr``); an existing store of the same run resumes.
-        workers: number of local worker processes (a Dask ``LocalCluster``, one thread
-            each); ``None`` or 0 solves in this process, without Dask.
-        scheduler: address of a running Dask scheduler (``"tcp://host:8786"``) or a
-            ``distributed.Client``; its workers must see ``out`` and share the kernel cache
-            directory or be able to compile (``$SCDK_CACHE_DIR``).
-        modes: also store ``n_modes``, the number of real assembly modes at each point
-            (:func:`scdk_sym.assembly_modes`, each point's set from its grid neighbour's).
-        solve: the convergent solve at every point; False (with ``modes``): a mode map
-            alone, every point's status 5 ("not solved"), ``x`` and ``det_jp`` NaN.
-        start: the assembled start Configuration (default: ``model.home``).
-        chunk: points per chunk (task and Zarr chunk); memory per task is O(chunk).
-        progress: a tqdm progress bar on stderr.
-        on_chunk: called on the client after each chunk as ``on_chunk(points_done, total)``.
-        wait: when another run is writing ``out``, wait for it to end (then solve what it
-            left) instead of refusing.
+        **options: the run's options, by keyword (the fields of :class:`AtlasOptions`):
+            ``workers``, the number of local worker processes (a Dask ``LocalCluster``, one
+            thread each; ``None`` or 0 solves in this process, without Dask); ``scheduler``,
+            the address of a running Dask scheduler (``"tcp://host:8786"``) or a
+            ``distributed.Client`` (its workers must see ``out`` and share the kernel cache
+            directory or be able to compile, ``$SCDK_CACHE_DIR``); ``modes``, also store
+            ``n_modes``, the number of real assembly modes at each point
+            (:func:`scdk_sym.assembly_modes`, each point's set from its grid neighbour's);
+            ``solve`` (default True), the convergent solve at every point (False, with
+            ``modes``: a mode map alone, every point's status 5 "not solved", ``x`` and
+            ``det_jp`` NaN); ``start``, the assembled start Configuration (default:
+            ``model.home``); ``chunk``, points per chunk (task and Zarr chunk; memory per task
+            is O(chunk)); ``progress`` (default True), a tqdm progress bar on stderr;
+            ``on_chunk``, called on the client after each chunk as ``on_chunk(points_done,
+            total)``; ``wait``, when another run is writing ``out``, wait for it to end (then
+            solve what it left) instead of refusing.
 
     Returns:
         The :class:`AtlasRun` summary; the data is in the store (see

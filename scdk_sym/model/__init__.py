@@ -1,0 +1,1 @@
+"""Descriptions of closed-chain robots: URDF or MJCF trees, closures, charts, rotations."""

@@ -1,0 +1,1 @@
+"""Solvers: solve, track, assembly modes and transmissions of a loaded model."""

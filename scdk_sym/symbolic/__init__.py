@@ -1,0 +1,1 @@
+"""The symbolic layer: forward kinematics and the closure system in CasADi SX."""

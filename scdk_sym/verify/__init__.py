@@ -1,0 +1,1 @@
+"""Cross-checks of a model against independent references (Pinocchio, MuJoCo)."""
