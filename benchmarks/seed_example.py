@@ -7,7 +7,13 @@ both modelings, and the ratio to a baseline measured in the same run: a plain nu
 iteration (x in R^3, the reduced model's closed-form residual) from the same start, which finds
 one solution and has no branch control.
 
-    python benchmarks/seed_example.py [--repeat 200] [--clock cpu]
+Then, for the convergent branch with ``backend="c"``, what a repeated call costs beyond its C:
+the binding's call alone (``tracker_library(model).solve_convergent``, the C follower's work
+and its ctypes call), ``sc.solve`` (validation, the call, the verified result) and
+``sc.solve_many`` over ``--batch`` copies of the reading (per reading), each with its excess
+over the binding's call.
+
+    python benchmarks/seed_example.py [--repeat 200] [--clock cpu] [--batch 200]
 
 ``--clock cpu`` times with the process's CPU time instead of the wall clock: on a machine
 shared with other work the wall clock also counts the time the process waits for a core.
@@ -80,6 +86,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=200)
     parser.add_argument("--clock", choices=sorted(CLOCKS), default="wall")
+    parser.add_argument("--batch", type=int, default=200)
     args = parser.parse_args()
     clock = CLOCKS[args.clock]
     base = median_time(lambda: newton_baseline(THETA0, X1.copy()), args.repeat, clock)
@@ -112,6 +119,31 @@ def main() -> None:
                     f"{name:<22}{backend:<10}{branch:<12}{how:<10}{res.x[2]:>9.4f}"
                     f"{t * 1e3:>10.3f}{t / base:>8.2f}"
                 )
+    repeated_calls(base, args.repeat, args.batch, clock)
+
+
+def repeated_calls(base: float, repeat: int, batch: int, clock) -> None:
+    """The convergent C solve of planar_hexa: the binding's call, sc.solve and sc.solve_many
+    (per reading), medians, with their excess over the binding's call."""
+    model = sc.load_model(ROOT / "models" / "planar_hexa")
+    start = model.inverse_kinematics(X1)
+    lib = tracker_library(model)
+    y1, c1 = model.chart.to_local(start.y)
+    thetas = np.repeat(THETA0[None], batch, axis=0)
+    raw = median_time(lambda: lib.solve_convergent(y1, c1, start.theta, THETA0), repeat, clock)
+    one = median_time(
+        lambda: solve(model, THETA0, start, backend="c", record_path=False), repeat, clock
+    )
+    many = median_time(lambda: sc.solve_many(model, thetas, start), max(5, repeat // 20), clock)
+    many /= batch
+    print("planar_hexa, convergent, backend c, per reading (us; ratio to the numpy Newton):")
+    for label, t in (
+        ("binding's call (C follower + ctypes)", raw),
+        ("sc.solve", one),
+        (f"sc.solve_many over {batch} readings", many),
+    ):
+        excess = "" if t is raw else f"  (+{(t - raw) * 1e6:.1f} us over the call)"
+        print(f"  {label:<40}{t * 1e6:8.1f}{t / base:8.2f}{excess}")
 
 
 if __name__ == "__main__":
