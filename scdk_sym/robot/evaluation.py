@@ -237,12 +237,21 @@ class ModelEvaluation(ModelData):
         source.update({j: L + m + i for i, j in enumerate(self.actuated)})
         return {j: source[j] for j in self._coordinates}
 
+    @cached_property
+    def _locked_values(self) -> np.ndarray:
+        """(L,) the locked joints' values, in :attr:`locked`'s order (read-only)."""
+        values = np.array(list(self.locked.values()), dtype=float)
+        values.setflags(write=False)
+        return values
+
     def _joint_table(self, ys: np.ndarray, thetas: np.ndarray) -> np.ndarray:
         """(N, C) read-only joint values of canonical ``ys`` (N, m) and ``thetas`` (N, k),
         columns as :attr:`_joint_columns` says."""
-        locked = np.broadcast_to(np.array(list(self.locked.values()), dtype=float),
-                                 (len(ys), len(self.locked)))  # fmt: skip
-        out = np.hstack([locked, ys, thetas])
+        locked = self._locked_values
+        if len(ys) == 1:  # one configuration: one concatenation (the same values)
+            out = np.concatenate([locked, ys[0], thetas[0]])[None]
+        else:
+            out = np.hstack([np.broadcast_to(locked, (len(ys), len(locked))), ys, thetas])
         out.setflags(write=False)
         return out
 

@@ -24,7 +24,7 @@ def as_vector(value, size: int, what: str) -> np.ndarray:
         raise InputError(f"{what} must be {size} numbers, got {value!r}") from exc
     if arr.size != size:
         raise InputError(f"{what} must have {size} values, got {arr.size}: {arr.tolist()}")
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         raise InputError(f"{what} must be finite, got {arr.tolist()}")
     return arr
 
