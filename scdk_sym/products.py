@@ -45,17 +45,23 @@ FOLLOWER_KERNELS = Key(
 )
 #: Zero-copy callers of the follower kernels per backend.
 FOLLOWER_CALLS = Key("follower_calls", "zero-copy callers of the follower kernels", "backend")
+#: The compiled backend's library of a model and the Functions it was generated from
+#: (:func:`scdk_sym.kernels.compile.compiled_library`).
+COMPILED_LIBRARY = Key(
+    "compiled_library", "the compiled backend's kernel library and its Functions", "the model only"
+)
 #: CVODES integrator engines of the SC field per backend (:mod:`scdk_sym.follower.cvodes`).
 CVODES_ENGINES = Key("cvodes_engines", "CVODES integrators of the SC field", "backend")
 #: Indices of the unknowns by kind (revolute angles, floating rotations, others).
 UNKNOWN_KINDS = Key("unknown_kinds", "indices of the unknowns by kind", "the model only")
-#: Buffered SX kernels of the Python tracker (:func:`scdk_sym.solvers.track._kernels`).
+#: Buffered SX kernels of the Python tracker
+#: (:func:`scdk_sym.solvers.tracker_numerics.track_kernels`).
 TRACK_KERNELS = Key("track_kernels", "buffered SX kernels of the tracker", "the model only")
 #: The model's compiled C tracker (:func:`scdk_sym.codegen.library.tracker_library`).
 C_TRACKER = Key("c_tracker", "the compiled C curve tracker library", "the model only")
 #: Algebraic forms per backend (:func:`scdk_sym.algebraic.form.algebraic_form`).
 ALGEBRAIC_FORM = Key("algebraic_form", "polynomial form of the closure system", "backend")
-#: The compiled homotopy tracker of the algebraic form (:mod:`scdk_sym.algebraic.ctracker`).
+#: The compiled homotopy tracker of the algebraic form (:mod:`scdk_sym.algebraic.paths.ctracker`).
 HOMOTOPY_TRACKER = Key(
     "homotopy_tracker", "compiled homotopy path tracker of the algebraic form", "the model only"
 )
@@ -93,6 +99,7 @@ KEYS: dict[str, Key] = {
         MODEL_CALLS,
         FOLLOWER_KERNELS,
         FOLLOWER_CALLS,
+        COMPILED_LIBRARY,
         CVODES_ENGINES,
         UNKNOWN_KINDS,
         TRACK_KERNELS,

@@ -60,7 +60,7 @@ print(json.dumps({
 """
 
 #: Every kind of cached artefact the script above leaves (name prefixes in the cache).
-KINDS = ("kernels_", "scdk_follow_", "tracker_", "algebraic_G_", "ptrack_", "ikrawczyk_",
+KINDS = ("compiled_", "tracker_", "algebraic_G_", "ptrack_", "ikrawczyk_",
          "homotopy/")  # fmt: skip
 
 

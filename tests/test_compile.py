@@ -11,8 +11,6 @@ import scdk_sym as sc
 from scdk_sym.errors import BuildError
 from scdk_sym.kernels import compile as comp
 from scdk_sym.kernels.cache import cache_dir
-from scdk_sym.kernels.curve import closure_function
-from scdk_sym.kernels.functions import build_kernels
 
 pytestmark = needs_compiler()
 
@@ -47,8 +45,8 @@ def test_compiled_kernels_equal_the_sx_functions(make):
     for name in (name for group in comp.KERNEL_GROUPS for name in group):
         assert getattr(c_k, name).class_name() == "External"  # compiled, not the SX Function
     # cached: the library exists under the model's key (kernels built again: the same key)
-    kern = build_kernels(model.symbolic, closure=closure_function(model.symbolic))
-    path = comp.library_path(model, "kernels", comp.kernel_groups(kern))
+    path = comp._build_library(model).path
+    assert path == comp.compiled_library(model).path
     assert path.parent == cache_dir() and path.exists()
     assert path.name.endswith(f"_{comp.compiler_tag()}.so")
 
@@ -75,9 +73,10 @@ def test_compiled_field_integrates_as_the_sx_one_without_its_jacobian():
 
 
 def test_compiled_follower_kernels_equal_the_sx_functions():
-    """The curve follower's compiled kernels (closure calls, the plane and the fold at -O0)
-    against its SX Functions near the fold that the seed example's divergent path crosses, to
-    1e-13 relative (the same operations; the order of a few sums may differ)."""
+    """The curve follower's compiled kernels (closure calls; the plane, the fold and the
+    singular kernel at -O0) against its SX Functions near the fold that the seed example's
+    divergent path crosses, to 1e-13 relative (the same operations; the order of a few sums
+    may differ)."""
     from scdk_sym.follower.kernels import COMPILED_GROUPS, follower_kernels
 
     model = shipped("planar_hexa")
@@ -130,7 +129,7 @@ def test_first_compilation_is_announced_once_and_split_sources_compile(
     c_k = comp.compiled_kernels(model)
     comp.compiled_kernels(sc.load_model(MODELS / "planar_3rpr"))  # cached on disk: silent
     assert capsys.readouterr().err == f"compiling kernels for {model.name}...\n"
-    assert len(list(tmp_path.glob("kernels_*.so"))) == 1
+    assert len(list(tmp_path.glob("compiled_*.so"))) == 1
     rng = np.random.default_rng(5)
     args = [rng.normal(scale=0.3, size=model.kernels.g.size_in(i)) for i in range(3)]
     expected = np.array(model.kernels.g(*args))
@@ -153,7 +152,8 @@ def package_copy(tmp_path, monkeypatch):
 
 SOURCES = [
     "model/rotations.py", "model/chart.py", "model/urdf.py", "symbolic/system.py",
-    "symbolic/kinematics.py", "kernels/functions.py", "kernels/compile.py", "follower/kernels.py",
+    "symbolic/kinematics.py", "kernels/functions.py", "kernels/compile.py", "kernels/curve.py",
+    "kernels/follower.py", "follower/kernels.py",
 ]  # fmt: skip
 
 

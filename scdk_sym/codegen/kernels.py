@@ -5,7 +5,7 @@ into self-contained C (no CasADi headers or runtime). The chart ``c`` of the flo
 (see :mod:`scdk_sym.model.chart`) is the last argument of each kernel, as in
 :mod:`scdk_sym.kernels.functions`.
 
-The curve kernels are those of the Python curve follower, :func:`scdk_sym.follower.kernels.
+The curve kernels are those of the Python curve follower, :func:`scdk_sym.kernels.follower.
 build_follower_kernels` (one definition of the oriented SC tangent, of the predictor-corrector
 step and of the Newton corrector), renamed with the C prefix and made dense:
 
@@ -19,22 +19,26 @@ step and of the Newton corrector), renamed with the C prefix and made dense:
 
 Every kernel that evaluates the closures calls one Function of them
 (:func:`scdk_sym.kernels.curve.closure_function`) and every linear solve calls one Function
-per matrix pattern (:func:`~scdk_sym.kernels.curve.linear_solver`): the generated C holds
-one copy of each per source file (:data:`GROUPS`) instead of one per use, and compiles in a
-fraction of the time. The closure Function is itself a kernel (``closure``: ``g``, ``J_p`` and
-``J_s`` in one evaluation, written straight into the caller's dense arrays), the one the
-tracker's Newton iterations and determinants call.
+per matrix pattern (:func:`~scdk_sym.kernels.curve.linear_solver`; above
+:data:`~scdk_sym.kernels.curve.WRITTEN_SOLVE_MAX` rows, the sparse QR in loops of
+:func:`~scdk_sym.kernels.curve.loop_solver`): the generated C holds one copy of each per
+source file (:data:`GROUPS`) instead of one per use, and compiles in a fraction of the time.
+On a large model (:func:`~scdk_sym.kernels.curve.compact`) the kernels are MX Functions of
+these calls, whose C moves vectors by loops. The closure Function is itself a kernel
+(``closure``: ``g``, ``J_p`` and ``J_s`` in one evaluation, written straight into the caller's
+dense arrays), the one the tracker's Newton iterations and determinants call.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as ca
 
-from ..follower.kernels import build_follower_kernels
-from ..kernels.curve import closure_function
-from ..kernels.functions import FunctionSet, build_kernels
+from ..kernels.curve import closure_function, compact, model_inputs
+from ..kernels.follower import build_follower_kernels
+from ..kernels.functions import FunctionSet, ik_step_function
 from ..model.rotations import cayley
 from ..symbolic.system import Symbolic
 
@@ -110,7 +114,8 @@ def _dense(f: ca.Function, name: str | None = None) -> ca.Function:
     CasADi's generated C reads and writes the nonzeros of each argument only; the C tracker
     indexes its arrays as dense column-major matrices, so a structural zero (``J_p`` of a
     chain whose closures each involve a subset of the joints) would shift every later entry.
-    An SX Function called on SX symbols is inlined: the result is the same expression graph.
+    An SX Function called on SX symbols is inlined: the result is the same expression graph;
+    another Function (MX: those of a :func:`~scdk_sym.kernels.curve.compact` model) is called.
     """
     name = name or f.name()
     dense = all(f.sparsity_in(i).is_dense() for i in range(f.n_in())) and all(
@@ -118,7 +123,8 @@ def _dense(f: ca.Function, name: str | None = None) -> ca.Function:
     )
     if dense and name == f.name():
         return f
-    ins = [ca.SX.sym(f.name_in(i), f.size1_in(i), f.size2_in(i)) for i in range(f.n_in())]
+    X: Any = ca.SX if f.is_a("SXFunction") else ca.MX
+    ins = [X.sym(f.name_in(i), f.size1_in(i), f.size2_in(i)) for i in range(f.n_in())]
     outs = [ca.densify(o) for o in f.call(ins)]
     return ca.Function(name, ins, outs, f.name_in(), f.name_out())
 
@@ -127,8 +133,9 @@ def _sparse_view(sym: Symbolic, closure: ca.Function) -> ca.Function:
     """Calls of the dense ``closure`` with the outputs in the sparsity of the model's own
     expressions: the kernels built from it are the expressions built from calls of the sparse
     closure Function (the same operations), calling the dense one (inlined where it is
-    called, the call of ``closure`` stays a call)."""
-    y, theta, c = sym.y, sym.theta, sym.c
+    called, the call of ``closure`` stays a call; an MX Function on a
+    :func:`~scdk_sym.kernels.curve.compact` model, whose kernels are)."""
+    y, theta, c = model_inputs(sym, compact(sym, loops=True))
     outs = [
         ca.project(out, expr.sparsity())
         for out, expr in zip(closure(y, theta, c), (sym.g, sym.J_p, sym.J_s), strict=True)
@@ -151,10 +158,12 @@ def build_tracker_kernels(
         The kernels; every Function is named ``<prefix>_<kernel>``, and every input and output
         is dense (the C tracker indexes them as dense column-major arrays).
     """
-    base = build_kernels(sym, name=prefix)
     closure = closure_function(sym, name=f"{prefix}_closure", dense=True)
-    curve = build_follower_kernels(sym, inline=False, closure=_sparse_view(sym, closure))
+    curve = build_follower_kernels(
+        sym, inline=False, closure=_sparse_view(sym, closure), loops=True
+    )
     y, theta, c = sym.y, sym.theta, sym.c
+    yt = ["y", "theta", "c"]
 
     # recentre: R_ref <- R_ref cayley(rho), rho <- 0, one Newton-Schulz orthonormalisation
     y_out = ca.SX(y)
@@ -171,14 +180,14 @@ def build_tracker_kernels(
     dtheta = ca.SX.sym("dtheta", sym.theta.numel())
     kernels = dict(
         closure=closure,
-        pose=base.pose,
+        pose=ca.Function(f"{prefix}_pose", [y, theta, c], [sym.pose, sym.x], yt, ["T", "x"]),
         tangent=curve.tangent,
         step=curve.step,
         predict=curve.predict,
         newton=curve.newton,
         polish=curve.polish,
         recentre=recentre,
-        ik_step=base.ik_step,
+        ik_step=ik_step_function(sym, prefix, loops=True),
         check=ca.Function(
             f"{prefix}_check",
             [y, theta, c],

@@ -2,10 +2,14 @@
 
 The generated C of a model's kernels (``casadi.CodeGenerator``, one source file per group of
 kernels, :func:`model_library`) is compiled once, the files in parallel
-(:func:`compile_parallel`), into the cache directory and loaded with ``casadi.external``;
-:func:`compiled_kernels` returns a :class:`~scdk_sym.kernels.functions.Kernels` with the same
-signatures. The kernels of one source that evaluate the closures call one Function of them
-(:func:`~scdk_sym.kernels.curve.closure_function`), written once in it. The first
+(:func:`compile_parallel`), into the cache directory and loaded with ``casadi.external``.
+The compiled backend's library (:func:`compiled_library`) holds the model's kernels that its
+solvers call and the curve follower's; :func:`compiled_kernels` returns a
+:class:`~scdk_sym.kernels.functions.Kernels` with the same signatures. The kernels of one
+source that evaluate the closures call one Function of them
+(:func:`~scdk_sym.kernels.curve.closure_function`), written once in it; on a large model they
+solve in loops and are MX Functions of calls (:func:`~scdk_sym.kernels.curve.compact`), so
+that the generated C grows with the closures, not with the symbolic solves. The first
 compilation for a model prints ``compiling kernels for MODEL...`` to stderr
 (:func:`announce`).
 """
@@ -21,13 +25,16 @@ import sys
 import tempfile
 from collections.abc import Collection, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import fields
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import casadi as ca
 
 from ..errors import BuildError
+from ..products import COMPILED_LIBRARY
 from .cache import cache_dir, cached_file
+from .curve import closure_function
+from .follower import FollowerKernels, build_follower_kernels
 from .functions import Kernels, build_kernels
 
 #: Optimisation level of every compiled library (``-O1``: the generated kernels are
@@ -53,6 +60,7 @@ KERNEL_SOURCES = (
     "kernels/functions.py",
     "kernels/compile.py",
     "kernels/curve.py",
+    "kernels/follower.py",
     "follower/kernels.py",
 )
 #: Root of the package, the folder the source lists are relative to.
@@ -227,9 +235,22 @@ def compile_parallel(
     return Path(target)
 
 
-#: The kernels of the compiled backend's library (:func:`compiled_kernels`): those its solvers
-#: call (the warm kernel, the SC field CVODES integrates and its probe), in one source (they
-#: call one closure Function, its one copy); the others stay the SX Functions.
+#: The layout of the compiled backend's library (:func:`compiled_library`): the kernels of
+#: each source, by their names in :class:`~scdk_sym.kernels.functions.Kernels` and
+#: :class:`~scdk_sym.kernels.follower.FollowerKernels`. First those its solvers call at every
+#: step (the warm kernel, the SC field CVODES integrates and its probe, the curve follower's
+#: steps, tangent and polish: one copy of the closure Function they call); then those called
+#: a few times per singular point or projection (the follower's plane, fold and the data of
+#: the descent onto the singular manifold), compiled at ``-O0`` (a third of the compile time;
+#: a few tenths of a millisecond more per call). The two sources compile in parallel.
+LIBRARY_GROUPS = (
+    ("warm", "field", "probe", "steps", "step", "tangent", "polish"),
+    ("plane", "fold", "singular"),
+)
+#: The groups of :data:`LIBRARY_GROUPS` compiled at ``-O0`` (by index).
+UNOPTIMISED_GROUPS = (1,)
+#: The model kernels of the library (:func:`compiled_kernels`; the others stay the SX
+#: Functions of ``model.kernels``).
 KERNEL_GROUPS = (("warm", "field", "probe"),)
 
 
@@ -309,11 +330,6 @@ def cache_key(model) -> str:
     return h.hexdigest()[:24]
 
 
-def kernel_groups(kernels: Kernels) -> list[list[ca.Function]]:
-    """The Functions of each source of the compiled kernels' library (:data:`KERNEL_GROUPS`)."""
-    return [[getattr(kernels, name) for name in group] for group in KERNEL_GROUPS]
-
-
 def library_path(
     model,
     name: str,
@@ -373,23 +389,67 @@ def model_library(
     return cached_file(library_path(model, name, groups, unoptimised), build, "kernel library")
 
 
+@dataclass(frozen=True)
+class CompiledLibrary:
+    """The compiled backend's library of a model (:func:`compiled_library`).
+
+    Attributes:
+        path: the shared library (in the cache directory).
+        kernels: the model's kernels it was generated from (MX or SX Functions; those of
+            :data:`KERNEL_GROUPS` are in the library).
+        follower: the curve follower's kernels it was generated from (those of
+            :data:`LIBRARY_GROUPS` are in the library).
+    """
+
+    path: Path
+    kernels: Kernels
+    follower: FollowerKernels
+
+
+def compiled_library(model) -> CompiledLibrary:
+    """The model's kernels and curve follower kernels for C, and their library compiled once
+    into the cache directory (:func:`model_library`, :data:`LIBRARY_GROUPS`; kept per model
+    object).
+
+    The kernels are built for C (``loops``): one closure Function called by all of them
+    (:func:`~scdk_sym.kernels.curve.closure_function`), a large system solved in loops
+    (:func:`~scdk_sym.kernels.curve.loop_solver`), a large model's kernels MX Functions of
+    calls (:func:`~scdk_sym.kernels.curve.compact`): generated C proportional to the closures'.
+
+    Raises:
+        BuildError: see :func:`run_compiler`.
+    """
+    return model.products.get(COMPILED_LIBRARY, lambda: _build_library(model))
+
+
+def _build_library(model) -> CompiledLibrary:
+    sym = model.symbolic
+    closure = closure_function(sym)
+    kern = build_kernels(sym, closure=closure, loops=True)
+    follower = build_follower_kernels(
+        sym, inline=False, closure=closure, solver_calls=False, loops=True
+    )
+    by_name = {f.name: getattr(kern, f.name) for f in fields(kern)}
+    by_name.update({f.name: getattr(follower, f.name) for f in fields(follower)})
+    groups = [[by_name[name] for name in group] for group in LIBRARY_GROUPS]
+    cold = [f.name() for i in UNOPTIMISED_GROUPS for f in groups[i]]
+    path = model_library(model, "compiled", groups, unoptimised=cold)
+    return CompiledLibrary(path, kern, follower)
+
+
 def compiled_kernels(model) -> Kernels:
     """The model's kernels, those of :data:`KERNEL_GROUPS` compiled to C and loaded with
     ``casadi.external`` (the others: ``model.kernels``'s SX Functions).
 
-    The compiled ones call one Function of the closures
-    (:func:`~scdk_sym.kernels.curve.closure_function`); :func:`model_library` compiles
-    them (cached on disk: only the first call for a model generates and compiles, seconds).
-    The field is loaded with finite differences for its derivatives: CVODES's functional
-    iteration (:data:`~scdk_sym.follower.cvodes.CVODES_OPTIONS`) never evaluates the Jacobian
-    that CasADi builds at the integrator's creation, so none is compiled.
+    They are in the compiled backend's library (:func:`compiled_library`: cached on disk,
+    only the first call for a model generates and compiles, seconds). The field is loaded
+    with finite differences for its derivatives: CVODES's functional iteration
+    (:data:`~scdk_sym.follower.cvodes.CVODES_OPTIONS`) never evaluates the Jacobian that
+    CasADi builds at the integrator's creation, so none is compiled.
     """
-    from .curve import closure_function
-
-    kern = build_kernels(model.symbolic, closure=closure_function(model.symbolic))
-    target = model_library(model, "kernels", kernel_groups(kern))
-    loaded = {f.name: getattr(model.kernels, f.name) for f in fields(kern)}
+    lib = compiled_library(model)
+    loaded = {f.name: getattr(model.kernels, f.name) for f in fields(lib.kernels)}
     for name in (name for group in KERNEL_GROUPS for name in group):
         opts = {"enable_fd": True} if name == "field" else {}
-        loaded[name] = ca.external(getattr(kern, name).name(), str(target), opts)
+        loaded[name] = ca.external(getattr(lib.kernels, name).name(), str(lib.path), opts)
     return Kernels(**loaded)
