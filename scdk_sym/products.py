@@ -92,6 +92,10 @@ BACKGROUND_BUILDS = Key(
     "background_builds", "the background builds of the compiled backends and their state",
     "the model only",
 )  # fmt: skip
+#: The Jacobians of a model's full closure rows (:func:`scdk_sym.verify.mujoco.jacobian_error`).
+CLOSURE_JACOBIANS = Key(
+    "closure_jacobians", "the Jacobians of the full closure rows", "the model only"
+)
 #: Every declared key, by name.
 KEYS: dict[str, Key] = {
     k.name: k
@@ -112,6 +116,7 @@ KEYS: dict[str, Key] = {
         CLOSURE_FUNCTION,
         ROD_REDUCTION,
         BACKGROUND_BUILDS,
+        CLOSURE_JACOBIANS,
     )
 }
 

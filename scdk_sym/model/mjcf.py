@@ -105,10 +105,10 @@ def read_mjcf(path: str | PathLike[str]) -> tuple[Tree, Spec, MjcfSource]:
 def describe(m: Any, path: str) -> tuple[Tree, Spec, MjcfSource]:
     """The tree, closures and qpos layout of a compiled ``MjModel`` (see :func:`read_mjcf`)."""
     b = Builder(m, path)
-    b.tree()
+    b.add_bodies()
     closures, skipped = b.closures()
     inputs, rows = b.inputs()
-    tree = Tree(b.modelname(), "world", tuple(b.links), tuple(b.joints))
+    tree = b.spanning_tree()
     if not closures:
         raise ModelError("no active equality (connect, weld, joint, tendon): not a closed "
                          "chain", path)  # fmt: skip

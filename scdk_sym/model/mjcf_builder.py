@@ -112,10 +112,13 @@ class Builder:
         self.links.append(joint.child)
         self.joints.append(joint)
 
-    def tree(self) -> Tree:
-        m = self.m
-        for b in range(1, m.nbody):
+    def add_bodies(self) -> None:
+        """Every body's links and joints, in body order."""
+        for b in range(1, self.m.nbody):
             self._body(b)
+
+    def spanning_tree(self) -> Tree:
+        """The tree of the links and joints added so far (bodies, closure frames, inputs)."""
         return Tree(self.modelname(), "world", tuple(self.links), tuple(self.joints))
 
     def modelname(self) -> str:

@@ -164,17 +164,13 @@ def _block_model(model: ModelT, block: Block, index: int) -> ModelT:
         offsets[ci] = start
         start += model.closures[ci].rows
     owner = _row_closures(model)
-    rows = []
-    for r in block.rows:
-        full = model.rows[r]
-        ci = owner[full]
-        rows.append(offsets[ci] + int(full - model.row_offsets[ci]))
+
+    def local(r: int) -> int:  # a row of the full closure system, in the block's rows
+        return offsets[owner[r]] + int(r - model.row_offsets[owner[r]])
+
+    rows = tuple(local(model.rows[r]) for r in block.rows)
     closures = tuple(model.closures[ci] for ci in block.closures)
-    unchecked = tuple(
-        offsets[owner[r]] + int(r - model.row_offsets[owner[r]])
-        for r in model.unchecked
-        if owner[r] in offsets
-    )
+    unchecked = tuple(local(r) for r in model.unchecked if owner[r] in offsets)
     return type(model).restricted(
-        model, unknowns, actuated, closures, tuple(rows), held, (index, block), unchecked
+        model, unknowns, actuated, closures, rows, held, (index, block), unchecked
     )

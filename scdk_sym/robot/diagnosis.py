@@ -23,17 +23,6 @@ from .assembly import least_squares
 Rows = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
-def least_squares_floor(rows: Rows, z: np.ndarray) -> float:
-    """The largest |row| where least squares over every coordinate from ``z`` stops
-    (:func:`~scdk_sym.robot.assembly.least_squares`).
-
-    Args:
-        rows: ``z -> (r, dr/dz)``.
-        z: start (unknowns then inputs).
-    """
-    return least_squares(rows, z)[1]
-
-
 def check_rows(full: Symbolic, c: np.ndarray) -> Rows:
     """``z -> (g_check, dg_check/dz)`` of a symbolic system in the chart ``c`` (``z`` the
     unknowns then the inputs; a weld's whole ``R_a^T R_b - I``, so a half turn is no false
@@ -52,15 +41,19 @@ def check_rows(full: Symbolic, c: np.ndarray) -> Rows:
 
 
 def weld_diagnosis(
+    full: Symbolic,
     build: Callable[[Sequence[Closure]], Symbolic],
     closures: Sequence[Closure],
     c: np.ndarray,
     z: np.ndarray,
     tol: float,
 ) -> str:
-    """A sentence on the welds when they are what cannot hold, else empty.
+    """A sentence on the welds when they are what cannot hold, else empty; the floors are
+    where least squares over every coordinate from ``z`` stops
+    (:func:`~scdk_sym.robot.assembly.least_squares`).
 
     Args:
+        full: the symbolic system of ``closures``.
         build: closures -> the symbolic system over the same unknowns and inputs.
         closures: the model's closures.
         c: chart of the unknowns.
@@ -70,11 +63,11 @@ def weld_diagnosis(
     welds = [cl for cl in closures if cl.type == "6d"]
     if not welds:
         return ""
-    floor = least_squares_floor(check_rows(build(closures), c), z)
+    floor = least_squares(check_rows(full, c), z)[1]
     if floor <= tol:
         return ""
     points = [replace(cl, type="3d") if cl.type == "6d" else cl for cl in closures]
-    as_points = least_squares_floor(check_rows(build(points), c), z)
+    as_points = least_squares(check_rows(build(points), c), z)[1]
     if as_points > tol:
         return ""
     names = ", ".join(cl.label for cl in welds)

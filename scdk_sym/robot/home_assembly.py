@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import NoReturn
 
 import casadi as ca
 import numpy as np
@@ -84,17 +85,13 @@ def start_at_home(
     Raises:
         NotAssembledError: the home does not close, or no start assembles.
     """
-    check = np.abs(np.array(f_all(y0, th0)[2])).ravel()
     if getattr(mech.source, "settle_home", False):
         return settled(mech, f_all, y0, th0)
     if mech.spec.home:
+        check = np.abs(np.array(f_all(y0, th0)[2])).ravel()
         if check.max() > mech.tolerance:
-            raise NotAssembledError(
-                f"'home' is not assembled: {mech.violation(check)} "
-                f"(tolerance {mech.tolerance:.1e})",
-                float(check.max()),
-                mech.path,
-            )
+            _refuse(mech, f"'home' is not assembled: {mech.violation(check)} "
+                    f"(tolerance {mech.tolerance:.1e})", check)  # fmt: skip
         return Start(y0, th0)
     y0 = mech.project(f_all, y0, th0)
     check = np.abs(np.array(f_all(y0, th0)[2])).ravel()
@@ -113,27 +110,21 @@ def settled(mech: Mechanism, f_all: ca.Function, y0: np.ndarray, th0: np.ndarray
 
     names = (*mech.candidates, *mech.actuated)
     done = settle_home(rows, y0, th0, names, 1e-2 * mech.tolerance)
-    check = np.abs(np.array(f_all(done.y, done.theta)[2])).ravel()
+    at_home = f_all(done.y, done.theta)
+    check = np.abs(np.array(at_home[2])).ravel()
     preferred = None
     if done.subset is not None:  # the rows home closes; the others within rounding
-        g = np.abs(rows(done.y, done.theta)[0])
+        g = np.abs(np.array(at_home[0]).ravel())
         rest = float(np.delete(g, list(done.subset)).max(initial=0.0))
         preferred = done.subset
         check = g[list(done.subset)] if rest <= REDUNDANT_TOL * mech.length_scale else g
     if check.max() > mech.tolerance:
-        raise NotAssembledError(
-            f"home does not assemble: {mech.violation(check)} after a least-change projection "
-            f"over every joint (tolerance {mech.tolerance:.1e}); {mech.source.home_hint}",
-            float(check.max()),
-            mech.path,
-        )
+        _refuse(mech, f"home does not assemble: {mech.violation(check)} after a least-change "
+                f"projection over every joint (tolerance {mech.tolerance:.1e}); "
+                f"{mech.source.home_hint}", check)  # fmt: skip
     if not done.regular:
-        raise NotAssembledError(
-            f"{done.note}: a start must be regular; give a regular home (MJCF: a keyframe "
-            "named 'home') or other inputs (inputs=[...])",
-            float(check.max()),
-            mech.path,
-        )
+        _refuse(mech, f"{done.note}: a start must be regular; give a regular home (MJCF: a "
+                "keyframe named 'home') or other inputs (inputs=[...])", check)  # fmt: skip
     return Start(done.y, done.theta, done.note or None, preferred)
 
 
@@ -170,7 +161,7 @@ def assembled(
     if found is None or worst > mech.tolerance:
         suspects = slides_along_carrier(mech.tree, mech.actuated)
         hint = "add 'home' to the YAML"
-        welds = weld_hint(mech, c0, np.concatenate([y, theta]))
+        welds = weld_hint(mech, full, c0, np.concatenate([y, theta]))
         if welds:
             hint = welds
         elif suspects:
@@ -179,13 +170,10 @@ def assembled(
                 f"linear actuators that slide only along their own hinge axis ({listed}) "
                 "cannot drive a loop: check those joint axes in the URDF, or add 'home'"
             )
-        raise NotAssembledError(
-            "no 'home' given, and the neutral configuration does not assemble (least "
-            f"squares: {mech.violation(check)}; continuation from a relaxed closure over "
-            f"every joint failed from {assembly.SEEDS + 1} starts); {hint}",
-            float(check.max()),
-            mech.path,
-        )
+        _refuse(mech, "no 'home' given, and the neutral configuration does not assemble "
+                f"(least squares: {mech.violation(check)}; continuation from a relaxed closure "
+                f"over every joint failed from {assembly.SEEDS + 1} starts); {hint}",
+                check)  # fmt: skip
     names = (*mech.candidates, *mech.actuated)
     found = nearest_turns(mech.tree, found, names)
     far = int(np.argmax(np.abs(found.z)))
@@ -198,15 +186,20 @@ def assembled(
     return Start(found.z[:m], found.z[m:], note)
 
 
-def weld_hint(mech: Mechanism, c0: np.ndarray, z: np.ndarray) -> str:
+def weld_hint(mech: Mechanism, full: Symbolic, c0: np.ndarray, z: np.ndarray) -> str:
     """A sentence when the welds are what keeps the model from assembling, else empty
-    (see :mod:`scdk_sym.robot.diagnosis`)."""
+    (see :mod:`scdk_sym.robot.diagnosis`); ``full`` is the closure system of ``mech``."""
 
     def build(closures):
         return build_symbolic(mech.tree, closures, mech.actuated, mech.candidates,
                               mech.held, None, mech.frame, mech.workspace)  # fmt: skip
 
-    return weld_diagnosis(build, mech.closures, c0, z, mech.tolerance)
+    return weld_diagnosis(full, build, mech.closures, c0, z, mech.tolerance)
+
+
+def _refuse(mech: Mechanism, message: str, check: np.ndarray) -> NoReturn:
+    """Refuse a start: ``message``, the largest verification row of ``check``."""
+    raise NotAssembledError(message, float(check.max()), mech.path)
 
 
 def nearest_turns(tree: Tree, found: assembly.Assembly, names: Sequence[str]) -> assembly.Assembly:

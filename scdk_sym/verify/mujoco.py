@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import InputError
 from ..model.mjcf import compile_kinematics, require_mujoco
 from ..model.qpos import QposLayout
+from ..products import CLOSURE_JACOBIANS
 from ..robot import Model
 
 
@@ -89,6 +90,19 @@ def closure_residuals(model: Model, joints: Mapping[str, float]) -> np.ndarray:
     return out
 
 
+def _closure_jacobian(model: Model) -> Any:
+    """``(y, theta, c) -> (dg_all/dy, dg_all/dtheta)`` of ``model``, built once per model."""
+
+    def build() -> Any:
+        import casadi as ca
+
+        sym = model.symbolic
+        jacobians = [ca.jacobian(sym.g_all, sym.y), ca.jacobian(sym.g_all, sym.theta)]
+        return ca.Function("g_all_jac", [sym.y, sym.theta, sym.c], jacobians)
+
+    return model.products.get(CLOSURE_JACOBIANS, build)
+
+
 def jacobian_error(model: Model, cfg: Any) -> tuple[float, str]:
     """The largest difference, relative to the largest entry, between the model's closure
     Jacobian and MuJoCo's ``efc_J`` over the hinge and slide joints the model moves, on the
@@ -97,18 +111,13 @@ def jacobian_error(model: Model, cfg: Any) -> tuple[float, str]:
     Returns:
         ``(error, item)``: the error and the entry where it is.
     """
-    import casadi as ca
-
     mujoco = require_mujoco()
-    sym = model.symbolic
-    f = ca.Function("g_all_jac", [sym.y, sym.theta, sym.c],
-                    [ca.jacobian(sym.g_all, sym.y), ca.jacobian(sym.g_all, sym.theta)])  # fmt: skip
     y, c = model.chart.to_local(cfg.y)
-    Jy, Jt = (np.array(a, dtype=float) for a in f(y, cfg.theta, c))
-    _, J, ids = equality_rows(model, _layout(model).qpos(cfg.coordinates))
+    Jy, Jt = (np.array(a, dtype=float) for a in _closure_jacobian(model)(y, cfg.theta, c))
+    layout = _layout(model)
+    _, J, ids = equality_rows(model, layout.qpos(cfg.coordinates))
     m = _compiled(model.source.path)
     columns = []  # (our column of [Jy, Jt], MuJoCo dof, name)
-    layout = _layout(model)
     for e in layout.entries:
         if e.kind not in ("hinge", "slide"):
             continue
