@@ -143,6 +143,7 @@ def test_every_declared_product_key_is_used():
 #: of one model (those go through ``model.products``) -> why it is kept per process.
 PROCESS_MEMOS = {
     "kernels/curve.py:_SOLVERS": "the linear-solve Function of a sparsity pattern, any model",
+    "kernels/curve.py:_LOOP_SOLVERS": "the loop-QR solve Function of a sparsity pattern, any model",
     "atlases/store.py:_OPEN": "the atlas stores this process has open",
     "atlases/chunk.py:_MODELS": "a worker's models, rebuilt from their sources once per process",
     "algebraic/certify/square.py:_SQUARES": "square systems of CasADi Functions, by identity",

@@ -334,7 +334,7 @@ def _run(plan: _Plan, meta: dict, t0: float) -> AtlasRun:
         if bar is not None:
             bar.close()
     remove_partial_writes(out)  # a worker killed while writing left its temporary file
-    counts = _counts(out, len(STATUS))
+    counts = _counts(out)
     return AtlasRun(
         out,
         points,
@@ -394,7 +394,7 @@ def _chunks_done(out: Path) -> int:
         return 0
 
 
-def _counts(out: Path, size: int) -> dict[int, int]:
+def _counts(out: Path) -> dict[int, int]:
     from .store import open_atlas
 
     status = np.asarray(open_atlas(out)["status"][:])

@@ -4,7 +4,6 @@ not) and level crossings, each recorded, or a smaller step asked for to resolve 
 
 from __future__ import annotations
 
-import math
 from enum import IntEnum
 
 import numpy as np
@@ -106,8 +105,7 @@ def _flip_without_turn(st: WalkState, ch: Chunk, j: int) -> tuple[Verdict, tuple
     if got is not None and is_bifurcation(model, got[4], ctx.dtheta):
         st.add_singular(got[4], st.out.arc + h * (j + 0.5))
         return Verdict.REPLACE, (j, got[0], got[1], got[2])
-    seg = Q[:, j + 1] - Q[:, j]
-    length = float(math.sqrt(weight @ (seg * seg)))
+    length = weighted_distance(weight, Q[:, j + 1], Q[:, j])
     replaced = None
     q_str = straight(ctx, Q[:, j], T[:, j], length, c)
     if q_str is not None and weighted_distance(weight, q_str, Q[:, j + 1]) > 0.05 * length:
@@ -135,8 +133,7 @@ def _turn(st: WalkState, ch: Chunk, j: int) -> tuple[Verdict, tuple | None]:
     if locate and is_bifurcation(model, cr, ctx.dtheta):
         # not a fold: two branches cross there and the predictor swung onto the other
         # one; step straight over the point from the sample before it
-        seg = Q[:, j + 1] - Q[:, j]
-        length = float(math.sqrt(weight @ (seg * seg)))
+        length = weighted_distance(weight, Q[:, j + 1], Q[:, j])
         stepped = step_over(ctx, Q[:, j], T[:, j], c, length)
         if stepped is not None:
             q_new, t_new, det_new, _len = stepped

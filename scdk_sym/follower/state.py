@@ -14,7 +14,7 @@ from .follow_rule import RECENTRE
 from .geometry import in_chart, local_features
 from .levels import met_before
 from .predictors import Chunk
-from .tangent import dets, null_direction
+from .tangent import null_direction, tangent_at, weighted_distance
 from .walk import Hit, PathRecord, Walk
 
 
@@ -49,9 +49,8 @@ class WalkState:
             v0 = direction * null_direction(Jp, Js @ ctx.dtheta)
         else:
             v0 = np.asarray(tangent, float)
-        t_raw, J0 = ctx.kern.tangent(q, v0, ctx.p, c)
-        self.q, self.c, self.t = q, c, np.array(t_raw).ravel()
-        self.det = float(dets(np.array(J0), m)[0])
+        self.q, self.c = q, c
+        self.t, self.det = tangent_at(ctx.kern, q, v0, ctx.p, c, m)
         self.out = Walk(det0=self.det)
         self.q_first, self.c_first, self.t_first = q.copy(), c.copy(), self.t.copy()
         self.left = False  # the walk has left its start (for the closure test)
@@ -141,8 +140,7 @@ class WalkState:
     def jump_to(self, replaced: tuple) -> None:
         """Take the point that replaces a segment's end (a step over a bifurcation)."""
         _j, q_new, t_new, det_new = replaced
-        length = float(math.sqrt(self.ctx.weight @ ((q_new - self.q) ** 2)))
-        self.moved_to(q_new, t_new, det_new, length)
+        self.moved_to(q_new, t_new, det_new, weighted_distance(self.ctx.weight, q_new, self.q))
 
     def moved_to(self, q_new, t_new, det_new: float, length: float) -> None:
         """Take a point ``length`` away that is not a predictor's sample (a step over)."""

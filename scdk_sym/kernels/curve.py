@@ -175,6 +175,11 @@ def linear_solver(sparsity: ca.Sparsity) -> ca.Function:
     return _SOLVERS[key]
 
 
+#: :func:`loop_solver` Functions by sparsity pattern and columns (one per process: a source
+#: that calls one several times holds one copy of it).
+_LOOP_SOLVERS: dict[tuple, ca.Function] = {}
+
+
 def loop_solver(sparsity: ca.Sparsity, columns: int = 1) -> ca.Function:
     """The linear solve with a matrix of a given sparsity by CasADi's sparse QR factorisation
     in loops (its ``"qr"`` linear solver), as one Function whose calls stay calls.
@@ -193,12 +198,14 @@ def loop_solver(sparsity: ca.Sparsity, columns: int = 1) -> ca.Function:
         (A, B[n, columns]) -> ``A^{-1} B``.
     """
     n = sparsity.size1()
-    A, B = ca.MX.sym("A", sparsity), ca.MX.sym("B", n, columns)
     key = (n, columns, tuple(sparsity.colind()), tuple(sparsity.row()))
-    # named by the pattern: the generated C does not depend on what was built before
-    tag = hashlib.sha256(repr(key).encode()).hexdigest()[:8]
-    x = ca.solve(A, B, "qr", {"eps": 0.0})
-    return ca.Function(f"scdk_qr{n}_{tag}", [A, B], [x], function_options(False))
+    if key not in _LOOP_SOLVERS:
+        A, B = ca.MX.sym("A", sparsity), ca.MX.sym("B", n, columns)
+        # named by the pattern: the generated C does not depend on what was built before
+        tag = hashlib.sha256(repr(key).encode()).hexdigest()[:8]
+        x = ca.solve(A, B, "qr", {"eps": 0.0})
+        _LOOP_SOLVERS[key] = ca.Function(f"scdk_qr{n}_{tag}", [A, B], [x], function_options(False))
+    return _LOOP_SOLVERS[key]
 
 
 def closure_function(sym, name: str = "scdk_closure", dense: bool = False) -> ca.Function:

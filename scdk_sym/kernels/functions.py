@@ -191,8 +191,9 @@ def build_kernels(
     inline = closure is None
     newton = newton_correction(sym, inline, closure, loops)
 
-    def rk_newton(y_a, s_a, th1, dth, rk_steps: int, newton_steps: int):
-        """RK4 in s from (y_a, s_a) to s = 1, then Newton at th1 + dth; (y, max|correction|)."""
+    def rk_newton(y_a, s_a, th1, dth, cw, rk_steps: int, newton_steps: int):
+        """RK4 in s from (y_a, s_a) to s = 1, then Newton at th1 + dth (chart cw);
+        (y, max|correction|)."""
         y_pred = rk4_in_s(
             sym, y_a, s_a, 1.0, th1, dth, rk_steps, closure=closure, loops=loops, c=cw
         )
@@ -209,7 +210,7 @@ def build_kernels(
     th1 = X.sym("theta1", sym.k)
     th0 = X.sym("theta0", sym.k)
     cw: Any = X.sym("c", c.numel()) if X is ca.MX else c
-    y0, corr = rk_newton(y1, 0.0, th1, th0 - th1, WARM_RK_STEPS, NEWTON_STEPS)
+    y0, corr = rk_newton(y1, 0.0, th1, th0 - th1, cw, WARM_RK_STEPS, NEWTON_STEPS)
     Jp_at = sym.J_p if closure is None else closure(y, theta, c)[1]
     at = ca.Function("at", [y, theta, c], [ca.norm_inf(sym.g_check), ca.vec(Jp_at)])
     res1, J1 = at(y1, th1, cw)
