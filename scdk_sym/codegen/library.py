@@ -451,7 +451,12 @@ def _index(model) -> Path:
 def cached_tracker(model) -> Path | None:
     """The model's C tracker library in the cache, found through its index (no C generated),
     or ``None`` when it is not there (or the index or library is damaged)."""
-    name = read_entry(_index(model), lambda p: p.read_text(encoding="utf-8").strip(), "index")
+    return _cached_at(_index(model))
+
+
+def _cached_at(index: Path) -> Path | None:
+    """:func:`cached_tracker` of the index entry ``index``."""
+    name = read_entry(index, lambda p: p.read_text(encoding="utf-8").strip(), "index")
     if not name:
         return None
     target = cache_dir() / name
@@ -461,7 +466,8 @@ def cached_tracker(model) -> Path | None:
 def _build_tracker(model) -> CTracker:
     """Generate, compile (or find on disk) and load the model's C tracker (without the
     inverse kinematics, which Python does not call)."""
-    found = cached_tracker(model)
+    index = _index(model)
+    found = _cached_at(index)
     if found is not None:
         return CTracker(found, model.m, model.k, model.chart.size, len(model.workspace))
     with tempfile.TemporaryDirectory() as tmp:
@@ -475,5 +481,5 @@ def _build_tracker(model) -> CTracker:
             shutil.copyfile(compiled, path)
 
         target = cached_file(cache_dir() / f"tracker_{key}.so", build, "C tracker library")
-    write_entry(_index(model), lambda p: p.write_text(target.name, encoding="utf-8"))
+    write_entry(index, lambda p: p.write_text(target.name, encoding="utf-8"))
     return CTracker(target, model.m, model.k, model.chart.size, len(model.workspace))

@@ -28,7 +28,7 @@ from typing import Any
 
 from ..backends import Resolved
 from ..codegen.library import cached_tracker
-from ..products import BACKGROUND_BUILDS
+from ..products import BACKGROUND_BUILDS, C_TRACKER
 
 #: Backends whose first use compiles.
 COMPILED = ("c", "compiled")
@@ -76,7 +76,7 @@ def without_waiting(model: Any, backend: Resolved, warm: Callable[[Resolved], ob
         return backend
     state = _builds(model)
     name = str(backend)
-    if name in state.ready or (name == "c" and cached_tracker(model) is not None):
+    if name in state.ready or (name == "c" and _c_tracker_at_hand(model)):
         return backend  # built, or in the cache from an earlier run: loads without compiling
     if name in state.failed:  # no compiler, or it failed: cvodes, as auto would without one
         return Resolved("cvodes", "auto")
@@ -96,6 +96,12 @@ def without_waiting(model: Any, backend: Resolved, warm: Callable[[Resolved], ob
                 flush=True,
             )
     return Resolved("cvodes", "auto")
+
+
+def _c_tracker_at_hand(model: Any) -> bool:
+    """The model's C tracker is loaded, or in the on-disk cache (the loaded one is checked
+    first: the cache's lookup hashes the package's sources)."""
+    return model.products.peek(C_TRACKER) is not None or cached_tracker(model) is not None
 
 
 def _build(state: _Builds, name: str, warm: Callable[[Resolved], object]) -> None:

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..backends import offered
-from ..errors import InputError, ScdkError
+from ..errors import InputError, ScdkError, VerificationError
 from ..follower.finish import singular_jp
 from ..kernels.fastcall import model_calls
 from ..results import Configuration
@@ -159,8 +159,6 @@ def _verified(
     """``(x, residual, status)`` of the answered rows, the kernels evaluated over all of them
     at once (each row's values those of a single call: ``Function.map``); a row whose
     residual exceeds the tolerance joins ``errors``."""
-    from ..errors import VerificationError
-
     N = len(th)
     x = np.full((N, len(model.workspace)), np.nan)
     residual = np.full(N, np.nan)

@@ -19,7 +19,7 @@ from ..products import PLACING_BLOCK
 from ..results import Configuration, Crossing, SolveResult, TrackResult
 from ..robot import Model
 from ..robot.blocks import Block
-from .result import verified_result
+from .result import solve_result
 from .track_errors import verify_samples
 
 
@@ -106,7 +106,7 @@ def solve_blocks(
         results.append((sub, r))
     crossings = tuple(_expand(model, sub, c, y, theta0) for sub, r in results for c in r.crossings)
     first = results[0][1]
-    res = verified_result(model, y, theta0, crossings, first.branch, first.b, start, None)
+    res = solve_result(model, y, theta0, crossings, first.branch, first.b, start, None)
     # each block's way, in block order, where the divergent branch answered
     ways = ",".join(r.strategy for _sub, r in results)
     return replace(res, strategy=ways) if any(r.strategy for _sub, r in results) else res

@@ -53,8 +53,8 @@ from ..follower.kernels import follower_kernels
 from ..follower.options import FollowOptions
 from ..follower.walk import Line
 from ..results import AssemblyModes, Configuration, mode_order
-from ..robot import Model, as_vector
-from .query import validate_start
+from ..robot import Model
+from .query import target, validate_start
 from .random_starts import RandomStarts
 
 #: The search accepts explicit steps whose tangent turned by up to acos(0.7) (it collects
@@ -275,7 +275,7 @@ def explore(
     t_begin = time.perf_counter()
     rule = StoppingRule() if rule is None else rule
     patience, cover, max_curves, max_arc = rule.patience, rule.cover, rule.max_curves, rule.max_arc
-    theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
+    theta0 = target(model, theta0)
     backend = resolve(backend, "curves")
     if time_budget is not None and not (time_budget > 0):
         raise InputError(f"time_budget must be a positive number of seconds, got {time_budget!r}")

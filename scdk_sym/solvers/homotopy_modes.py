@@ -48,6 +48,7 @@ from .mode_certify import certificates_many, certifier
 from .mode_neighbours import ModeSeed, complete_set, from_neighbours
 from .mode_polish import real_modes
 from .mode_report import REAL_TOL, path_reasons_many, point_modes, unproven_start
+from .query import target
 from .rod_modes import lifted_modes
 from .start_system import MAX_LOOPS, model_start_system
 
@@ -113,7 +114,7 @@ def homotopy_modes(
         InputError: bad ``theta0`` or backend.
         AlgebraicFormError: a joint type with no algebraic form.
     """
-    theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
+    theta0 = target(model, theta0)
     options = ModesOptions(seed, progress, backend, max_loops, cache, rebuild, certified_only,
                            seeds=False)  # fmt: skip
     modes, _, _ = modes_many(model, theta0[None], [None], options)[0]
@@ -145,7 +146,7 @@ def modes_from_neighbour(
         ``theta0``; its complete root set for the next point (None when the ends are not R
         distinct regular roots); whether the neighbour's set was used.
     """
-    theta0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
+    theta0 = target(model, theta0)
     return modes_many(model, theta0[None], [neighbour], ModesOptions(backend=backend))[0]
 
 

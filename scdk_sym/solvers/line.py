@@ -42,7 +42,7 @@ def along_line(
         sign0: the sign of ``det J_p`` at the start.
         direction: +1 to follow ``nu``, -1 to follow ``-nu``.
         name: the branch the answer is reported on ("convergent" or "divergent").
-        nu: the unit SC vector at the start (:func:`~scdk_sym.solvers.query.start_direction`),
+        nu: the unit SC vector at the start (:func:`~scdk_sym.solvers.query.at_start`),
             when known.
         with_detour: try the bent path as stated above.
 

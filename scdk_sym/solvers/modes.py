@@ -14,7 +14,7 @@ from numpy.typing import ArrayLike
 from ..backends import DEFAULTS, resolve
 from ..errors import InputError
 from ..results import AssemblyModes
-from ..robot import Model, as_vector
+from ..robot import Model
 from .curve_modes import (  # noqa: F401  (the curve search's names, also importable from here)
     Curve,
     CurveOptions,
@@ -26,6 +26,7 @@ from .curve_modes import (  # noqa: F401  (the curve search's names, also import
     explore,
     follow_curve,
 )
+from .query import target
 
 #: Methods of :func:`assembly_modes`.
 METHODS = ("homotopy", "curves")
@@ -104,7 +105,7 @@ def assembly_modes(
         chosen = resolve(backend or DEFAULTS["modes"], "modes")
         parts = split(model)
         if parts is not None:
-            theta = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
+            theta = target(model, theta0)
             return block_modes(
                 model, theta, parts[0], parts[1], seed=seed, progress=progress, backend=chosen,
                 **options,

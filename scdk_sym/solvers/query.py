@@ -81,14 +81,6 @@ def check_options(branch: str, b: float | None, max_arc: float | None) -> None:
         raise InputError(f"max_arc must be a positive arc length, got {max_arc!r}")
 
 
-def start_direction(
-    model: Model, theta0: np.ndarray, start: Configuration, backend: str = "cvodes"
-):
-    """(nu unit vector, det J_p) at the start of the path towards ``theta0``."""
-    nu, det, _Jp = at_start(model, theta0, start)
-    return nu, det
-
-
 def at_start(model: Model, theta0: np.ndarray, start: Configuration):
     """(nu unit vector, det J_p, J_p) at the start: one evaluation of the Jacobians for the
     branch, the singularity check and the first tangent of the path."""

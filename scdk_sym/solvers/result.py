@@ -43,10 +43,6 @@ def solve_result(model, y, theta0, crossings, branch, direction, start, path) ->
     )
 
 
-#: The verified result of a solve (also of one assembled from blocks).
-verified_result = solve_result
-
-
 def is_singular(model: Model, cfg: Configuration) -> bool:
     """``J_p`` singular to 1e-6 relative at a configuration."""
     y_loc, c = model.chart.to_local(cfg.y)

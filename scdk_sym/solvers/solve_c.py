@@ -35,8 +35,8 @@ from numpy.typing import ArrayLike
 
 from ..errors import NotAssembledError, PathError, SolveError, VerificationError
 from ..results import Configuration, Crossing, SolveResult
-from ..robot import Model, as_vector
-from .query import validate_start
+from ..robot import Model
+from .query import target, validate_start
 from .result import solve_result
 
 __all__ = ["HandOver", "solve_c"]
@@ -93,25 +93,22 @@ def solve_c(
         tracker_library,
     )
 
-    def fallback(theta, why: str) -> HandOver:
-        return HandOver(theta, start, why)
-
     if b is not None:
-        return fallback(theta0, "b is solved by the compiled follower")
+        return HandOver(theta0, start, "b is solved by the compiled follower")
     if branch not in ("convergent", "divergent"):
-        return fallback(theta0, f"branch {branch!r}")
+        return HandOver(theta0, start, f"branch {branch!r}")
     if kwargs.get("record_path", False):
-        return fallback(theta0, "record_path=True (the C follower keeps no sampled curve)")
+        return HandOver(theta0, start, "record_path=True (the C follower keeps no sampled curve)")
     if kwargs.get("max_arc") is not None:
-        return fallback(theta0, "max_arc is applied by the compiled follower")
-    th0 = as_vector(theta0, model.k, f"theta0 ({', '.join(model.actuated)})")
+        return HandOver(theta0, start, "max_arc is applied by the compiled follower")
+    th0 = target(model, theta0)
     start = validate_start(model, start, check_residual=False)
     lib = tracker_library(model)
     y1, c1 = model.chart.to_local(start.y)
     call = lib.solve_convergent if branch == "convergent" else lib.solve_divergent
     out = call(y1, c1, start.theta, th0)
     if out.status in (ERR_SINGULAR_PATH, ERR_NO_SOLUTION):
-        return fallback(th0, f"the C follower returned {STATUS.get(out.status, out.status)}")
+        return HandOver(th0, start, f"the C follower returned {STATUS.get(out.status, out.status)}")
     if out.status == ERR_NOT_ASSEMBLED:
         residual = model.residual(start.y, start.theta)
         raise NotAssembledError(
@@ -129,7 +126,7 @@ def solve_c(
         return solve_result(model, y, th0, (), "convergent", float(np.sign(out.det)), start, None)
     res = _divergent_result(model, th0, start, y, out)
     if res is None:
-        return fallback(th0, "its divergent answer is singular or failed its checks")
+        return HandOver(th0, start, "its divergent answer is singular or failed its checks")
     return res
 
 

@@ -48,7 +48,7 @@ def trace(
         predictor: "cvodes" or "rk4" (see :mod:`scdk_sym.follower.curve`).
         tangent: (m+1,) the first tangent's orientation when already known (``direction``
             times the unit ``nu`` at the start, e.g. from
-            :func:`~scdk_sym.solvers.query.start_direction`).
+            :func:`~scdk_sym.solvers.query.at_start`).
 
     Returns:
         The :class:`~scdk_sym.follower.walk.Walk`: ``hits`` (``s = 1`` crossings),

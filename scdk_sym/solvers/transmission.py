@@ -297,11 +297,12 @@ class Transmission:
         J_p, J_s = self._parts(cfg)
         values: list[float] = []
         blocks = self.blocks()
+        J: np.ndarray | None = None  # d outputs / d theta, once a block needs it
         for motors, outs in blocks:
             parts = [_relative_min(J_p[np.ix_(r, u)]) for r, u in self._stages_of(outs)]
             value = min(parts, default=1.0)
             if value > SINGULAR_MARGIN:
-                J = self._output_rows(J_p, J_s)
+                J = self._output_rows(J_p, J_s) if J is None else J
                 sub = J[np.ix_([self.outputs.index(o) for o in outs],
                                [self.motors.index(mo) for mo in motors])]  # fmt: skip
                 value = min(value, _relative_min(sub))
