@@ -8,9 +8,11 @@ iteration (x in R^3, the reduced model's closed-form residual) from the same sta
 one solution and has no branch control.
 
 Then, for the convergent branch with ``backend="c"``, what a repeated call costs beyond its C:
-the binding's call alone (``tracker_library(model).solve_convergent``, the C follower's work
-and its ctypes call), ``sc.solve`` (validation, the call, the verified result) and
-``sc.solve_many`` over ``--batch`` copies of the reading (per reading), each with its excess
+the C follower with its arguments bound (``tracker_library(model).bound_solve(...)``: the C
+work and one ctypes call), the binding's call alone
+(``tracker_library(model).solve_convergent``, which converts its arguments each call),
+``sc.solve`` (validation, the call, the verified result) and ``sc.solve_many`` over
+``--batch`` copies of the reading (per reading), each with its excess over the bound call and
 over the binding's call.
 
     python benchmarks/seed_example.py [--repeat 200] [--clock cpu] [--batch 200]
@@ -123,27 +125,35 @@ def main() -> None:
 
 
 def repeated_calls(base: float, repeat: int, batch: int, clock) -> None:
-    """The convergent C solve of planar_hexa: the binding's call, sc.solve and sc.solve_many
-    (per reading), medians, with their excess over the binding's call."""
+    """The convergent C solve of planar_hexa: the C follower with its arguments bound (the C
+    work and one ctypes call), the binding's call, sc.solve and sc.solve_many (per reading),
+    medians, with their excess over the bound call and over the binding's call."""
     model = sc.load_model(ROOT / "models" / "planar_hexa")
     start = model.inverse_kinematics(X1)
     lib = tracker_library(model)
     y1, c1 = model.chart.to_local(start.y)
     thetas = np.repeat(THETA0[None], batch, axis=0)
+    bound_call = lib.bound_solve(y1, c1, start.theta)
+    bound = median_time(lambda: bound_call(THETA0), repeat, clock)
     raw = median_time(lambda: lib.solve_convergent(y1, c1, start.theta, THETA0), repeat, clock)
     one = median_time(
         lambda: solve(model, THETA0, start, backend="c", record_path=False), repeat, clock
     )
     many = median_time(lambda: sc.solve_many(model, thetas, start), max(5, repeat // 20), clock)
     many /= batch
-    print("planar_hexa, convergent, backend c, per reading (us; ratio to the numpy Newton):")
+    print("planar_hexa, convergent, backend c, per reading (us; ratio to the numpy Newton;")
+    print("excess over the bound call / over the binding's call):")
     for label, t in (
+        ("C follower, arguments bound (1 ctypes call)", bound),
         ("binding's call (C follower + ctypes)", raw),
         ("sc.solve", one),
         (f"sc.solve_many over {batch} readings", many),
     ):
-        excess = "" if t is raw else f"  (+{(t - raw) * 1e6:.1f} us over the call)"
-        print(f"  {label:<40}{t * 1e6:8.1f}{t / base:8.2f}{excess}")
+        excess = "" if t is bound else f"  (+{(t - bound) * 1e6:.1f} us"
+        if t is not bound and t is not raw:
+            excess += f" / +{(t - raw) * 1e6:.1f} us"
+        excess += ")" if excess else ""
+        print(f"  {label:<44}{t * 1e6:8.1f}{t / base:8.2f}{excess}")
 
 
 if __name__ == "__main__":

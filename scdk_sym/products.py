@@ -96,6 +96,11 @@ BACKGROUND_BUILDS = Key(
 CLOSURE_JACOBIANS = Key(
     "closure_jacobians", "the Jacobians of the full closure rows", "the model only"
 )
+#: The C solves bound to the last start each was called from, per branch
+#: (:func:`scdk_sym.solvers.solve_c.solve_c`).
+BOUND_C_SOLVES = Key(
+    "bound_c_solves", "the C solves bound to their last start, per branch", "the model only"
+)
 #: Every declared key, by name.
 KEYS: dict[str, Key] = {
     k.name: k
@@ -117,6 +122,7 @@ KEYS: dict[str, Key] = {
         ROD_REDUCTION,
         BACKGROUND_BUILDS,
         CLOSURE_JACOBIANS,
+        BOUND_C_SOLVES,
     )
 }
 

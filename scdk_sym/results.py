@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -28,6 +28,14 @@ def frozen_array(a: np.ndarray) -> np.ndarray:
     a = np.array(a, dtype=float)
     a.setflags(write=False)
     return a
+
+
+def frozen_joints(joints: Mapping[str, Any]) -> Mapping[str, Any]:
+    """A read-only joint map: ``joints`` itself when it is read-only already (a
+    :class:`JointValues`, a model read from MJCF's joints), else a read-only copy."""
+    if isinstance(joints, JointValues) or hasattr(joints, "qpos"):
+        return joints
+    return MappingProxyType(dict(joints))
 
 
 class JointValues(Mapping[str, float]):
@@ -105,9 +113,7 @@ class Configuration:
     def __post_init__(self) -> None:
         for name in ("theta", "y", "x", "platform_pose"):
             object.__setattr__(self, name, frozen_array(getattr(self, name)))
-        if not isinstance(self.joints, JointValues) and not hasattr(self.joints, "qpos"):
-            # JointValues and a model read from MJCF's joints are read-only already
-            object.__setattr__(self, "joints", MappingProxyType(dict(self.joints)))
+        object.__setattr__(self, "joints", frozen_joints(self.joints))
 
     @property
     def qpos(self) -> np.ndarray | None:

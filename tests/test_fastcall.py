@@ -119,3 +119,25 @@ def test_mapped_calls_equal_single_calls_and_configurations_equal_configuration(
         np.testing.assert_array_equal(cfg.theta, th)
         np.testing.assert_array_equal(cfg.x, one.x)
         assert cfg.residual == one.residual
+
+
+@pytest.mark.parametrize("name", ["planar_hexa", "stewart_gough"])
+def test_verify_equals_the_pose_check_and_jacobian_kernels_bit_for_bit(name):
+    """The fused verification call (one kernel call) returns the values of the three
+    kernels' own calls at seeded points near home."""
+    model = shipped(name)
+    rng = np.random.default_rng(5)
+    calls = model_calls(model)
+    y0, c0 = model.chart.to_local(model.home.y)
+    for _ in range(5):
+        y = y0 + 0.05 * rng.normal(size=model.m)
+        theta = model.home.theta + 0.05 * rng.normal(size=model.k)
+        T, x, residual, Jp = calls.verify(y, theta, c0)
+        T1, x1 = calls.pose(y, theta, c0)
+        np.testing.assert_array_equal(T, T1)
+        np.testing.assert_array_equal(x, x1.ravel())
+        assert residual == float(np.abs(calls.check(y, theta, c0)).max()) > 0
+        np.testing.assert_array_equal(Jp, calls.jac(y, theta, c0)[0])
+        assert T.flags["C_CONTIGUOUS"] and Jp.flags["C_CONTIGUOUS"]
+    nan = np.full(model.m, np.nan)
+    assert np.isnan(calls.verify(nan, model.home.theta, c0)[2])  # NaN rows are not hidden

@@ -173,3 +173,45 @@ def test_divergent_hexapod_equals_the_compiled_solve():
     targets = model.home.theta + rng.normal(scale=0.3, size=(3, 6))  # m
     statuses = compare_divergent(model, model.home, targets)
     assert statuses == [clib.ERR_SINGULAR_PATH, clib.ERR_SINGULAR_PATH, clib.OK_PATH]
+
+
+def test_repeated_solves_from_several_starts_equal_the_raw_call_bit_for_bit():
+    """The C solve bound to its start: solves alternating between starts (home, another, an
+    equal copy of it), and from two threads at once, each equal to the binding's own call at
+    that start, bit for bit."""
+    import threading
+
+    model = shipped("planar_hexa")
+    lib = clib.tracker_library(model)
+    other = model.inverse_kinematics(SEED_X1)
+    copy = sc.Configuration(other.theta, other.y, other.x, other.platform_pose,
+                            other.joints, other.residual)  # fmt: skip
+    rng = np.random.default_rng(3)
+    steps = 0.02 * rng.normal(size=(4, 3))
+
+    def raw(start, theta0):
+        y1, c1 = model.chart.to_local(start.y)
+        out = lib.solve_convergent(y1, c1, start.theta, theta0)
+        return model.chart.to_canonical(out.y, out.c)
+
+    for start in (other, model.home, copy, other, None, copy):
+        at = model.home if start is None else start
+        for theta0 in at.theta + steps:
+            res = sc.solve(model, theta0, start, backend="c", record_path=False)
+            np.testing.assert_array_equal(res.y, raw(at, theta0))
+            assert res.backend == "c" and not res.fallback
+    targets = list(other.theta + steps)
+    answers: dict[int, list[np.ndarray]] = {}
+
+    def run(i, start):
+        answers[i] = [sc.solve(model, t, start, backend="c", record_path=False).y
+                      for t in targets * 25]  # fmt: skip
+
+    threads = [threading.Thread(target=run, args=(i, s)) for i, s in enumerate((other, other))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for i in (0, 1):
+        for theta0, y in zip(targets * 25, answers[i], strict=True):
+            np.testing.assert_array_equal(y, raw(other, theta0))

@@ -14,6 +14,7 @@ import hashlib
 import math
 import shutil
 import tempfile
+import threading
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -346,28 +347,77 @@ class CTracker:
         return SweepOutput(X, D, R, codes)
 
     def _call_solve(self, fn, y1, c1, theta1, theta0, options, fold=False) -> SolveOutput:
-        y1, c1, theta1, theta0 = (
-            np.ascontiguousarray(a, dtype=float) for a in (y1, c1, theta1, theta0)
-        )
-        y = np.full(self.m, np.nan)
-        c = np.full(max(1, self.nc), np.nan)
-        x = np.full(self.n, np.nan)
-        res, det = ctypes.c_double(np.nan), ctypes.c_double(np.nan)
-        extra = np.full(1 + self.m + self.n + self.nc, np.nan) if fold else None
-        nc1, c1 = c1.size, c1 if c1.size else np.zeros(1)  # C has no empty arrays
-        status = fn(
-            y1.ctypes.data, y1.size, c1.ctypes.data, nc1,
-            theta1.ctypes.data, theta1.size, theta0.ctypes.data if theta0.size == self.k else None,
+        return BoundSolve(self, fn, y1, c1, theta1, options, fold)(theta0)
+
+    def bound_solve(self, y1: np.ndarray, c1: np.ndarray, theta1: np.ndarray,
+                    divergent: bool = False) -> BoundSolve:  # fmt: skip
+        """:meth:`solve_convergent` (or, ``divergent``, :meth:`solve_divergent`) from one
+        start, its arguments bound once: the call then costs the C work and one ctypes call
+        (the arguments as for :meth:`solve_convergent`, the library's default options)."""
+        fn = self._solve_divergent if divergent else self._solve
+        return BoundSolve(self, fn, y1, c1, theta1, None, divergent)
+
+
+class BoundSolve:
+    """One C solve function of a :class:`CTracker` with its start and output arrays bound:
+    ``call(theta0)`` fills them and returns a fresh :class:`SolveOutput`.
+
+    Args:
+        lib: the tracker library.
+        fn: its ``<prefix>_solve_convergent`` or ``<prefix>_solve_divergent``.
+        y1: (m,) start unknowns in the chart ``c1``.
+        c1: (nc,) start chart.
+        theta1: (k,) start actuated values.
+        options: tracker options (None: the library's defaults).
+        fold: the divergent solve's extra output (its fold) is bound too.
+    """
+
+    def __init__(self, lib: CTracker, fn, y1, c1, theta1, options: Options | None,
+                 fold: bool) -> None:  # fmt: skip
+        self.m, self.n, self.nc, self.fold = lib.m, lib.n, lib.nc, fold
+        y1, c1, theta1 = (np.array(a, dtype=float) for a in (y1, c1, theta1))
+        self._start = (y1, c1 if c1.size else np.zeros(1), theta1)  # C has no empty arrays
+        self.theta0 = np.full(lib.k, np.nan)
+        self.y, self.x = np.empty(lib.m), np.empty(lib.n)
+        self.c = np.empty(max(1, lib.nc))
+        self.res, self.det = ctypes.c_double(), ctypes.c_double()
+        self.extra = np.empty(1 + lib.m + lib.n + lib.nc) if fold else None
+        self._fn = fn
+        self._args = (
+            y1.ctypes.data, y1.size, self._start[1].ctypes.data, c1.size,
+            theta1.ctypes.data, theta1.size, self.theta0.ctypes.data,
             ctypes.byref(options) if options is not None else None,
-            y.ctypes.data, c.ctypes.data, x.ctypes.data, ctypes.byref(res), ctypes.byref(det),
-            *(() if extra is None else (extra.ctypes.data,)),
+            self.y.ctypes.data, self.c.ctypes.data, self.x.ctypes.data, ctypes.byref(self.res),
+            ctypes.byref(self.det), *(() if self.extra is None else (self.extra.ctypes.data,)),
         )  # fmt: skip
-        out = SolveOutput(int(status), y, c[: self.nc], x, float(res.value), float(det.value))
-        if extra is None:
+        self._options = options  # kept alive with the pointer to it
+        self._lock = threading.Lock()  # the C call releases the GIL: one call at a time
+
+    def __call__(self, theta0: np.ndarray) -> SolveOutput:
+        """The solve at ``theta0`` ((k,) actuated values; another size is refused by the C
+        call's status)."""
+        with self._lock:
+            return self._call(np.asarray(theta0, dtype=float))
+
+    def _call(self, theta0: np.ndarray) -> SolveOutput:
+        args = self._args
+        if theta0.size == len(self.theta0):
+            self.theta0[:] = theta0
+        else:
+            args = (*args[:6], None, *args[7:])
+        for a in (self.y, self.c, self.x):
+            a.fill(np.nan)
+        self.res.value = self.det.value = np.nan
+        if self.extra is not None:
+            self.extra.fill(np.nan)
+        status = self._fn(*args)
+        out = SolveOutput(int(status), self.y.copy(), self.c[: self.nc].copy(), self.x.copy(),
+                          float(self.res.value), float(self.det.value))  # fmt: skip
+        if self.extra is None:
             return out
-        m, n = self.m, self.n
-        return replace(out, fold_s=float(extra[0]), fold_y=extra[1 : 1 + m],
-                       fold_x=extra[1 + m : 1 + m + n], fold_c=extra[1 + m + n :])  # fmt: skip
+        m, n, e = self.m, self.n, self.extra.copy()
+        return replace(out, fold_s=float(e[0]), fold_y=e[1 : 1 + m],
+                       fold_x=e[1 + m : 1 + m + n], fold_c=e[1 + m + n :])  # fmt: skip
 
 
 @dataclass(frozen=True)

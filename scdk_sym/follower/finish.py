@@ -10,6 +10,8 @@ number of singular points crossed on the way.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..errors import PathError
@@ -35,11 +37,30 @@ def singular_jp(Jp: np.ndarray) -> bool:
     """
     n = len(Jp)
     if 0 < n <= 8:
-        frob = float(np.sqrt(np.einsum("ij,ij->", Jp, Jp)))
-        if frob > 0.0 and abs(float(np.linalg.det(Jp))) > 2e-6 * frob**n:
+        v = Jp.ravel()
+        frob = math.sqrt(float(v @ v))
+        if frob > 0.0 and abs(_det(Jp)) > 2e-6 * frob**n:
             return False
     S = np.linalg.svd(Jp, compute_uv=False)
     return not S[-1] > 1e-6 * S[0]
+
+
+def _det(A: np.ndarray) -> float:
+    """``det A`` of a square matrix: written out up to 3 x 3 (a Python float expression costs
+    a fraction of a LAPACK call there), else LAPACK's."""
+    n = len(A)
+    if n > 3:
+        return float(np.linalg.det(A))
+    a = A.tolist()
+    if n == 1:
+        return a[0][0]
+    if n == 2:
+        return a[0][0] * a[1][1] - a[0][1] * a[1][0]
+    return (
+        a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+        - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+        + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+    )
 
 
 def touching(model, theta0, tr, sign0: float) -> tuple[np.ndarray, int] | None:

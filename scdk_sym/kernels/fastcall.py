@@ -120,6 +120,42 @@ class Dense:
         return out[0] if self._single else tuple(out)
 
 
+class Verify:
+    """The pose, the closure rows and ``J_p`` at one point in one zero-copy call: an MX
+    Function of calls of the three kernels, each output exactly that of its own kernel.
+
+    ``verify(y, theta, c)`` returns ``(T, x, residual, J_p)``: the (4, 4) platform placement,
+    the (n,) workspace coordinates, max |closure row| (a float) and the (m, m) ``J_p``, the
+    arrays fresh and C-ordered as :class:`Dense` returns them. Not thread-safe.
+
+    Args:
+        pose: the model's pose kernel ``(y, theta, c) -> (T, x)``.
+        check: its closure rows ``(y, theta, c) -> rows``.
+        jac: its Jacobians ``(y, theta, c) -> (J_p, J_s)``.
+    """
+
+    def __init__(self, pose: ca.Function, check: ca.Function, jac: ca.Function) -> None:
+        ins = [ca.MX.sym(pose.name_in(i), pose.sparsity_in(i)) for i in range(pose.n_in())]
+        T, x = pose(*ins)
+        f = ca.Function("verify", ins, [T, x, check(*ins), jac(*ins)[0]])
+        for i in range(f.n_out()):
+            if not f.sparsity_out(i).is_dense():
+                f = ca.Function("verify", ins, [ca.densify(e) for e in f.call(ins)])
+                break
+        self._call = Buffered(f)
+        self._shapes = (f.size_out(0), f.size_out(3))
+
+    def __call__(self, y, theta, c) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+        T, x, rows, Jp = self._call(y, theta, c)
+        (tr, tc), (jr, jc) = self._shapes
+        return (
+            T.reshape((tr, tc), order="F").copy(order="C"),
+            x.copy(),
+            float(np.abs(rows).max()),
+            Jp.reshape((jr, jc), order="F").copy(order="C"),
+        )
+
+
 #: Mapped callers kept per model (:meth:`ModelCalls.mapped`; the oldest dropped first): a
 #: mode map's fronts ask for each kernel over up to a few hundred different point counts, each
 #: made once (about 80 us) and a few kB.
@@ -134,6 +170,7 @@ class ModelCalls:
     check: Dense
     jac: Dense
     pose: Dense
+    verify: Verify
     _maps: dict[tuple[str, int], Dense] = field(default_factory=dict, repr=False, compare=False)
 
     def mapped(self, name: str, count: int) -> Dense:
@@ -157,6 +194,7 @@ def model_calls(model) -> ModelCalls:
 
     def build() -> ModelCalls:
         kern = model.kernels
-        return ModelCalls(Dense(kern.g), Dense(kern.check), Dense(kern.jac), Dense(kern.pose))
+        calls = (Dense(kern.g), Dense(kern.check), Dense(kern.jac), Dense(kern.pose))
+        return ModelCalls(*calls, Verify(kern.pose, kern.check, kern.jac))
 
     return model.products.get(MODEL_CALLS, build)

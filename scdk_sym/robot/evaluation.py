@@ -215,10 +215,11 @@ class ModelEvaluation(ModelData):
         of a model read from MJCF, the joints by MJCF name (:class:`MjcfJoints`: hinge and
         slide ``qpos``, ball quaternions, and the whole ``qpos``)."""
         y, theta = np.asarray(y, dtype=float), np.asarray(theta, dtype=float)
-        row = JointValues(self._joint_columns, self._joint_table(y[None], theta[None])[0])
+        values = self._joint_table(y[None], theta[None])[0]
         if self.qpos_layout is not None:
-            return MjcfJoints(row, self.qpos_layout)
-        return dict(row)
+            return MjcfJoints(JointValues(self._joint_columns, values), self.qpos_layout)
+        listed = values.tolist()  # the same floats as the row's items
+        return {j: listed[i] for j, i in self._joint_columns.items()}
 
     @cached_property
     def qpos_layout(self) -> QposLayout | None:

@@ -142,11 +142,11 @@ def _c_rows(model: Model, th: np.ndarray, start: Configuration, y: np.ndarray) -
     failed, go to :func:`scdk_sym.solve`)."""
     from ..codegen.library import tracker_library
 
-    lib = tracker_library(model)
     y1, c1 = model.chart.to_local(start.y)
+    call = tracker_library(model).bound_solve(y1, c1, start.theta)
     done = np.zeros(len(th), dtype=bool)
     for i, theta0 in enumerate(th):
-        out = lib.solve_convergent(y1, c1, start.theta, theta0)
+        out = call(theta0)
         if out.status >= 0:
             y[i] = model.chart.to_canonical(out.y, out.c)
             done[i] = True

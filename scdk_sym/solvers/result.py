@@ -11,42 +11,55 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import VerificationError
-from ..follower.finish import jacobian, singular_jp
+from ..follower.finish import singular_jp
 from ..follower.surface import det_sign
-from ..results import Configuration, Crossing, PathSamples, SolveResult
+from ..kernels.fastcall import model_calls
+from ..results import Configuration, Crossing, PathSamples, SolveResult, frozen_array, frozen_joints
 from ..robot import Model
 
 
-def solve_result(model, y, theta0, crossings, branch, direction, start, path) -> SolveResult:
-    """The verified :class:`SolveResult` of unknowns ``y`` at ``theta0`` (raises
-    :class:`~scdk_sym.errors.VerificationError` when it does not close)."""
-    cfg = model.configuration(y, theta0)
-    if not cfg.residual <= model.tolerance:
+def solve_result(
+    model: Model,
+    y: np.ndarray,
+    theta0: np.ndarray,
+    crossings: tuple[Crossing, ...],
+    branch: str,
+    direction: float,
+    start: Configuration,
+    path: PathSamples | None,
+    backend: str = "",
+) -> SolveResult:
+    """The verified :class:`SolveResult` of canonical unknowns ``y`` at ``theta0`` (raises
+    :class:`~scdk_sym.errors.VerificationError` when it does not close): the pose, the
+    closure rows and ``J_p`` of the answer in one kernel call (each value that of its own
+    kernel, as :meth:`~scdk_sym.robot.Model.configuration` computes them)."""
+    y = np.asarray(y, dtype=float).reshape(model.m)  # a solver's unknowns
+    theta = np.asarray(theta0, dtype=float).reshape(model.k)  # the query's checked target
+    y_loc, c = model.chart.to_local(y)
+    T, x, residual, Jp = model_calls(model).verify(y_loc, theta, c)
+    if not residual <= model.tolerance:
         raise VerificationError(
             f"solution at theta0={np.asarray(theta0).tolist()} failed verification: residual "
-            f"{cfg.residual:.3g} > {model.tolerance:.1e}",
-            cfg.residual,
+            f"{residual:.3g} > {model.tolerance:.1e}",
+            residual,
         )
+    T.setflags(write=False)  # fresh arrays of the call, read-only as a Configuration's
+    x.setflags(write=False)
     return SolveResult(
-        x=cfg.x,
-        y=cfg.y,
-        theta=cfg.theta,
-        platform_pose=cfg.platform_pose,
-        joints=cfg.joints,
-        residual=cfg.residual,
+        x=x,
+        y=frozen_array(y),
+        theta=frozen_array(theta),
+        platform_pose=T,
+        joints=frozen_joints(model.joint_values(y, theta)),
+        residual=residual,
         crossings=crossings,
-        status="singular" if is_singular(model, cfg) else "converged",
+        status="singular" if singular_jp(Jp) else "converged",
         branch=branch,
         b=direction,
         start=start,
         path=path,
+        backend=backend,
     )
-
-
-def is_singular(model: Model, cfg: Configuration) -> bool:
-    """``J_p`` singular to 1e-6 relative at a configuration."""
-    y_loc, c = model.chart.to_local(cfg.y)
-    return singular_jp(jacobian(model, y_loc, cfg.theta, c))
 
 
 def is_same_side(model: Model, a: Configuration, b) -> bool:

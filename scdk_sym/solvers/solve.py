@@ -129,7 +129,8 @@ def _solve(
         options.update(record_path=False, fast=fast)
         return solve_blocks(model, subs, theta0, validate_start(model, start), solve, **options)
     if backend == "c":  # one call of the generated C follower (scdk_sym.solvers.solve_c)
-        out = solve_c(model, theta0, start, branch, b, max_arc=max_arc, record_path=record_path)
+        out = solve_c(model, theta0, start, branch, b, backend, max_arc=max_arc,
+                      record_path=record_path)  # fmt: skip
         if isinstance(out, HandOver):  # solved by the compiled follower, not chosen again
             handed = solve(model, out.theta0, out.start, branch, b, max_arc=max_arc,
                            record_path=record_path, backend=Resolved("compiled", "c"))  # fmt: skip

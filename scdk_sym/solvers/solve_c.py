@@ -33,7 +33,16 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..codegen.library import (
+    ERR_NO_SOLUTION,
+    ERR_NOT_ASSEMBLED,
+    ERR_SINGULAR_PATH,
+    STATUS,
+    BoundSolve,
+    tracker_library,
+)
 from ..errors import NotAssembledError, PathError, SolveError, VerificationError
+from ..products import BOUND_C_SOLVES
 from ..results import Configuration, Crossing, SolveResult
 from ..robot import Model
 from .query import target, validate_start
@@ -63,6 +72,7 @@ def solve_c(
     start: Configuration | None = None,
     branch: str = "convergent",
     b: float | None = None,
+    backend: str = "c",
     **kwargs,
 ) -> SolveResult | HandOver:
     """:func:`scdk_sym.solvers.solve.solve` with the generated C follower (``backend="c"``).
@@ -74,6 +84,7 @@ def solve_c(
         branch: "convergent" or "divergent", each solved in one C call where the C follower
             can (see the module documentation), else handed over.
         b: the paper's signed scalar (handed over).
+        backend: the name the answer carries (the resolved ``"c"`` of the call).
         **kwargs: the other keywords of :func:`scdk_sym.solvers.solve.solve`; ``record_path``
             (the sampled curve) and ``max_arc`` are handed over.
 
@@ -85,14 +96,6 @@ def solve_c(
     Raises:
         The errors of :func:`scdk_sym.solvers.solve.solve`; BuildError without a C compiler.
     """
-    from ..codegen.library import (
-        ERR_NO_SOLUTION,
-        ERR_NOT_ASSEMBLED,
-        ERR_SINGULAR_PATH,
-        STATUS,
-        tracker_library,
-    )
-
     if b is not None:
         return HandOver(theta0, start, "b is solved by the compiled follower")
     if branch not in ("convergent", "divergent"):
@@ -102,11 +105,8 @@ def solve_c(
     if kwargs.get("max_arc") is not None:
         return HandOver(theta0, start, "max_arc is applied by the compiled follower")
     th0 = target(model, theta0)
-    start = validate_start(model, start, check_residual=False)
-    lib = tracker_library(model)
-    y1, c1 = model.chart.to_local(start.y)
-    call = lib.solve_convergent if branch == "convergent" else lib.solve_divergent
-    out = call(y1, c1, start.theta, th0)
+    start, call = _bound(model, start, branch)
+    out = call(th0)
     if out.status in (ERR_SINGULAR_PATH, ERR_NO_SOLUTION):
         return HandOver(th0, start, f"the C follower returned {STATUS.get(out.status, out.status)}")
     if out.status == ERR_NOT_ASSEMBLED:
@@ -123,15 +123,36 @@ def solve_c(
         )
     y = model.chart.to_canonical(out.y, out.c)
     if branch == "convergent":
-        return solve_result(model, y, th0, (), "convergent", float(np.sign(out.det)), start, None)
-    res = _divergent_result(model, th0, start, y, out)
+        sign = float(np.sign(out.det))
+        return solve_result(model, y, th0, (), "convergent", sign, start, None, backend)
+    res = _divergent_result(model, th0, start, y, out, backend)
     if res is None:
         return HandOver(th0, start, "its divergent answer is singular or failed its checks")
     return res
 
 
+def _bound(
+    model: Model, start: Configuration | None, branch: str
+) -> tuple[Configuration, BoundSolve]:
+    """The start (default home, its shapes checked) and the model's C solve of ``branch``
+    bound to it (:meth:`~scdk_sym.codegen.library.CTracker.bound_solve`): bound once per start,
+    so that repeated solves from one start check and convert it once."""
+    held: dict[str, tuple[Configuration, BoundSolve]]
+    held = model.products.get(BOUND_C_SOLVES, dict)
+    if start is None:
+        start = model.home
+    got = held.get(branch)
+    if got is not None and got[0] is start:
+        return got
+    start = validate_start(model, start, check_residual=False)
+    y1, c1 = model.chart.to_local(start.y)
+    call = tracker_library(model).bound_solve(y1, c1, start.theta, branch == "divergent")
+    held[branch] = (start, call)
+    return start, call
+
+
 def _divergent_result(model: Model, theta0: np.ndarray, start: Configuration, y: np.ndarray,
-                      out) -> SolveResult | None:  # fmt: skip
+                      out, backend: str) -> SolveResult | None:  # fmt: skip
     """The verified answer of ``<prefix>_solve_divergent`` (its output ``out``, the answer's
     canonical ``y``), with the fold crossed as its one crossing, as the first way (``"paper"``) of
     :func:`scdk_sym.solvers.divergent.divergent` reports it; None where the answer is singular or
@@ -144,7 +165,7 @@ def _divergent_result(model: Model, theta0: np.ndarray, start: Configuration, y:
     y_f = model.chart.to_canonical(out.fold_y, out.fold_c)
     fold = Crossing(out.fold_s, out.fold_x, y_f, theta_f, kind="fold")
     try:
-        res = solve_result(model, y, theta0, (fold,), "divergent", -sign0, start, None)
+        res = solve_result(model, y, theta0, (fold,), "divergent", -sign0, start, None, backend)
         if res.status == "singular":
             return None
         return replace(parity_checked(model, res, sign0), strategy="paper")
