@@ -182,11 +182,11 @@ class CTracker:
         # arrays by address (an int: a third of the cost of a typed pointer per call)
         self._solve.argtypes = [
             _vp, ctypes.c_int, _vp, ctypes.c_int, _vp, ctypes.c_int, _vp,
-            ctypes.POINTER(Options), _vp, _vp, _vp, _dp, _dp,
+            ctypes.POINTER(Options), _vp, _vp, _vp, _dp, _dp, _vp,
         ]  # fmt: skip
         self._solve_divergent = getattr(lib, f"{p}_solve_divergent")
         self._solve_divergent.restype = ctypes.c_int
-        self._solve_divergent.argtypes = [*self._solve.argtypes, _vp]
+        self._solve_divergent.argtypes = [*self._solve.argtypes, _vp]  # fold, then checks
         self._sweep = getattr(lib, f"{p}_sweep")
         self._sweep.restype = ctypes.c_int
         self._sweep.argtypes = [
@@ -383,12 +383,14 @@ class BoundSolve:
         self.res, self.det = ctypes.c_double(), ctypes.c_double()
         self.extra = np.empty(1 + lib.m + lib.n + lib.nc) if fold else None
         self._fn = fn
+        self.checks = np.empty(18)  # T (column-major), det J_p, |J_p|_F at the answer
         self._args = (
             y1.ctypes.data, y1.size, self._start[1].ctypes.data, c1.size,
             theta1.ctypes.data, theta1.size, self.theta0.ctypes.data,
             ctypes.byref(options) if options is not None else None,
             self.y.ctypes.data, self.c.ctypes.data, self.x.ctypes.data, ctypes.byref(self.res),
             ctypes.byref(self.det), *(() if self.extra is None else (self.extra.ctypes.data,)),
+            self.checks.ctypes.data,
         )  # fmt: skip
         self._options = options  # kept alive with the pointer to it
         self._lock = threading.Lock()  # the C call releases the GIL: one call at a time
@@ -405,14 +407,15 @@ class BoundSolve:
             self.theta0[:] = theta0
         else:
             args = (*args[:6], None, *args[7:])
-        for a in (self.y, self.c, self.x):
+        for a in (self.y, self.c, self.x, self.checks):
             a.fill(np.nan)
         self.res.value = self.det.value = np.nan
         if self.extra is not None:
             self.extra.fill(np.nan)
         status = self._fn(*args)
         out = SolveOutput(int(status), self.y.copy(), self.c[: self.nc].copy(), self.x.copy(),
-                          float(self.res.value), float(self.det.value))  # fmt: skip
+                          float(self.res.value), float(self.det.value),
+                          checks=self.checks.copy())  # fmt: skip
         if self.extra is None:
             return out
         m, n, e = self.m, self.n, self.extra.copy()
@@ -435,6 +438,8 @@ class SolveOutput:
         fold_y: (m,) its unknowns in the chart ``fold_c`` (divergent solve only).
         fold_x: (n,) its workspace coordinates (divergent solve only).
         fold_c: (nc,) the chart of ``fold_y`` (divergent solve only).
+        checks: (18,) at the answer (its ``y``, ``c``): the platform placement (16 values,
+            column-major), ``det J_p`` and ``|J_p|_F``, what the answer is verified by.
     """
 
     status: int
@@ -447,6 +452,7 @@ class SolveOutput:
     fold_y: np.ndarray | None = None
     fold_x: np.ndarray | None = None
     fold_c: np.ndarray | None = None
+    checks: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

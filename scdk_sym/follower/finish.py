@@ -38,11 +38,16 @@ def singular_jp(Jp: np.ndarray) -> bool:
     n = len(Jp)
     if 0 < n <= 8:
         v = Jp.ravel()
-        frob = math.sqrt(float(v @ v))
-        if frob > 0.0 and abs(_det(Jp)) > 2e-6 * frob**n:
+        if clearly_regular(_det(Jp), math.sqrt(float(v @ v)), n):
             return False
     S = np.linalg.svd(Jp, compute_uv=False)
     return not S[-1] > 1e-6 * S[0]
+
+
+def clearly_regular(det: float, frob: float, n: int) -> bool:
+    """An n x n ``J_p`` with determinant ``det`` and Frobenius norm ``frob`` is not singular to
+    1e-6 relative, by the bound of :func:`singular_jp` (``False``: undecided, or n > 8)."""
+    return 0 < n <= 8 and frob > 0.0 and abs(det) > 2e-6 * frob**n
 
 
 def _det(A: np.ndarray) -> float:

@@ -2,11 +2,10 @@
 
 :func:`solve_many` is :func:`scdk_sym.solve` at each row of an array of readings, from one
 start, with what a repeated call does once done once: the start and the readings are checked
-once, the model's C library and the start's chart are found once, the generated C follower
-answers each reading into preallocated arrays, and the answers are verified together (the
-pose and closure kernels and ``J_p`` evaluated over every answer in one call each). Every row
-equals the single solve's answer (the same C call, the same verification: its tests compare
-them bit for bit); a reading the C follower hands over is solved by :func:`scdk_sym.solve`
+once, the model's C library is found and bound to the start once, and the generated C
+follower answers each reading, verified as a single solve verifies it. Every row equals the
+single solve's answer (the same C call, the same verification: its tests compare them bit for
+bit); a reading the C follower hands over is solved by :func:`scdk_sym.solve`
 itself, and a reading that fails is reported in its row, never filled in.
 """
 
@@ -18,13 +17,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..backends import offered
+from ..codegen.library import tracker_library
 from ..errors import InputError, ScdkError, VerificationError
-from ..follower.finish import singular_jp
-from ..kernels.fastcall import model_calls
-from ..results import Configuration
+from ..results import Configuration, SolveResult
 from ..robot import Model, as_vector
 from .query import validate_start
 from .solve import solve
+from .solve_c import convergent_answer
 
 __all__ = ["SolveBatch", "solve_many"]
 
@@ -100,27 +99,22 @@ def solve_many(
         raise InputError(f"solve_many: branch must be 'convergent' or 'divergent', got {branch!r}")
     th = _readings(model, thetas)
     start = validate_start(model, start)
-    N = len(th)
-    y = np.full((N, model.m), np.nan)
+    answers: dict[int, SolveResult] = {}
     errors: dict[int, ScdkError] = {}
-    handed: list[int] = []
     if backend == "c" and branch == "convergent":
-        done = _c_rows(model, th, start, y)
-    else:
-        done = np.zeros(N, dtype=bool)
-    for i in np.flatnonzero(~done):
-        try:
-            res = solve(model, th[i], start, branch, backend=backend, record_path=False)
-        except ScdkError as exc:
-            errors[int(i)] = exc
+        _c_rows(model, th, start, answers, errors)
+    for i in range(len(th)):
+        if i in answers or i in errors:
             continue
-        y[i] = res.y
-        if res.fallback:
-            handed.append(int(i))
-    x, residual, status = _verified(model, th, y, errors)
+        try:
+            answers[i] = solve(model, th[i], start, branch, backend=backend, record_path=False)
+        except ScdkError as exc:
+            errors[i] = exc
+    handed = tuple(i for i in sorted(answers) if answers[i].fallback)
+    y, x, residual, status = _table(model, len(th), answers)
     for a in (th, y, x, residual, status):
         a.setflags(write=False)
-    return SolveBatch(th, y, x, residual, status, errors, tuple(handed), branch, start)
+    return SolveBatch(th, y, x, residual, status, errors, handed, branch, start)
 
 
 def _readings(model: Model, thetas: ArrayLike) -> np.ndarray:
@@ -136,55 +130,33 @@ def _readings(model: Model, thetas: ArrayLike) -> np.ndarray:
     return th
 
 
-def _c_rows(model: Model, th: np.ndarray, start: Configuration, y: np.ndarray) -> np.ndarray:
-    """Solve each reading in the C follower (:func:`~scdk_sym.solvers.solve_c.solve_c`'s
-    call); fills the rows of ``y`` it answers and returns which (the others, refused or
-    failed, go to :func:`scdk_sym.solve`)."""
-    from ..codegen.library import tracker_library
-
+def _c_rows(model: Model, th: np.ndarray, start: Configuration,
+            answers: dict[int, SolveResult], errors: dict[int, ScdkError]) -> None:  # fmt: skip
+    """Solve each reading in the C follower, bound to the start once, and verify each answer
+    as the single solve does (:func:`~scdk_sym.solvers.solve_c.convergent_answer`): fills
+    ``answers`` and, for an answer that fails its check, ``errors``; the rows the C follower
+    refuses are left to :func:`scdk_sym.solve`."""
     y1, c1 = model.chart.to_local(start.y)
     call = tracker_library(model).bound_solve(y1, c1, start.theta)
-    done = np.zeros(len(th), dtype=bool)
     for i, theta0 in enumerate(th):
         out = call(theta0)
-        if out.status >= 0:
-            y[i] = model.chart.to_canonical(out.y, out.c)
-            done[i] = True
-    return done
+        if out.status < 0:
+            continue
+        try:
+            answers[i] = convergent_answer(model, out, theta0, start)
+        except VerificationError as exc:
+            errors[i] = exc
 
 
-def _verified(
-    model: Model, th: np.ndarray, y: np.ndarray, errors: dict[int, ScdkError]
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(x, residual, status)`` of the answered rows, the kernels evaluated over all of them
-    at once (each row's values those of a single call: ``Function.map``); a row whose
-    residual exceeds the tolerance joins ``errors``."""
-    N = len(th)
+def _table(
+    model: Model, N: int, answers: dict[int, SolveResult]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(y, x, residual, status)`` of N rows from the verified answers (NaN and "failed"
+    in the other rows)."""
+    y = np.full((N, model.m), np.nan)
     x = np.full((N, len(model.workspace)), np.nan)
     residual = np.full(N, np.nan)
     status = np.full(N, "failed", dtype=object)
-    rows = np.flatnonzero(np.isfinite(y).all(axis=1))
-    if not len(rows):
-        return x, residual, status
-    local = [model.chart.to_local(y[i]) for i in rows]  # the single solve's own chart
-    ys = np.array([a for a, _ in local]).T
-    cs = np.array([c for _, c in local]).reshape(len(rows), -1).T
-    calls = model_calls(model)
-    args = (ys, th[rows].T, cs)
-    pose = calls.mapped("pose", len(rows))(*args)[1]
-    check = np.abs(calls.mapped("check", len(rows))(*args)).max(axis=0)
-    jac = np.asarray(calls.mapped("jac", len(rows))(*args)[0]).reshape(model.m, -1, model.m)
-    jac = np.ascontiguousarray(jac.transpose(1, 0, 2))  # (rows, m, m): each point's J_p
-    for j, i in enumerate(rows):
-        if not check[j] <= model.tolerance:
-            errors[int(i)] = VerificationError(
-                f"solution at theta0={th[i].tolist()} failed verification: residual "
-                f"{check[j]:.3g} > {model.tolerance:.1e}",
-                float(check[j]),
-            )
-            y[i] = np.nan
-            continue
-        x[i] = np.asarray(pose)[:, j]
-        residual[i] = check[j]
-        status[i] = "singular" if singular_jp(jac[j]) else "converged"
-    return x, residual, status
+    for i, res in answers.items():
+        y[i], x[i], residual[i], status[i] = res.y, res.x, res.residual, res.status
+    return y, x, residual, status

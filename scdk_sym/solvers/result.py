@@ -8,6 +8,8 @@ crossings it is reported with) and join the legs of the paper's divergent path.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from ..errors import VerificationError
@@ -16,6 +18,22 @@ from ..follower.surface import det_sign
 from ..kernels.fastcall import model_calls
 from ..results import Configuration, Crossing, PathSamples, SolveResult, frozen_array, frozen_joints
 from ..robot import Model
+
+#: The checks of an answer at ``(y_loc, theta, c)``: ``(T, x, residual, singular)``, the
+#: platform placement (4, 4), the workspace coordinates (n,), max |closure row| [model length
+#: unit] and whether ``J_p`` is singular to 1e-6 relative.
+Checks = Callable[[Model, np.ndarray, np.ndarray, np.ndarray],
+                  tuple[np.ndarray, np.ndarray, float, bool]]  # fmt: skip
+
+
+def kernel_checks(
+    model: Model, y_loc: np.ndarray, theta: np.ndarray, c: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, float, bool]:
+    """The :data:`Checks` of an answer by the model's kernels: the pose, the closure rows and
+    ``J_p`` in one call (each value that of its own kernel, as
+    :meth:`~scdk_sym.robot.Model.configuration` computes them)."""
+    T, x, residual, Jp = model_calls(model).verify(y_loc, theta, c)
+    return T, x, residual, singular_jp(Jp)
 
 
 def solve_result(
@@ -28,22 +46,22 @@ def solve_result(
     start: Configuration,
     path: PathSamples | None,
     backend: str = "",
+    checks: Checks = kernel_checks,
 ) -> SolveResult:
     """The verified :class:`SolveResult` of canonical unknowns ``y`` at ``theta0`` (raises
-    :class:`~scdk_sym.errors.VerificationError` when it does not close): the pose, the
-    closure rows and ``J_p`` of the answer in one kernel call (each value that of its own
-    kernel, as :meth:`~scdk_sym.robot.Model.configuration` computes them)."""
+    :class:`~scdk_sym.errors.VerificationError` when it does not close), checked by
+    ``checks`` at ``y`` in the chart centred on it."""
     y = np.asarray(y, dtype=float).reshape(model.m)  # a solver's unknowns
     theta = np.asarray(theta0, dtype=float).reshape(model.k)  # the query's checked target
     y_loc, c = model.chart.to_local(y)
-    T, x, residual, Jp = model_calls(model).verify(y_loc, theta, c)
+    T, x, residual, singular = checks(model, y_loc, theta, c)
     if not residual <= model.tolerance:
         raise VerificationError(
             f"solution at theta0={np.asarray(theta0).tolist()} failed verification: residual "
             f"{residual:.3g} > {model.tolerance:.1e}",
             residual,
         )
-    T.setflags(write=False)  # fresh arrays of the call, read-only as a Configuration's
+    T.setflags(write=False)  # fresh arrays of the checks, read-only as a Configuration's
     x.setflags(write=False)
     return SolveResult(
         x=x,
@@ -53,7 +71,7 @@ def solve_result(
         joints=frozen_joints(model.joint_values(y, theta)),
         residual=residual,
         crossings=crossings,
-        status="singular" if singular_jp(Jp) else "converged",
+        status="singular" if singular else "converged",
         branch=branch,
         b=direction,
         start=start,

@@ -20,8 +20,9 @@ of :mod:`scdk_sym.follower.kernels`, the step control of
 Both refuse a path without an answer within their arc budgets. Those cases, an explicit ``b``,
 a recorded path and an explicit ``max_arc`` are handed over (a :class:`HandOver` saying why):
 the caller, :func:`scdk_sym.solvers.solve.solve`, solves them with the compiled kernels, as it
-does a divergent answer that is singular or fails its checks. The answer is verified in Python
-(:func:`scdk_sym.solvers.result.solve_result`'s residual check, and the parity of
+does a divergent answer that is singular or fails its checks. Every answer is verified
+(:func:`scdk_sym.solvers.result.solve_result`'s residual check, by the library's own generated
+pose, closure and Jacobian kernels at the answer in the chart centred on it, and the parity of
 ``det J_p`` after the crossings of :func:`scdk_sym.follower.finish.parity_checked`), so
 nothing unverified is returned.
 """
@@ -39,16 +40,18 @@ from ..codegen.library import (
     ERR_SINGULAR_PATH,
     STATUS,
     BoundSolve,
+    SolveOutput,
     tracker_library,
 )
 from ..errors import NotAssembledError, PathError, SolveError, VerificationError
+from ..follower.finish import clearly_regular, jacobian, singular_jp
 from ..products import BOUND_C_SOLVES
 from ..results import Configuration, Crossing, SolveResult
 from ..robot import Model
 from .query import target, validate_start
-from .result import solve_result
+from .result import Checks, solve_result
 
-__all__ = ["HandOver", "solve_c"]
+__all__ = ["HandOver", "convergent_answer", "solve_c"]
 
 
 @dataclass(frozen=True)
@@ -121,11 +124,10 @@ def solve_c(
             f"C solve at theta0={th0.tolist()} failed: {STATUS.get(out.status, out.status)} "
             f"(status {out.status}); try backend='compiled'"
         )
-    y = model.chart.to_canonical(out.y, out.c)
     if branch == "convergent":
-        sign = float(np.sign(out.det))
-        return solve_result(model, y, th0, (), "convergent", sign, start, None, backend)
-    res = _divergent_result(model, th0, start, y, out, backend)
+        return convergent_answer(model, out, th0, start, backend)
+    y = model.chart.to_canonical(out.y, out.c)
+    res = _divergent_result(model, th0, start, y, out, backend, _c_checks(out))
     if res is None:
         return HandOver(th0, start, "its divergent answer is singular or failed its checks")
     return res
@@ -151,8 +153,38 @@ def _bound(
     return start, call
 
 
+def convergent_answer(model: Model, out: SolveOutput, theta0: np.ndarray, start: Configuration,
+                      backend: str = "c") -> SolveResult:  # fmt: skip
+    """The verified answer of a call of ``<prefix>_solve_convergent`` that solved ``theta0``
+    ((k,) checked) from ``start`` (``out``: its output, status >= 0).
+
+    Raises:
+        VerificationError: the answer does not close to the model's tolerance.
+    """
+    y = model.chart.to_canonical(out.y, out.c)
+    sign = float(np.sign(out.det))
+    return solve_result(model, y, theta0, (), "convergent", sign, start, None, backend,
+                        _c_checks(out))  # fmt: skip
+
+
+def _c_checks(out: SolveOutput) -> Checks:
+    """The :data:`~scdk_sym.solvers.result.Checks` of an answer of the C follower, from its
+    own output (``out``: the residual, pose and ``J_p`` of the library's generated kernels at
+    the answer, in the follower's chart); ``J_p``'s singular values decide where its
+    determinant bound does not."""
+
+    def checks(model: Model, y_loc: np.ndarray, theta: np.ndarray, c: np.ndarray):
+        assert out.checks is not None
+        T = out.checks[:16].reshape(4, 4, order="F").copy(order="C")
+        regular = clearly_regular(float(out.checks[16]), float(out.checks[17]), model.m)
+        singular = not regular and singular_jp(jacobian(model, y_loc, theta, c))
+        return T, out.x, out.residual, singular
+
+    return checks
+
+
 def _divergent_result(model: Model, theta0: np.ndarray, start: Configuration, y: np.ndarray,
-                      out, backend: str) -> SolveResult | None:  # fmt: skip
+                      out, backend: str, checks: Checks) -> SolveResult | None:  # fmt: skip
     """The verified answer of ``<prefix>_solve_divergent`` (its output ``out``, the answer's
     canonical ``y``), with the fold crossed as its one crossing, as the first way (``"paper"``) of
     :func:`scdk_sym.solvers.divergent.divergent` reports it; None where the answer is singular or
@@ -165,7 +197,8 @@ def _divergent_result(model: Model, theta0: np.ndarray, start: Configuration, y:
     y_f = model.chart.to_canonical(out.fold_y, out.fold_c)
     fold = Crossing(out.fold_s, out.fold_x, y_f, theta_f, kind="fold")
     try:
-        res = solve_result(model, y, theta0, (fold,), "divergent", -sign0, start, None, backend)
+        res = solve_result(model, y, theta0, (fold,), "divergent", -sign0, start, None, backend,
+                           checks)  # fmt: skip
         if res.status == "singular":
             return None
         return replace(parity_checked(model, res, sign0), strategy="paper")
