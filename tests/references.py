@@ -245,6 +245,10 @@ class Reference:
         """Closure residual rows at ``u`` with actuators ``theta``."""
         raise NotImplementedError
 
+    def closure_many(self, U: np.ndarray, thetas: np.ndarray) -> np.ndarray:
+        """(N, rows) :meth:`closure` at N points ``U`` (N, len(u)) with ``thetas`` (N, k)."""
+        return np.array([self.closure(u, t) for u, t in zip(U, thetas, strict=True)])
+
     def jacobian(self, u: np.ndarray, theta: np.ndarray) -> np.ndarray:
         """(k, k) d(closure)/d(pose perturbation) by central differences (rows normalised)."""
         raise NotImplementedError
@@ -490,6 +494,22 @@ class RodReference(PoseReference):
 
     def closure_pR(self, p, R, theta) -> np.ndarray:
         return np.linalg.norm(self.anchors(p, R) - self.elbows(theta), axis=1) - self.rod
+
+    def closure_many(self, U: np.ndarray, thetas: np.ndarray) -> np.ndarray:
+        """:meth:`closure` at N points in one evaluation of the arrays (the same formula)."""
+        U = np.asarray(U, dtype=float)
+        if self.spatial or self.planar_rot:
+            poses = [self.pose(u) for u in U]
+            p = np.array([a for a, _ in poses])
+            R = np.array([b for _, b in poses])
+            anchors = p[:, None, :] + self.c @ R.transpose(0, 2, 1)
+        else:  # a translation: R = I (the same values as pose's)
+            p = np.zeros((len(U), 3))
+            p[:, : U.shape[1]] = U
+            anchors = p[:, None, :] + self.c @ np.eye(3).T
+        th = np.asarray(thetas, dtype=float)
+        elbows = self.P + np.cos(th)[..., None] * self.u + np.sin(th)[..., None] * self.w
+        return np.linalg.norm(anchors - elbows, axis=2) - self.rod
 
     def _ik(self, x, modes, near) -> np.ndarray | None:
         p, R = self.pose(x)
@@ -1639,13 +1659,13 @@ def line_curve_reaches(
         u[idx] = v[:-1]
         return np.asarray(ref.closure(u, theta1 + v[-1] * dth))[rows]
 
-    def J(v, h=1e-7):
-        cols = []
-        for i in range(len(v)):
-            e = np.zeros(len(v))
-            e[i] = h
-            cols.append((F(v + e) - F(v - e)) / (2 * h))
-        return np.array(cols).T
+    def J(v, h=1e-7):  # central differences, the 2 len(v) points in one evaluation
+        n = len(v)
+        V = np.concatenate([v + h * np.eye(n), v - h * np.eye(n)])
+        U = np.tile(u0, (2 * n, 1))
+        U[:, idx] = V[:, :-1]
+        G = ref.closure_many(U, theta1 + V[:, -1:] * dth)[:, rows]
+        return ((G[:n] - G[n:]) / (2 * h)).T
 
     def tangent(v, prev):
         t = np.linalg.svd(J(v))[2][-1]
