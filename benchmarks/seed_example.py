@@ -13,7 +13,8 @@ work and one ctypes call), the binding's call alone
 (``tracker_library(model).solve_convergent``, which converts its arguments each call),
 ``sc.solve`` (validation, the call, the verified result) and ``sc.solve_many`` over
 ``--batch`` copies of the reading (per reading), each with its excess over the bound call and
-over the binding's call.
+over the binding's call; and a track of 10 readings with ``backend="c"``: the binding's call
+(``tracker_library(model).track``) and ``sc.track``, with its excess.
 
     python benchmarks/seed_example.py [--repeat 200] [--clock cpu] [--batch 200]
 
@@ -154,6 +155,13 @@ def repeated_calls(base: float, repeat: int, batch: int, clock) -> None:
             excess += f" / +{(t - raw) * 1e6:.1f} us"
         excess += ")" if excess else ""
         print(f"  {label:<44}{t * 1e6:8.1f}{t / base:8.2f}{excess}")
+    motion = start.theta + np.linspace(0.0, 0.05, 10)[:, None] * np.array([1.0, -0.5, 0.3])
+    raw = median_time(lambda: lib.track(y1, c1, start.theta, motion), repeat, clock)
+    tracked = median_time(lambda: sc.track(model, motion, start, backend="c"), repeat, clock)
+    print("planar_hexa, a track of 10 readings, backend c, per call (us):")
+    label = "binding's call (C tracker + ctypes)"
+    print(f"  {label:<44}{raw * 1e6:8.1f}")
+    print(f"  {'sc.track':<44}{tracked * 1e6:8.1f}  (+{(tracked - raw) * 1e6:.1f} us)")
 
 
 if __name__ == "__main__":

@@ -101,6 +101,12 @@ CLOSURE_JACOBIANS = Key(
 BOUND_C_SOLVES = Key(
     "bound_c_solves", "the C solves bound to their last start, per branch", "the model only"
 )
+#: The last start configuration checked assembled, and the last one's ``det J_p``
+#: (:func:`scdk_sym.solvers.query.validate_start`, :func:`scdk_sym.solvers.query.start_det`).
+CHECKED_START = Key(
+    "checked_start", "the last start checked assembled and the last start's det J_p",
+    "the model only",
+)  # fmt: skip
 #: Every declared key, by name.
 KEYS: dict[str, Key] = {
     k.name: k
@@ -123,6 +129,7 @@ KEYS: dict[str, Key] = {
         BACKGROUND_BUILDS,
         CLOSURE_JACOBIANS,
         BOUND_C_SOLVES,
+        CHECKED_START,
     )
 }
 

@@ -220,7 +220,7 @@ def test_bad_readings_and_backends():
 
 
 def test_c_backend_is_dispatched_to_track_c(monkeypatch):
-    import scdk_sym.solvers.track_c as track_c_module
+    import scdk_sym.solvers.track as track_module
 
     calls = []
 
@@ -228,7 +228,7 @@ def test_c_backend_is_dispatched_to_track_c(monkeypatch):
         calls.append((model, np.asarray(thetas), start))
         return "from track_c"
 
-    monkeypatch.setattr(track_c_module, "track_c", fake)
+    monkeypatch.setattr(track_module, "track_c", fake)
     model = shipped("planar_hexa")
     thetas = np.tile(model.home.theta, (2, 1))
     assert sc.track(model, thetas, start=model.home, backend="c") == "from track_c"

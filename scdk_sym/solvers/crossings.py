@@ -15,6 +15,7 @@ from ..kernels.fastcall import model_calls
 from ..model.rotations import gibbs, rot_exp
 from ..results import Configuration, Crossing
 from ..robot import Model
+from .query import start_det
 
 #: A full turn [rad].
 TWO_PI = 2.0 * math.pi
@@ -41,9 +42,9 @@ def crossings(
     dets = np.asarray(dets, dtype=float)
     if dets.size == 0:
         return ()
-    y_loc0, c0 = model.chart.to_local(start.y)
-    det0 = float(np.linalg.det(model_calls(model).jac(y_loc0, start.theta, c0)[0]))
-    dd = np.concatenate([[det0], dets])
+    dd = np.concatenate([[start_det(model, start)], dets])
+    if (dd > 0).all() or (dd < 0).all():  # one sign throughout: no change
+        return ()
     changes = np.flatnonzero(np.sign(dd[:-1]) * np.sign(dd[1:]) < 0)
     if changes.size == 0:
         return ()

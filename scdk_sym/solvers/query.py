@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike
 from ..errors import InputError, NotAssembledError
 from ..follower.tangent import null_direction
 from ..kernels.fastcall import model_calls
+from ..products import CHECKED_START
 from ..results import Configuration
 from ..robot import Model, as_vector
 
@@ -42,12 +43,34 @@ class Query:
     record_path: bool
 
 
+@dataclass
+class StartMemo:
+    """What a model remembers of its last starts (a :class:`Configuration` is immutable, so
+    one checked once stays checked).
+
+    Attributes:
+        checked: the last start checked assembled (shapes and residual).
+        det: the last start whose ``det J_p`` was asked for, and that determinant.
+    """
+
+    checked: Configuration | None = None
+    det: tuple[Configuration, float] | None = None
+
+
+def _memo(model: Model) -> StartMemo:
+    return model.products.get(CHECKED_START, StartMemo)
+
+
 def validate_start(
     model: Model, start: Configuration | None, check_residual: bool = True
 ) -> Configuration:
-    """The start configuration (default home), checked to be assembled."""
+    """The start configuration (default home), checked to be assembled (the last start
+    checked is not checked again)."""
     if start is None:
         return model.home
+    memo = _memo(model)
+    if start is memo.checked:
+        return start
     if not isinstance(start, Configuration):
         raise InputError(
             f"start must be a Configuration (e.g. model.inverse_kinematics(x)), got {start!r}"
@@ -62,7 +85,20 @@ def validate_start(
             f"start configuration is not assembled (residual {res:.3g} > {model.tolerance:.1e})",
             res,
         )
+    memo.checked = start
     return start
+
+
+def start_det(model: Model, start: Configuration) -> float:
+    """``det J_p`` at a start configuration, in the chart centred on it (the last start's
+    remembered)."""
+    memo = _memo(model)
+    if memo.det is not None and memo.det[0] is start:
+        return memo.det[1]
+    y_loc, c = model.chart.to_local(start.y)
+    det = float(np.linalg.det(model_calls(model).jac(y_loc, start.theta, c)[0]))
+    memo.det = (start, det)
+    return det
 
 
 def target(model: Model, theta0: ArrayLike) -> np.ndarray:

@@ -127,6 +127,7 @@ from .background import without_waiting
 from .blocks import track_blocks
 from .crossings import crossings
 from .query import validate_start
+from .track_c import track_c
 from .track_errors import verify_samples
 from .tracker import Tracker
 
@@ -197,8 +198,6 @@ def track(
             model, model.stages, readings, validate_start(model, start), track, backend=backend
         )
     if backend == "c":
-        from .track_c import track_c
-
         return track_c(model, thetas, start)
     thetas = _thetas(model, thetas)
     start = validate_start(model, start)

@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..codegen.library import ERR_NO_SOLUTION, ERR_UNDECIDABLE, STATUS, tracker_library
 from ..errors import InputError, TrackError
 from ..model.rotations import cayley, rot_log
 from ..results import Configuration, TrackResult
@@ -66,8 +67,6 @@ def track_c(
             failure of the C tracker, or a sample failed verification (status 0).
         BuildError: no C compiler (the library is compiled on first use).
     """
-    from ..codegen.library import ERR_NO_SOLUTION, ERR_UNDECIDABLE, STATUS, tracker_library
-
     th = _readings(thetas, model.k)
     start = validate_start(model, start)
     lib = tracker_library(model)
@@ -112,9 +111,8 @@ def _readings(thetas, k: int) -> np.ndarray:
         th = th[None, :]
     if th.ndim != 2 or th.shape[1] != k:
         raise InputError(f"thetas must have shape (N, {k}), got {th.shape}")
-    finite = np.all(np.isfinite(th), axis=1)
-    if not finite.all():
-        i = int(np.flatnonzero(~finite)[0])
+    if not np.isfinite(th).all():
+        i = int(np.flatnonzero(~np.isfinite(th).all(axis=1))[0])
         raise InputError(f"thetas[{i}] must be finite, got {th[i].tolist()}")
     return th
 

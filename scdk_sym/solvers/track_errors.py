@@ -67,8 +67,9 @@ def verify_samples(model: Model, residual: np.ndarray, thetas: np.ndarray) -> No
         residual: (N,) max |closure row| per sample [model length unit].
         thetas: (N, k) the readings.
     """
-    bad = np.flatnonzero(~(residual <= model.tolerance))
-    if bad.size:
+    ok = residual <= model.tolerance
+    if not ok.all():
+        bad = np.flatnonzero(~ok)
         i = int(bad[0])
         raise TrackError(
             f"sample {i} failed verification: residual {residual[i]:.3g} > "
