@@ -61,7 +61,8 @@ TRACK_KERNELS = Key("track_kernels", "buffered SX kernels of the tracker", "the 
 C_TRACKER = Key("c_tracker", "the compiled C curve tracker library", "the model only")
 #: Algebraic forms per backend (:func:`scdk_sym.algebraic.form.algebraic_form`).
 ALGEBRAIC_FORM = Key("algebraic_form", "polynomial form of the closure system", "backend")
-#: The compiled homotopy tracker of the algebraic form (:mod:`scdk_sym.algebraic.paths.ctracker`).
+#: The compiled homotopy continuation of the algebraic form
+#: (:mod:`scdk_sym.algebraic.paths.continuation_c`).
 HOMOTOPY_TRACKER = Key(
     "homotopy_tracker", "compiled homotopy path tracker of the algebraic form", "the model only"
 )
