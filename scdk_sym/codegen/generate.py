@@ -7,8 +7,9 @@
   predictor-corrector step, the RK4 step in ``s``, the Newton corrector and polish), the chart
   re-centring and an inverse-kinematics step (self-contained C, see
   :mod:`scdk_sym.codegen.kernels`);
-- ``P_tracker.c`` / ``P_tracker.h``: the tracker, the templates ``codegen/c/tracker*.c.in``
-  (parts joined into one source) and ``codegen/c/tracker.h.in`` (package data,
+- ``P_tracker.c`` / ``P_tracker.h``: the tracker, the templates of
+  :data:`~scdk_sym.codegen.templates.SOURCE_PARTS` (parts joined into one source, each beside
+  the Python module it mirrors) and ``codegen/c/tracker.h.in`` (package data,
   :mod:`scdk_sym.codegen.templates`) filled with the model's sizes, tolerances and home
   configuration, and the status codes of :mod:`scdk_sym.codegen.status`.
 

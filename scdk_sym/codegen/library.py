@@ -483,7 +483,7 @@ def tracker_library(model) -> CTracker:
 #: What the C tracker's sources are made from besides the model (its index key covers them).
 TRACKER_SOURCES = (
     "codegen",
-    *(f"codegen/c/{name}" for name in (*templates.SOURCE_PARTS, templates.HEADER)),
+    *(part.path for part in (*templates.SOURCE_PARTS, templates.HEADER_PART)),
     "kernels/c/scdk_lu.h",
 )
 

@@ -17,7 +17,7 @@ which :mod:`scdk_sym.codegen.generate` writes into the generated tracker) and th
 ``backend="cvodes"`` (this module) follows the SC curve with CVODES
 (:func:`~scdk_sym.solvers.trace.trace`), ``backend="c"`` with the follower's RK4
 predictor-corrector steps (:mod:`scdk_sym.follower.kernels`, code-generated) in the generated C
-tracker (``scdk_sym/codegen/c/tracker_rule.c.in``; the tracker's header states the same rule).
+tracker (``scdk_sym/solvers/tracker.c.in``; the tracker's header states the same rule).
 Only the way the curve is followed differs; the prediction, the cheap step, the Newton
 correctors, the choice and the refusal are the same computation.
 
