@@ -39,7 +39,7 @@ class Key:
 
 #: Zero-copy callers of ``model.kernels`` (:class:`~scdk_sym.kernels.fastcall.ModelCalls`).
 MODEL_CALLS = Key("model_calls", "zero-copy callers of model.kernels", "the model only")
-#: Follower kernels per backend (:class:`~scdk_sym.follower.kernels.FollowerKernels`).
+#: Follower kernels per backend (:class:`~scdk_sym.follower.calls.FollowerKernels`).
 FOLLOWER_KERNELS = Key(
     "follower_kernels", "SC follower kernels (SX or compiled externals)", "backend"
 )
@@ -78,7 +78,7 @@ PINOCCHIO_MODEL = Key(
 CLOSURE_FUNCTION = Key(
     "closure_function", "closure rows as an SX Function of (y, [theta; c])", "the model only"
 )
-#: The block whose joints alone place the reported frame (:mod:`scdk_sym.solvers.blocks`).
+#: The block whose joints alone place the reported frame (:mod:`scdk_sym.solvers.blockwise`).
 PLACING_BLOCK = Key(
     "placing_block", "index of the block that alone places the reported frame", "the model only"
 )
