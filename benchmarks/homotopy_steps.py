@@ -25,7 +25,7 @@ import numpy as np  # noqa: E402
 
 import scdk_sym as sc  # noqa: E402
 from scdk_sym.algebraic import algebraic_form, solve_homotopy  # noqa: E402
-from scdk_sym.algebraic.paths.tracker import TrackerOptions  # noqa: E402
+from scdk_sym.algebraic.paths.continuation import TrackerOptions  # noqa: E402
 from scdk_sym.algebraic.scaled import scaled_form  # noqa: E402
 from scdk_sym.solvers.start_system import model_start_system  # noqa: E402
 

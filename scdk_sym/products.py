@@ -39,7 +39,7 @@ class Key:
 
 #: Zero-copy callers of ``model.kernels`` (:class:`~scdk_sym.kernels.fastcall.ModelCalls`).
 MODEL_CALLS = Key("model_calls", "zero-copy callers of model.kernels", "the model only")
-#: Follower kernels per backend (:class:`~scdk_sym.follower.kernels.FollowerKernels`).
+#: Follower kernels per backend (:class:`~scdk_sym.follower.calls.FollowerKernels`).
 FOLLOWER_KERNELS = Key(
     "follower_kernels", "SC follower kernels (SX or compiled externals)", "backend"
 )
@@ -61,7 +61,8 @@ TRACK_KERNELS = Key("track_kernels", "buffered SX kernels of the tracker", "the 
 C_TRACKER = Key("c_tracker", "the compiled C curve tracker library", "the model only")
 #: Algebraic forms per backend (:func:`scdk_sym.algebraic.form.algebraic_form`).
 ALGEBRAIC_FORM = Key("algebraic_form", "polynomial form of the closure system", "backend")
-#: The compiled homotopy tracker of the algebraic form (:mod:`scdk_sym.algebraic.paths.ctracker`).
+#: The compiled homotopy continuation of the algebraic form
+#: (:mod:`scdk_sym.algebraic.paths.continuation_c`).
 HOMOTOPY_TRACKER = Key(
     "homotopy_tracker", "compiled homotopy path tracker of the algebraic form", "the model only"
 )
@@ -77,7 +78,7 @@ PINOCCHIO_MODEL = Key(
 CLOSURE_FUNCTION = Key(
     "closure_function", "closure rows as an SX Function of (y, [theta; c])", "the model only"
 )
-#: The block whose joints alone place the reported frame (:mod:`scdk_sym.solvers.blocks`).
+#: The block whose joints alone place the reported frame (:mod:`scdk_sym.solvers.blockwise`).
 PLACING_BLOCK = Key(
     "placing_block", "index of the block that alone places the reported frame", "the model only"
 )

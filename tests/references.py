@@ -1398,7 +1398,7 @@ def warm_up(name: str, backend: str, modes: bool = False) -> None:
         sc.solve(model, step, backend=backend, record_path=False)
         # the follower's own kernels (fold location, nearest singular point, detours) are
         # built on first use, which a plain convergent solve may not reach
-        from scdk_sym.follower.kernels import follower_kernels
+        from scdk_sym.follower.calls import follower_kernels
 
         follower_kernels(model, backend)
         if modes:  # the start system the divergent branch's last way reads

@@ -12,8 +12,8 @@ import scdk_sym as sc
 from scdk_sym import backends, cli
 from scdk_sym.algebraic import algebraic_form
 from scdk_sym.errors import InputError
+from scdk_sym.follower.calls import follower_kernels
 from scdk_sym.follower.cvodes import engine
-from scdk_sym.follower.kernels import follower_kernels
 from scdk_sym.solvers.modes import explore
 
 #: Every public entry point with a backend argument -> (registry key, a call with ``backend``).

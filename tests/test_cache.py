@@ -60,7 +60,7 @@ print(json.dumps({
 """
 
 #: Every kind of cached artefact the script above leaves (name prefixes in the cache).
-KINDS = ("compiled_", "tracker_", "algebraic_G_", "ptrack_", "ikrawczyk_",
+KINDS = ("compiled_", "tracker_", "algebraic_G_", "continuation_", "krawczyk_",
          "homotopy/")  # fmt: skip
 
 

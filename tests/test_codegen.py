@@ -10,9 +10,9 @@ from factories import ROOT, needs_compiler, shipped
 
 from scdk_sym.cli import main
 from scdk_sym.codegen.generate import generate
-from scdk_sym.codegen.kernels import build_tracker_kernels
-from scdk_sym.follower.kernels import build_follower_kernels
+from scdk_sym.follower.calls import build_follower_kernels
 from scdk_sym.kernels.curve import closure_function
+from scdk_sym.kernels.tracker_functions import build_tracker_kernels
 
 EXAMPLE = ROOT / "examples" / "c"
 CFLAGS = ["-std=c99", "-O2", "-Wall"]

@@ -1,4 +1,5 @@
-"""The C templates of the tracker (scdk_sym/codegen/c, package data) and their filling."""
+"""The C templates of the tracker (package data: codegen/c and the parts beside their Python
+twins) and their filling."""
 
 import fnmatch
 import re
@@ -13,7 +14,8 @@ from scdk_sym.codegen.status import STATUS, SweepCode, TrackerStatus
 from scdk_sym.errors import BuildError, ScdkError
 from scdk_sym.kernels.compile import compiler
 
-TEMPLATE_DIR = ROOT / "scdk_sym" / "codegen" / "c"
+PACKAGE = ROOT / "scdk_sym"
+TEMPLATE_DIR = PACKAGE / "codegen" / "c"
 STRICT = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror"]
 
 
@@ -54,21 +56,32 @@ def test_every_placeholder_is_filled(planar):
 
 
 def test_templates_are_the_package_data_files():
-    names = sorted(p.name for p in TEMPLATE_DIR.iterdir() if p.is_file())
     from scdk_sym.solvers import transmission_c
 
-    assert names == sorted(
-        [templates.HEADER, *templates.SOURCE_PARTS, transmission_c.HEADER, transmission_c.SOURCE]
+    names = sorted(p.name for p in TEMPLATE_DIR.iterdir() if p.is_file())
+    parts = [templates.HEADER_PART, *templates.SOURCE_PARTS]
+    own = [part.name for part in parts if part.folder == templates.FOLDER]
+    assert names == sorted([*own, transmission_c.HEADER, transmission_c.SOURCE])
+    assert templates.SOURCE_PARTS[0] == (templates.FOLDER, templates.SOURCE)
+    assert templates.HEADER_PART == (templates.FOLDER, templates.HEADER)
+    # every template part of the package is one of the parts, each beside its Python twin
+    found = sorted(p.relative_to(PACKAGE).as_posix() for p in PACKAGE.rglob("*.c.in"))
+    assert found == sorted(
+        [part.path for part in parts if part.name.endswith(".c.in")]
+        + [f"{templates.FOLDER}/{transmission_c.SOURCE}"]
     )
-    assert templates.SOURCE_PARTS[0] == templates.SOURCE
+    for part in parts:
+        assert templates.template(part.name, part.folder) == (PACKAGE / part.path).read_text()
+        if part.folder != templates.FOLDER:
+            assert (PACKAGE / part.folder / part.name.replace(".c.in", ".py")).is_file(), part
     for name in names:
         assert templates.template(name) == (TEMPLATE_DIR / name).read_text()
     # shipped by a non-editable install: matched by the package-data patterns
     tomllib = pytest.importorskip("tomllib", reason="reading pyproject.toml needs Python 3.11")
     config = tomllib.loads((ROOT / "pyproject.toml").read_text())
     patterns = config["tool"]["setuptools"]["package-data"]["scdk_sym"]
-    for name in names:
-        assert any(fnmatch.fnmatch(f"codegen/c/{name}", pat) for pat in patterns), name
+    for path in [*(part.path for part in parts), *(f"codegen/c/{name}" for name in names)]:
+        assert any(fnmatch.fnmatch(path, pat) for pat in patterns), path
 
 
 def test_a_placeholder_without_a_value_is_a_build_error():
@@ -88,13 +101,13 @@ def test_the_source_is_its_parts_in_order(planar):
     text = planar.tracker_c.read_text()
     assert text.startswith("/* scdk_tracker.c: standalone")
     heads = [
-        templates.template(name).splitlines()[0].replace("@P@", "scdk")
-        for name in templates.SOURCE_PARTS
+        templates.template(part.name, part.folder).splitlines()[0].replace("@P@", "scdk")
+        for part in templates.SOURCE_PARTS
     ]
     at = [text.index(head) for head in heads]
     assert at == sorted(at) and len(set(heads)) == len(heads)
-    for name in templates.SOURCE_PARTS:  # one idea per file
-        assert len(templates.template(name).splitlines()) < 500, name
+    for part in templates.SOURCE_PARTS:  # one idea per file
+        assert len(templates.template(part.name, part.folder).splitlines()) < 500, part
 
 
 def test_status_codes_come_from_one_table(planar):

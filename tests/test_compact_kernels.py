@@ -17,7 +17,7 @@ from factories import needs_compiler, shipped
 
 import scdk_sym as sc
 from scdk_sym.errors import ModelWarning
-from scdk_sym.follower.kernels import build_follower_kernels
+from scdk_sym.follower.calls import build_follower_kernels
 from scdk_sym.kernels import compile as comp
 from scdk_sym.kernels.curve import WRITTEN_SOLVE_MAX, closure_function, compact, loop_solver
 from scdk_sym.kernels.functions import build_kernels

@@ -77,7 +77,7 @@ def test_compiled_follower_kernels_equal_the_sx_functions():
     singular kernel at -O0) against its SX Functions near the fold that the seed example's
     divergent path crosses, to 1e-13 relative (the same operations; the order of a few sums
     may differ)."""
-    from scdk_sym.follower.kernels import COMPILED_GROUPS, follower_kernels
+    from scdk_sym.follower.calls import COMPILED_GROUPS, follower_kernels
 
     model = shipped("planar_hexa")
     start = model.inverse_kinematics([0.0, 0.0, 0.4])
@@ -153,7 +153,7 @@ def package_copy(tmp_path, monkeypatch):
 SOURCES = [
     "model/rotations.py", "model/chart.py", "model/urdf.py", "symbolic/system.py",
     "symbolic/kinematics.py", "kernels/functions.py", "kernels/compile.py", "kernels/curve.py",
-    "kernels/follower.py", "follower/kernels.py",
+    "kernels/follower.py", "follower/calls.py",
 ]  # fmt: skip
 
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from factories import shipped
 
-from scdk_sym.follower.kernels import follower_calls, follower_kernels
+from scdk_sym.follower.calls import follower_calls, follower_kernels
 from scdk_sym.kernels.fastcall import Dense, model_calls
 
 

@@ -35,7 +35,7 @@ from scdk_sym.algebraic import (
 from scdk_sym.algebraic.distinct import dedup, pair_distances, pairs_apart
 from scdk_sym.algebraic.homotopy import solve_homotopies, track_parameter_homotopy
 from scdk_sym.algebraic.parameter_homotopy import ParameterHomotopy
-from scdk_sym.algebraic.paths.tracker import DONE, STEP_LIMIT, TrackerOptions, track
+from scdk_sym.algebraic.paths.continuation import DONE, STEP_LIMIT, TrackerOptions, track
 from scdk_sym.errors import HomotopyError, InputError, ScdkError
 
 

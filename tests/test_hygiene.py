@@ -148,7 +148,7 @@ PROCESS_MEMOS = {
     "atlases/chunk.py:_MODELS": "a worker's models, rebuilt from their sources once per process",
     "algebraic/certify/square.py:_SQUARES": "square systems of CasADi Functions, by identity",
     "algebraic/interval.py:_CACHE": "interval translations of CasADi Functions, by identity",
-    "algebraic/certify/ckrawczyk.py:_LIBRARIES": "the loaded interval library, per SIMD flags",
+    "algebraic/certify/krawczyk_c.py:_LIBRARIES": "the loaded interval library, per SIMD flags",
     "cli/common.py:COMMANDS": "the subcommands' registry, filled as their modules import",
 }
 

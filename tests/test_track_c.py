@@ -257,7 +257,7 @@ def test_seed_closed_form_is_the_papers_singular_reading():
 
 
 # (7 samples: the first step, before any motion is known, ends where the mirror solution is
-# only 2.5 times farther than the continuation; the tracker refuses it, see test_track_backends)
+# only 2.5 times farther than the continuation; the tracker refuses it, see test_track_parity)
 @pytest.mark.parametrize("count", [9, 13, 27, 61])
 def test_seed_robot_coarse_path_follows_the_motion_through_the_fold(count):
     """Few samples across the fold: the mirror solution lies nearer to the prediction's error

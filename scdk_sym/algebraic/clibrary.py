@@ -1,7 +1,7 @@
 """The C sources of the algebraic engine compiled into cached libraries.
 
-Each C twin keeps its source beside its Python module (``paths/ptrack.c``,
-``certify/ikrawczyk.c``, package data); :func:`source_library` compiles one, with its header
+Each C twin keeps its source beside its Python module (``paths/continuation.c``,
+``certify/krawczyk.c``, package data); :func:`source_library` compiles one, with its header
 and the package's LU factorisation, into a library cached on disk under the hash of all it is
 built from. :func:`simd_flags` are the instruction-set flags of this processor that leave
 every lane's arithmetic as the scalar one.

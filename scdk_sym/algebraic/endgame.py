@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .paths.tracker import DONE, Homotopy, TrackerOptions, rel_norm, track
+from .paths.continuation import DONE, Homotopy, TrackerOptions, rel_norm, track
 
 #: Endgame verdicts.
 EG_SINGULAR, EG_INFINITY, EG_FAILED = 1, 2, 3

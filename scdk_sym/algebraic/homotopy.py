@@ -29,8 +29,8 @@ from ..errors import HomotopyError, InputError
 from .distinct import dedup, pair_distances
 from .endgame import EG_INFINITY, EG_SINGULAR, cauchy_endgame
 from .parameter_homotopy import ParameterHomotopy
-from .paths.ctracker import c_tracker
-from .paths.tracker import DIVERGED, DONE, TrackerOptions, newton, track
+from .paths.continuation import DIVERGED, DONE, TrackerOptions, newton, track
+from .paths.continuation_c import c_tracker
 from .real_endpoints import real_endpoints, real_endpoints_many
 from .system import PolynomialSystem
 
@@ -118,8 +118,8 @@ def track_parameter_homotopy(
         cond_max: largest condition number of H_z (rows and columns scaled) at a regular
             endpoint.
         tracker: ``"python"`` (numpy), ``"c"`` or ``"auto"`` (see
-            :func:`~scdk_sym.algebraic.paths.ctracker.c_tracker`): who tracks the straight part of
-            the paths; the endgame always runs in numpy.
+            :func:`~scdk_sym.algebraic.paths.continuation_c.c_tracker`): who tracks the
+            straight part of the paths; the endgame always runs in numpy.
 
     Returns:
         :class:`PathEndpoints`.

@@ -38,7 +38,7 @@ from ..errors import HomotopyError
 from .distinct import dedup
 from .homotopy import track_parameter_homotopy
 from .parameter_homotopy import ParameterHomotopy
-from .paths.tracker import TrackerOptions, newton, rel_norm
+from .paths.continuation import TrackerOptions, newton, rel_norm
 from .system import PolynomialSystem
 
 #: Version of the engine; part of the cache key of start systems.

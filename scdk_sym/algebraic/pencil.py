@@ -46,7 +46,7 @@ import numpy as np
 from .distinct import dedup
 from .homotopy import track_parameter_homotopy
 from .parameter_homotopy import ParameterHomotopy
-from .paths.tracker import TrackerOptions
+from .paths.continuation import TrackerOptions
 from .system import PolynomialSystem
 
 #: Modulus of the two pencil values ``t1``, ``t2`` the union is tracked to.

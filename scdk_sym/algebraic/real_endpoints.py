@@ -7,7 +7,7 @@ import numpy as np
 
 from .distinct import dedup_groups
 from .parameter_homotopy import ParameterHomotopy
-from .paths.tracker import rel_norm
+from .paths.continuation import rel_norm
 from .system import PolynomialSystem
 
 
@@ -29,7 +29,7 @@ def real_endpoints(
         real_tol: largest ``max|Im z| / (1 + max|z|)`` of a real endpoint.
         dedup_tol: relative distance under which two real points are one.
         polish: run the real Newton steps (not at singular endpoints).
-        ctrack: the system's C tracker (:func:`~scdk_sym.algebraic.paths.ctracker.c_tracker`):
+        ctrack: the system's C tracker (:func:`~scdk_sym.algebraic.paths.continuation_c.c_tracker`):
             the Newton steps in C (at real points and parameters they stay real); ``None``:
             in numpy.
 

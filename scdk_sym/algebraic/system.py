@@ -1,7 +1,7 @@
 """The polynomial-system protocol shared by the algebraic form and the homotopy engine.
 
 A model's algebraic form and every hand-written test system satisfy
-:class:`PolynomialSystem`; the engine (:mod:`scdk_sym.algebraic.paths.tracker`,
+:class:`PolynomialSystem`; the engine (:mod:`scdk_sym.algebraic.paths.continuation`,
 :mod:`scdk_sym.algebraic.monodromy`, :mod:`scdk_sym.algebraic.homotopy`) uses nothing else.
 The homotopy family is ``F(z; p, b) = G(z, p) + b`` with ``b_i = 0`` on structural rows.
 

@@ -6,9 +6,10 @@
   ``J_s``, the pose, the curve follower's kernels (the oriented SC tangent, one RK4
   predictor-corrector step, the RK4 step in ``s``, the Newton corrector and polish), the chart
   re-centring and an inverse-kinematics step (self-contained C, see
-  :mod:`scdk_sym.codegen.kernels`);
-- ``P_tracker.c`` / ``P_tracker.h``: the tracker, the templates ``codegen/c/tracker*.c.in``
-  (parts joined into one source) and ``codegen/c/tracker.h.in`` (package data,
+  :mod:`scdk_sym.kernels.tracker_functions`);
+- ``P_tracker.c`` / ``P_tracker.h``: the tracker, the templates of
+  :data:`~scdk_sym.codegen.templates.SOURCE_PARTS` (parts joined into one source, each beside
+  the Python module it mirrors) and ``codegen/c/tracker.h.in`` (package data,
   :mod:`scdk_sym.codegen.templates`) filled with the model's sizes, tolerances and home
   configuration, and the status codes of :mod:`scdk_sym.codegen.status`.
 
@@ -36,8 +37,8 @@ from ..kernels.compile import (
     write_c,
     write_c_parts,
 )
+from ..kernels.tracker_functions import UNOPTIMISED, build_tracker_kernels
 from . import status, templates
-from .kernels import UNOPTIMISED, build_tracker_kernels
 
 #: Flags compiling each source of the shared library built for Python (the optimisation
 #: level of :mod:`scdk_sym.kernels.compile`; ``-fno-semantic-interposition``: the kernels'
@@ -71,10 +72,10 @@ class GeneratedSources:
         lu_h: the LU factorisation the tracker includes (``scdk_lu.h``, a copy of
             :data:`~scdk_sym.kernels.compile.LU_HEADER`).
         parts: written split, the kernels' sources, one per group of kernels
-            (``<prefix>_kernels_00.c``, ..., see :data:`~scdk_sym.codegen.kernels.GROUPS`),
-            else empty.
+            (``<prefix>_kernels_00.c``, ..., see
+            :data:`~scdk_sym.kernels.tracker_functions.GROUPS`), else empty.
         unoptimised: those of ``parts`` that the shared library compiles at ``-O0``
-            (:data:`~scdk_sym.codegen.kernels.UNOPTIMISED`).
+            (:data:`~scdk_sym.kernels.tracker_functions.UNOPTIMISED`).
     """
 
     directory: Path
@@ -174,8 +175,8 @@ def generate(
         directory: output directory (created if needed).
         prefix: C prefix of every exported name and file name.
         split: one kernel source per group of kernels (compiled in parallel, see
-            :data:`~scdk_sym.codegen.kernels.GROUPS`) instead of one ``<prefix>_kernels.c``;
-            the same header and functions.
+            :data:`~scdk_sym.kernels.tracker_functions.GROUPS`) instead of one
+            ``<prefix>_kernels.c``; the same header and functions.
         inverse_kinematics: False to leave out the inverse kinematics (no ``ik_step``
             kernel, ``<PREFIX>_HAS_IK`` 0: ``<prefix>_ik_solve`` refuses): the library that
             Python loads, which never calls it, compiles faster without.

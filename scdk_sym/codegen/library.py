@@ -352,10 +352,9 @@ def tracker_library(model) -> CTracker:
 
 #: What the C tracker's sources are made from besides the model (its index key covers them).
 TRACKER_SOURCES = (
-    "codegen",
-    *(f"codegen/c/{name}" for name in (*templates.SOURCE_PARTS, templates.HEADER)),
-    "kernels/c/scdk_lu.h",
-)
+    "codegen", "kernels/tracker_functions.py", "kernels/c/scdk_lu.h",
+    *(part.path for part in (*templates.SOURCE_PARTS, templates.HEADER_PART)),
+)  # fmt: skip
 
 
 def _index(model) -> Path:

@@ -1,6 +1,6 @@
 """The curve follower: one implementation of following solution curves of the closures.
 
-- :mod:`~scdk_sym.follower.kernels`: the CasADi Functions it calls (SX or generated C);
+- :mod:`~scdk_sym.follower.calls`: the CasADi Functions it calls (SX or generated C);
 - :mod:`~scdk_sym.follower.cvodes`: CVODES on the stabilised singularity-consistent field;
 - :mod:`~scdk_sym.follower.curve`: :func:`~scdk_sym.follower.curve.follow`, the walk along one
   curve (its loop and step control), with the parts it is made of:

@@ -21,7 +21,7 @@ class WalkContext:
     Attributes:
         model: the model.
         line: the line in joint space.
-        kern: the follower's kernels (:class:`~scdk_sym.follower.kernels.FollowerCalls`).
+        kern: the follower's kernels (:class:`~scdk_sym.follower.calls.FollowerCalls`).
         options: the walk's options.
         m: number of unknowns.
         scale: ``max(1, model length scale)`` [model length unit].

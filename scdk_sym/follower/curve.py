@@ -3,7 +3,7 @@
 For a line ``theta(s) = theta1 + s dtheta`` in joint space the solutions of
 ``g(y, theta(s)) = 0`` form curves in ``q = (y, s)``. :func:`follow` walks such a curve from
 an assembled point along the oriented singularity-consistent tangent (see
-:mod:`scdk_sym.follower.kernels`) and reports what it meets
+:mod:`scdk_sym.follower.calls`) and reports what it meets
 (:mod:`scdk_sym.follower.events`):
 
 - **level crossings** (``s`` passes a level, e.g. ``s = 1``: a direct-kinematics solution at
@@ -42,10 +42,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import InputError
+from .calls import follower_calls
 from .context import WalkContext
 from .events import judge
 from .follow_rule import GROW
-from .kernels import follower_calls
 from .options import FollowOptions
 from .predictors import (
     BACKUP_CALLS,

@@ -17,7 +17,7 @@ import numpy as np
 from ..errors import PathError
 from ..kernels.fastcall import model_calls
 from ..results import SolveResult
-from .kernels import follower_calls
+from .calls import follower_calls
 from .surface import det_sign
 
 

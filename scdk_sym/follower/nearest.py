@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..results import Configuration, Crossing
-from .kernels import follower_calls
+from .calls import follower_calls
 from .surface import branches_cross
 
 #: Descent iterations onto the singular surface (:func:`nearest_singular`).

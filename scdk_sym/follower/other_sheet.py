@@ -9,9 +9,9 @@ import numpy as np
 
 from ..kernels.fastcall import model_calls
 from ..results import Configuration, Crossing
+from .calls import follower_calls
 from .curve import follow
 from .geometry import difference, features
-from .kernels import follower_calls
 from .options import FollowOptions
 from .surface import branches_cross, det_sign
 from .walk import Line

@@ -67,7 +67,7 @@ class Predictor(Protocol):
 
 
 class ExplicitSteps:
-    """Explicit predictor-corrector steps (:class:`~scdk_sym.follower.kernels.FollowerKernels`)."""
+    """Explicit predictor-corrector steps (:class:`~scdk_sym.follower.calls.FollowerKernels`)."""
 
     def __init__(self, ctx: WalkContext, min_cos: float = MIN_COS) -> None:
         self.model, self.kern, self.p, self.scale = ctx.model, ctx.kern, ctx.p, ctx.scale

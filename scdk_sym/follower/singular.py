@@ -20,8 +20,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..results import Configuration, Crossing, PathSamples
+from .calls import follower_calls
 from .curve import follow
-from .kernels import follower_calls
 from .options import FollowOptions
 from .surface import det_sign
 from .walk import Line

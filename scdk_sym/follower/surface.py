@@ -9,7 +9,7 @@ import numpy as np
 
 from ..kernels.fastcall import model_calls
 from ..results import Configuration, Crossing, SolveResult
-from .kernels import follower_calls
+from .calls import follower_calls
 
 
 def det_sign(model, cfg: Configuration | SolveResult) -> float:

@@ -61,7 +61,7 @@ KERNEL_SOURCES = (
     "kernels/compile.py",
     "kernels/curve.py",
     "kernels/follower.py",
-    "follower/kernels.py",
+    "follower/calls.py",
 )
 #: Root of the package, the folder the source lists are relative to.
 PACKAGE_ROOT = Path(__file__).resolve().parents[1]

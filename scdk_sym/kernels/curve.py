@@ -7,7 +7,7 @@ field ``nu = [adj(J_p) j_s; det J_p]``), the Newton correction at fixed ``theta`
 Function (:func:`closure_function`) and the linear solve of one matrix pattern
 (:func:`linear_solver`, or in loops: :func:`loop_solver`; how a kernel solves is a
 :class:`Solves`). The CVODES field (:mod:`scdk_sym.kernels.functions`), the curve follower's
-kernels (:mod:`scdk_sym.follower.kernels`) and the generated C (tracker, solves and the atlas
+kernels (:mod:`scdk_sym.follower.calls`) and the generated C (tracker, solves and the atlas
 sweep) are built from them.
 """
 

@@ -4,9 +4,9 @@ The curve is ``H(q) = 0`` with ``q = (y, s)``, ``H = g(y, theta1 + s dtheta)`` a
 ``p = (theta1, dtheta)``; :func:`build_follower_kernels` builds its steps, locators and Newton
 iterations from the package's one definition of each symbolic step
 (:mod:`scdk_sym.kernels.curve`). What a model keeps of them, per backend, and the zero-copy
-callers the follower calls are :mod:`scdk_sym.follower.kernels`; the compiled backend's library
+callers the follower calls are :mod:`scdk_sym.follower.calls`; the compiled backend's library
 (:func:`scdk_sym.kernels.compile.compiled_library`) and the generated C tracker
-(:mod:`scdk_sym.codegen.kernels`) are built from these Functions.
+(:mod:`scdk_sym.kernels.tracker_functions`) are built from these Functions.
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """C source of a CasADi SX Function evaluated on lane vectors: several points at once.
 
 CasADi generates C for one point (``casadi_real`` scalars). The C path tracker
-(``scdk_sym/algebraic/paths/ptrack.c``) advances a few paths in lock step, one per lane of a GCC
-vector type (``vd``: ``SCDK_LANES`` doubles), so that every arithmetic instruction of the
+(``scdk_sym/algebraic/paths/continuation.c``) advances a few paths in lock step, one per lane
+of a GCC vector type (``vd``: ``SCDK_LANES`` doubles), so that every arithmetic instruction of the
 evaluation serves all lanes. :func:`lane_source` writes the Function's algorithm, instruction
 by instruction in CasADi's own order, as a static C function on ``vd`` values: each lane gets
 exactly the arithmetic of the scalar evaluation (the same operations in the same order, so

@@ -47,9 +47,9 @@ from numpy.typing import ArrayLike
 
 from ..backends import resolve
 from ..errors import InputError
+from ..follower.calls import follower_kernels
 from ..follower.curve import follow
 from ..follower.geometry import features
-from ..follower.kernels import follower_kernels
 from ..follower.options import FollowOptions
 from ..follower.walk import Line
 from ..results import AssemblyModes, Configuration, mode_order
@@ -63,7 +63,7 @@ SEARCH_MIN_COS = 0.7
 
 
 def curve_kernels(model: Model, backend: str = "cvodes"):
-    """The curve follower's kernels (:func:`scdk_sym.follower.kernels.follower_kernels`)."""
+    """The curve follower's kernels (:func:`scdk_sym.follower.calls.follower_kernels`)."""
     return follower_kernels(model, backend)
 
 

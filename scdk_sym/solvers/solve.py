@@ -8,7 +8,7 @@ sign, ``s`` turns) is located by Newton on ``[g; t_s] = 0``; each ``s = 1`` cros
 with ``dy/ds = J_p^{-1} j_s`` and a Newton polish, then verified.
 
 :func:`solve` checks the query (:mod:`~scdk_sym.solvers.query`) and hands it to one of: the
-blocks of the model (:mod:`~scdk_sym.solvers.blocks`), the generated C follower
+blocks of the model (:mod:`~scdk_sym.solvers.blockwise`), the generated C follower
 (:mod:`~scdk_sym.solvers.solve_c`, whose refusals it solves with the compiled kernels), the
 path of an explicit ``b`` (:mod:`~scdk_sym.solvers.line`), the convergent branch
 (:mod:`~scdk_sym.solvers.convergent`) or the divergent one
@@ -26,7 +26,7 @@ from ..errors import SolveError
 from ..results import Configuration, SolveResult
 from ..robot import Model
 from .background import without_waiting
-from .blocks import solve_blocks
+from .blockwise import solve_blocks
 from .convergent import convergent, fast_convergent
 from .divergent import divergent
 from .line import along_line

@@ -4,7 +4,7 @@
 model's C tracker library (:mod:`scdk_sym.codegen.library`, compiled once and cached). From the
 assembled start both follow the singularity-consistent curve of the straight line
 ``theta1 + s (theta0 - theta1)`` with the tracker's follower (the RK4 predictor-corrector steps
-of :mod:`scdk_sym.follower.kernels`, the step control of
+of :mod:`scdk_sym.follower.calls`, the step control of
 ``scdk_sym.follower.curve.follow(predictor="rk4")``):
 
 - the convergent solve in the convergent direction (``s`` increasing, ``b det J_p > 0``) to

@@ -16,8 +16,8 @@ Both backends apply this rule with the same constants (:mod:`scdk_sym.follower.t
 which :mod:`scdk_sym.codegen.generate` writes into the generated tracker) and the same kernels:
 ``backend="cvodes"`` (this module) follows the SC curve with CVODES
 (:func:`~scdk_sym.solvers.trace.trace`), ``backend="c"`` with the follower's RK4
-predictor-corrector steps (:mod:`scdk_sym.follower.kernels`, code-generated) in the generated C
-tracker (``scdk_sym/codegen/c/tracker_rule.c.in``; the tracker's header states the same rule).
+predictor-corrector steps (:mod:`scdk_sym.follower.calls`, code-generated) in the generated C
+tracker (``scdk_sym/solvers/tracker.c.in``; the tracker's header states the same rule).
 Only the way the curve is followed differs; the prediction, the cheap step, the Newton
 correctors, the choice and the refusal are the same computation.
 
@@ -124,7 +124,7 @@ from ..errors import InputError
 from ..results import Configuration, TrackResult
 from ..robot import Model
 from .background import without_waiting
-from .blocks import track_blocks
+from .blockwise import track_blocks
 from .crossings import crossings
 from .query import validate_start
 from .track_c import track_c

@@ -44,7 +44,7 @@ def track_kernels(model: Model) -> TrackKernels:
     """The tracker's kernels of ``model`` (built once per model: ``TRACK_KERNELS``)."""
 
     def build() -> TrackKernels:
-        from ..codegen.kernels import build_tracker_kernels
+        from ..kernels.tracker_functions import build_tracker_kernels
 
         kern = build_tracker_kernels(model.symbolic, model.chart.rotations, "scdk")
         return TrackKernels(

@@ -2,7 +2,7 @@
 
 Every translation of an SX Function into other arithmetic walks this list: complex pairs
 (:mod:`scdk_sym.algebraic.pairs`), Arb balls (:mod:`scdk_sym.algebraic.interval`), the binary64
-interval tape (:mod:`scdk_sym.algebraic.certify.ckrawczyk`) and lane vectors
+interval tape (:mod:`scdk_sym.algebraic.certify.krawczyk_c`) and lane vectors
 (:mod:`scdk_sym.kernels.lanes`).
 """
 

@@ -11,9 +11,9 @@ If ``K(X)`` lies in the interior of ``X``, then ``X`` holds exactly one zero of 
 1977; Rump 1983). Every operation rounds outward, so the statement is a proof about the
 Function's expression graph with its binary64 constants.
 
-The test has two twins side by side: :mod:`.arbkrawczyk` in Arb ball arithmetic (boxes chosen
+The test has two twins side by side: :mod:`.krawczyk_arb` in Arb ball arithmetic (boxes chosen
 adaptively by epsilon-inflation, a proven enclosure shrunk by Krawczyk steps; it alone tries
-more boxes and says why a test fails) and :mod:`.ckrawczyk` with ``ikrawczyk.c``, the first
+more boxes and says why a test fails) and :mod:`.krawczyk_c` with ``krawczyk.c``, the first
 box of many points at once in binary64 interval arithmetic in C when the system is rational
 (the box built the same way, the same operator and tightening, every bound rounded
 outward). The modules:
@@ -30,7 +30,6 @@ outward). The modules:
   joints, ``theta`` and the chart as exact parameters.
 """
 
-from .arbkrawczyk import EPS, INFLATION, MAX_CONDITION, TIGHTEN, TINY, TRIES
 from .certificate import Certificate, CertificateSet
 from .configurations import (
     certify_configuration_sets,
@@ -39,6 +38,7 @@ from .configurations import (
     closure_function,
 )
 from .inputs import ARITHMETICS
+from .krawczyk_arb import EPS, INFLATION, MAX_CONDITION, TIGHTEN, TINY, TRIES
 from .points import certify_all, certify_sets, krawczyk
 
 __all__ = [

@@ -14,9 +14,9 @@ from numpy.typing import ArrayLike
 from ...errors import InputError
 from ...model.rotations import gibbs, rot_exp
 from ...products import CLOSURE_FUNCTION
-from .arbkrawczyk import TIGHTEN, TRIES
 from .certificate import Certificate, CertificateSet
 from .inputs import check_settings, real_array, real_vector
+from .krawczyk_arb import TIGHTEN, TRIES
 from .points import certify_batch, certify_sets, krawczyk
 from .square import square_system
 

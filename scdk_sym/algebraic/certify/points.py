@@ -2,8 +2,8 @@
 one set (:func:`certify_all`), several sets at their own parameters (:func:`certify_sets`).
 
 The first box of every point is tested in binary64 intervals in C when the system is rational
-(:mod:`scdk_sym.algebraic.certify.ckrawczyk`: all points in one call); the points it does not
-prove go through the Arb test (:mod:`scdk_sym.algebraic.certify.arbkrawczyk`), which alone
+(:mod:`scdk_sym.algebraic.certify.krawczyk_c`: all points in one call); the points it does not
+prove go through the Arb test (:mod:`scdk_sym.algebraic.certify.krawczyk_arb`), which alone
 tries more boxes and says why a test fails.
 """
 
@@ -18,10 +18,10 @@ from numpy.typing import ArrayLike
 
 from ...errors import InputError
 from ...results import unchecked_many
-from .arbkrawczyk import MAX_CONDITION, TIGHTEN, TINY, TRIES, arb_krawczyk
 from .certificate import Certificate, CertificateSet
 from .disjoint import certificate_set, sets_meeting
 from .inputs import check_settings, parameter_balls, parameters, real_array, real_vector
+from .krawczyk_arb import MAX_CONDITION, TIGHTEN, TINY, TRIES, arb_krawczyk
 from .square import Square, square_system
 
 
@@ -39,7 +39,7 @@ def first_boxes(
 
     Returns:
         N certificates of the points the test proves, ``None`` for the others (and for all
-        when the test does not apply: see :mod:`.ckrawczyk`; Arb at another precision than
+        when the test does not apply: see :mod:`.krawczyk_c`; Arb at another precision than
         binary64's 53 bits asks for its own arithmetic).
     """
     if arithmetic != "auto" or sq.fast is None or ctx.prec != 53 or not len(ms):
@@ -98,7 +98,7 @@ def krawczyk(
             it is within twice the interval Newton point's (the rounding's floor: near a
             singular point ``cond(J) eps`` is wide, and more steps gain little).
         arithmetic: ``"auto"``: the first box in binary64 interval arithmetic in C where ``f``
-            is rational (:mod:`scdk_sym.algebraic.certify.ckrawczyk`), Arb balls if it
+            is rational (:mod:`scdk_sym.algebraic.certify.krawczyk_c`), Arb balls if it
             proves nothing; ``"arb"``: Arb balls only (see
             :data:`~scdk_sym.algebraic.certify.inputs.ARITHMETICS`).
 

@@ -12,7 +12,7 @@ from flint import arb_mat
 from ...errors import InputError
 from ...kernels.fastcall import Buffered
 from ..interval import FunctionCache, IntervalFunction, as_sx_function, interval_function
-from .ckrawczyk import IntervalKrawczyk, interval_krawczyk
+from .krawczyk_c import IntervalKrawczyk, interval_krawczyk
 
 
 @dataclass(frozen=True)

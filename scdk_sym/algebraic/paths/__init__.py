@@ -1,9 +1,8 @@
-"""Homotopy path tracking: the numpy tracker (:mod:`.tracker`, the reference) and its C twin
-(:mod:`.ctracker` with ``ptrack.c`` and ``ptrack.h`` beside it, for the parameter
+"""Homotopy path tracking: the numpy tracker (:mod:`.continuation`, the reference) and its C twin
+(:mod:`.continuation_c` with ``continuation.c`` and ``continuation.h`` beside it, for the parameter
 homotopies of a model's algebraic form)."""
 
-from .ctracker import BoundTracker, CTracker, SplitOutcome, c_tracker
-from .tracker import (
+from .continuation import (
     DIVERGED,
     DONE,
     RUNNING,
@@ -15,6 +14,7 @@ from .tracker import (
     rel_norm,
     track,
 )
+from .continuation_c import BoundTracker, CTracker, SplitOutcome, c_tracker
 
 __all__ = [
     "BoundTracker",

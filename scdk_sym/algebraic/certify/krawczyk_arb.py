@@ -14,7 +14,7 @@ adaptively: its radius starts at twice the Newton correction ``|Y f(m)|`` at the
 (epsilon-inflation), for a few tries. A proven enclosure wider than a few ulps is shrunk by
 Krawczyk steps centred on its midpoint (the zero stays in ``K(X) & X``).
 
-Its C twin, :mod:`scdk_sym.algebraic.certify.ckrawczyk` (``ikrawczyk.c``), tests the first
+Its C twin, :mod:`scdk_sym.algebraic.certify.krawczyk_c` (``krawczyk.c``), tests the first
 box of many points at once in binary64 intervals.
 """
 

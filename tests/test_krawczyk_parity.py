@@ -1,5 +1,5 @@
-"""The binary64 interval Krawczyk test in C (scdk_sym.algebraic.certify.ckrawczyk) against its
-Python twin, the Arb test (scdk_sym.algebraic.certify.arbkrawczyk).
+"""The binary64 interval Krawczyk test in C (scdk_sym.algebraic.certify.krawczyk_c) against its
+Python twin, the Arb test (scdk_sym.algebraic.certify.krawczyk_arb).
 
 References are independent of the code under test: the exact results of the operations on
 binary64 endpoints in Arb at 300 bits, roots known exactly in binary64 (every term of the
@@ -20,7 +20,7 @@ from stewart import DIETMAIER_BASE, DIETMAIER_LENGTHS, DIETMAIER_PLATFORM
 import scdk_sym as sc
 from scdk_sym.algebraic import certify_all, certify_configurations, closure_function, krawczyk
 from scdk_sym.algebraic.certify import points as certify_module
-from scdk_sym.algebraic.certify.ckrawczyk import replay, tape
+from scdk_sym.algebraic.certify.krawczyk_c import replay, tape
 from scdk_sym.errors import InputError
 
 EPS = float(np.finfo(float).eps)

@@ -1,4 +1,4 @@
-/* Krawczyk tests of many points at once in binary64 interval arithmetic (see ikrawczyk.h).
+/* Krawczyk tests of many points at once in binary64 interval arithmetic (see krawczyk.h).
  *
  * Soundness rests on IEEE 754 binary64 arithmetic in round-to-nearest (the default mode):
  * +, -, *, / return the exact result correctly rounded, within half a unit in the last place,
@@ -7,11 +7,11 @@
  * bounds are exact. sin and cos are enclosed from these operations alone (a reduction by an
  * enclosure of pi/2, a Taylor polynomial and the bound of its rest, the extrema the
  * interval may hold), never from the C library's. The library is compiled without contraction into fused multiply-adds
- * and without value-changing optimisations (ckrawczyk.py's flags). A bound that is not
+ * and without value-changing optimisations (krawczyk_c.py's flags). A bound that is not
  * finite, or a divisor interval holding 0, fails the evaluation: the point is then left
- * to the ball-arithmetic test (arbkrawczyk.py), never proven here.
+ * to the ball-arithmetic test (krawczyk_arb.py), never proven here.
  */
-#include "ikrawczyk.h"
+#include "krawczyk.h"
 #include "scdk_lu.h"
 
 #include <math.h>

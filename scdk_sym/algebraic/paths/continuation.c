@@ -1,6 +1,6 @@
-/* Predictor-corrector tracking of complex parameter homotopies (see ptrack.h).
+/* Predictor-corrector tracking of complex parameter homotopies (see continuation.h).
  *
- * One step of a path, as in tracker.py beside it:
+ * One step of a path, as in continuation.py beside it:
  *   predictor: classical RK4 on dz/dt = -H_z^{-1} H_t (the first stage is the velocity kept
  *              from the previous corrector);
  *   corrector: two Newton iterations at the new t; norms nu1, nu2 of the updates relative to
@@ -30,7 +30,7 @@
  * Compiled once per system: SCDK_N (unknowns), SCDK_K (parameters), SCDK_LANES and
  * SCDK_EVAL_FILE (the generated evaluation, defining scdk_eval) are defined by the includer.
  */
-#include "ptrack.h"
+#include "continuation.h"
 
 #include <complex.h>
 #include <math.h>
@@ -38,7 +38,7 @@
 #include <string.h>
 
 #if !defined(SCDK_N) || !defined(SCDK_K) || !defined(SCDK_LANES) || !defined(SCDK_EVAL_FILE)
-#error "define SCDK_N, SCDK_K, SCDK_LANES and SCDK_EVAL_FILE before compiling ptrack.c"
+#error "define SCDK_N, SCDK_K, SCDK_LANES and SCDK_EVAL_FILE before compiling continuation.c"
 #endif
 
 #include "scdk_lu.h"

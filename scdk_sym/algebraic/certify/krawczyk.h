@@ -1,10 +1,10 @@
-/* Krawczyk tests of many points at once in binary64 interval arithmetic (see ikrawczyk.c).
+/* Krawczyk tests of many points at once in binary64 interval arithmetic (see krawczyk.c).
  *
  * A square system f(x, p) = 0 and its Jacobian are given as two tapes: the instruction lists
  * of CasADi SX Functions (x[n], p[k]) -> f[n] and (x[n], p[k]) -> J (n x n, row-major),
  * restricted to operations whose binary64 result is the correctly rounded exact result
  * (+, -, *, /, squares, negation, doubling, reciprocal, |.| and its sign) and to sin and cos,
- * enclosed from those alone (ikrawczyk.c). Every interval operation rounds to nearest and then
+ * enclosed from those alone (krawczyk.c). Every interval operation rounds to nearest and then
  * moves each bound one binary64 number outward, so each result encloses the exact value over
  * the operand intervals.
  */

@@ -20,7 +20,7 @@ A path stops as ``DONE`` at ``tau1``, ``DIVERGED`` when ``|z|`` exceeds ``max_no
 ``UNDERFLOW`` when its step falls below ``h_min``, ``STEP_LIMIT`` after ``max_steps`` tries.
 Every loop is bounded. The inner loop is plain array code (evaluate, batched solve,
 elementwise updates) so that it ports to C unchanged: its C twin is
-:mod:`scdk_sym.algebraic.paths.ctracker` (``ptrack.c``), this tracker the reference.
+:mod:`scdk_sym.algebraic.paths.continuation_c` (``continuation.c``), this tracker the reference.
 """
 
 from __future__ import annotations

@@ -17,7 +17,7 @@ The Functions are built by :func:`~scdk_sym.kernels.follower.build_follower_kern
 symbolic steps of :mod:`scdk_sym.kernels.curve`: the tangent, the Newton correction, the RK4
 step in ``s``, which the CVODES field, :mod:`scdk_sym.kernels.functions`, is also built from);
 the generated C tracker's curve kernels are the same Functions
-(:mod:`scdk_sym.codegen.kernels`). This module keeps them per model and backend, and their
+(:mod:`scdk_sym.kernels.tracker_functions`). This module keeps them per model and backend, and their
 zero-copy callers.
 """
 

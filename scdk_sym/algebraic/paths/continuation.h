@@ -4,8 +4,8 @@
  *   H(z, t) = W G(z, p(s)) + b(s),  p(s) = p_from[d] + s dp[d],  b(s) = b_from[d] + s db[d],
  *   s(t) = gamma[d] t / (1 + (gamma[d] - 1) t),
  * with t real (the path variable), W the row weights and G a square polynomial system, its
- * evaluation on real pairs generated for lane vectors and compiled in (ptrack.c). The step
- * rules are those of tracker.py beside it.
+ * evaluation on real pairs generated for lane vectors and compiled in (continuation.c). The step
+ * rules are those of continuation.py beside it.
  */
 #ifndef SCDK_PTRACK_H
 #define SCDK_PTRACK_H
@@ -16,13 +16,13 @@
 extern "C" {
 #endif
 
-/* Status codes of a path (as in tracker.py). */
+/* Status codes of a path (as in continuation.py). */
 enum { SCDK_RUNNING = 0, SCDK_DONE = 1, SCDK_DIVERGED = 2, SCDK_UNDERFLOW = 3, SCDK_STEP_LIMIT = 4 };
 
 /* Return codes of scdk_ptrack. */
 enum { SCDK_OK = 0, SCDK_NO_MEMORY = 1, SCDK_BAD_SIZE = 3 };
 
-/* Step control (see TrackerOptions in tracker.py). */
+/* Step control (see TrackerOptions in continuation.py). */
 typedef struct {
     double h0, h_min, h_max, eta, trust, theta, tol, floor, noise;
     int64_t max_steps;
@@ -43,7 +43,7 @@ int scdk_ptrack(int64_t n, int64_t k, const double *weights, const double *p_fro
                 double *h, const scdk_options *opt, int64_t *status, int64_t *steps,
                 int64_t *accepted);
 
-/* Newton's method on H(., t) = 0 for M points, as newton() in tracker.py: `iterations` steps
+/* Newton's method on H(., t) = 0 for M points, as newton() in continuation.py: `iterations` steps
  * z <- z - H_z^{-1} H (non-finite components of an update left out), nu (M x iterations): the
  * norm of each update relative to 1 + max|z| before it. t (M): each point's real time. hz:
  * NULL, or (M x n x n, row-major complex) H_z at the final points. cond: NULL, or (M) an

@@ -20,13 +20,13 @@ from test_modes import assert_same_stewart_poses
 
 import scdk_sym as sc
 from scdk_sym.algebraic import algebraic_form, homotopy, trace_test
-from scdk_sym.algebraic.certify.ckrawczyk import source_dir as interval_source_dir
+from scdk_sym.algebraic.certify.krawczyk_c import source_dir as interval_source_dir
 from scdk_sym.algebraic.clibrary import _cpu_flags
 from scdk_sym.algebraic.homotopy import scaled_cond, track_parameter_homotopy
 from scdk_sym.algebraic.monodromy import StartSystem
 from scdk_sym.algebraic.parameter_homotopy import ParameterHomotopy
-from scdk_sym.algebraic.paths.ctracker import CTracker, c_tracker, source_dir, tracker_library
-from scdk_sym.algebraic.paths.tracker import DONE, TrackerOptions, track
+from scdk_sym.algebraic.paths.continuation import DONE, TrackerOptions, track
+from scdk_sym.algebraic.paths.continuation_c import CTracker, c_tracker, source_dir, tracker_library
 from scdk_sym.algebraic.scaled import scaled_form
 from scdk_sym.errors import InputError
 from scdk_sym.kernels.compile import LU_HEADER, run_compiler
@@ -78,13 +78,13 @@ def test_sources_compile_with_every_warning_as_error(dietmaier, tmp_path):
     flags = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", f"-I{LU_HEADER.parent}"]
     # both include the package's one LU (scdk_lu.h); the tracker with a generated evaluation
     run_compiler(
-        [*flags, "-c", interval_source_dir() / "ikrawczyk.c", "-o", tmp_path / "ikrawczyk.o"]
+        [*flags, "-c", interval_source_dir() / "krawczyk.c", "-o", tmp_path / "krawczyk.o"]
     )
     (tmp_path / "scdk_eval.c").write_text(lane_source(form.form.G_pairs, "scdk_eval"))
     sizes = [f"-DSCDK_N={form.n}", f"-DSCDK_K={form.n_params}", "-DSCDK_LANES=4",
              '-DSCDK_EVAL_FILE="scdk_eval.c"', f"-I{tmp_path}"]  # fmt: skip
-    run_compiler([*flags, *sizes, "-c", src / "ptrack.c", "-o", tmp_path / "ptrack.o"])
-    for stem in ("ikrawczyk", "ptrack"):
+    run_compiler([*flags, *sizes, "-c", src / "continuation.c", "-o", tmp_path / "continuation.o"])
+    for stem in ("krawczyk", "continuation"):
         assert (tmp_path / f"{stem}.o").stat().st_size > 0
     assert tracker_library(form.form).exists()
 
@@ -196,7 +196,7 @@ def test_tracker_choice_errors(dietmaier):
 def test_c_newton_equals_the_numpy_newton(dietmaier):
     """Newton's method in C (lanes; 37 points: a short last group) against tracker.newton:
     the same iterates, update norms and Jacobians, to rounding."""
-    from scdk_sym.algebraic.paths.tracker import newton
+    from scdk_sym.algebraic.paths.continuation import newton
 
     _, form, start = dietmaier
     rng = np.random.default_rng(3)

@@ -1,7 +1,7 @@
-"""The path tracker of :mod:`scdk_sym.algebraic.paths.tracker` in C, for parameter homotopies
+"""The path tracker of :mod:`scdk_sym.algebraic.paths.continuation` in C, for parameter homotopies
 of a model's algebraic form.
 
-``ptrack.c`` (beside this module) tracks every path of a
+``continuation.c`` (beside this module) tracks every path of a
 :class:`~scdk_sym.algebraic.parameter_homotopy.ParameterHomotopy` in one call, with the
 predictor, corrector and step rules of the numpy tracker (which stays the reference).
 :func:`lanes` paths (4 with AVX2, 8 with AVX-512) advance in lock step, one per lane of a
@@ -25,7 +25,7 @@ import numpy as np
 from ...errors import BuildError, HomotopyError, InputError
 from ...products import HOMOTOPY_TRACKER
 from ..clibrary import simd_flags, source_library
-from .tracker import DONE, TrackerOptions, TrackOutcome
+from .continuation import DONE, TrackerOptions, TrackOutcome
 
 #: Tracker choices of :func:`~scdk_sym.algebraic.solve_homotopy`.
 TRACKERS = ("auto", "c", "python")
@@ -41,7 +41,7 @@ _ERRORS = {1: "out of memory", 3: "bad sizes"}
 
 
 class _Options(ctypes.Structure):
-    """``scdk_options`` of ``ptrack.h``: the fields of :class:`TrackerOptions`."""
+    """``scdk_options`` of ``continuation.h``: the fields of :class:`TrackerOptions`."""
 
     _fields_ = [
         ("h0", ctypes.c_double),
@@ -60,7 +60,8 @@ class _Options(ctypes.Structure):
 
 
 def source_dir() -> Path:
-    """The directory of ``ptrack.c`` and ``ptrack.h`` (package data, beside this module)."""
+    """The directory of ``continuation.c`` and ``continuation.h`` (package data, beside this
+    module)."""
     return Path(str(resources.files("scdk_sym.algebraic.paths")))
 
 
@@ -90,11 +91,11 @@ def tracker_library(form, flags: tuple[str, ...] | None = None, width: int = 0) 
     main = (
         f"#define SCDK_N {form.n}\n#define SCDK_K {form.n_params}\n"
         f"#define SCDK_LANES {width or lanes()}\n"
-        '#define SCDK_EVAL_FILE "scdk_eval.c"\n#include "ptrack.c"\n'
+        '#define SCDK_EVAL_FILE "scdk_eval.c"\n#include "continuation.c"\n'
     )
     evaluation = lane_source(form.G_pairs, "scdk_eval")
     return source_library(
-        source_dir() / "ptrack.c",
+        source_dir() / "continuation.c",
         (*TRACKER_CFLAGS, *(simd_flags() if flags is None else flags)),
         {"scdk_eval.c": evaluation, "main.c": main},
     )
@@ -123,8 +124,8 @@ class SplitOutcome:
     """What :meth:`CTracker.track_split` returns.
 
     Attributes:
-        end: the :class:`~scdk_sym.algebraic.paths.tracker.TrackOutcome` of every path (M paths)
-            at its last stop (``steps`` and ``accepted`` count both parts).
+        end: the :class:`~scdk_sym.algebraic.paths.continuation.TrackOutcome` of every path
+            (M paths) at its last stop (``steps`` and ``accepted`` count both parts).
         reached: (K,) int, the paths that reached the split time.
         z_split: (K, n) complex, their points there.
         arrived: (A,) int, those of them that arrived at t = 1 (status ``DONE``).
@@ -196,7 +197,7 @@ class CTracker:
         condition: bool = True,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]:
         """Newton's method on ``H(., t) = 0`` in C, as
-        :func:`~scdk_sym.algebraic.paths.tracker.newton`.
+        :func:`~scdk_sym.algebraic.paths.continuation.newton`.
 
         Args:
             homotopy: as :meth:`track`'s.
@@ -260,8 +261,9 @@ class CTracker:
             h0: (M,) initial steps (default ``options.h0``).
 
         Returns:
-            A :class:`~scdk_sym.algebraic.paths.tracker.TrackOutcome`, as
-            :func:`~scdk_sym.algebraic.paths.tracker.track` with the identity time map returns it.
+            A :class:`~scdk_sym.algebraic.paths.continuation.TrackOutcome`, as
+            :func:`~scdk_sym.algebraic.paths.continuation.track` with the identity time map
+            returns it.
 
         Raises:
             HomotopyError: the C tracker reported a failure.
@@ -345,7 +347,7 @@ class CTracker:
 
 class BoundTracker:
     """The C tracker of one system (its row weights bound): call it to track, as
-    :func:`~scdk_sym.algebraic.paths.tracker.track` with the identity time map; :meth:`newton`
+    :func:`~scdk_sym.algebraic.paths.continuation.track` with the identity time map; :meth:`newton`
     refines points."""
 
     def __init__(self, tracker: CTracker, weights: np.ndarray) -> None:

@@ -36,11 +36,11 @@ from typing import Any
 
 import casadi as ca
 
-from ..kernels.curve import closure_function, compact, model_inputs
-from ..kernels.follower import build_follower_kernels
-from ..kernels.functions import FunctionSet, ik_step_function
 from ..model.rotations import cayley
 from ..symbolic.system import Symbolic
+from .curve import closure_function, compact, model_inputs
+from .follower import build_follower_kernels
+from .functions import FunctionSet, ik_step_function
 
 #: The kernels written into one source each (:meth:`TrackerKernels.groups`): the inner
 #: Functions a group's kernels call are compiled once per source, and the sources compile in

@@ -1,6 +1,6 @@
 """Krawczyk tests of many points in one C call, in binary64 interval arithmetic.
 
-``ikrawczyk.c`` (beside this module) replays the instruction lists of a square system's value
+``krawczyk.c`` (beside this module) replays the instruction lists of a square system's value
 and Jacobian Functions on intervals ``[lo, hi]`` of binary64 numbers: each operation rounds to
 nearest and moves each bound one binary64 number outward, which encloses the exact result of
 the operations IEEE 754 rounds correctly (``+ - * /``, and squares, negation, doubling,
@@ -8,7 +8,7 @@ reciprocal and ``|.|`` built from them; the sign function is exact); ``sin`` and
 enclosed from those operations alone (reduction by an enclosure of pi/2, a Taylor polynomial
 with the bound of its rest, the extrema an interval may hold), so revolute joints' rows
 qualify. The test itself is the first box of its Python twin,
-:func:`scdk_sym.algebraic.certify.arbkrawczyk.arb_krawczyk` (the box built the same way from
+:func:`scdk_sym.algebraic.certify.krawczyk_arb.arb_krawczyk` (the box built the same way from
 the Newton correction at the point, the same operator and tightening), so a point proven here
 is proven by the same theorem; a point it does not prove (or a Function with other
 operations, or no C compiler) goes to the ``arb`` test, which tries more boxes and says why
@@ -45,7 +45,7 @@ IKRAWCZYK_CFLAGS = (
     "-Wextra", "-Werror",
 )  # fmt: skip
 
-#: CasADi opcodes -> tape codes of ``ikrawczyk.h`` (inputs, constants and outputs apart).
+#: CasADi opcodes -> tape codes of ``krawczyk.h`` (inputs, constants and outputs apart).
 _UNARY = {
     ca.OP_ASSIGN: 3, ca.OP_NEG: 4, ca.OP_SQ: 5, ca.OP_TWICE: 6, ca.OP_INV: 7, ca.OP_FABS: 8,
     ca.OP_SIGN: 13, ca.OP_SIN: 14, ca.OP_COS: 15,
@@ -58,7 +58,7 @@ _DBL = ctypes.POINTER(ctypes.c_double)
 
 
 class _Tape(ctypes.Structure):
-    """``scdk_tape`` of ``ikrawczyk.h``."""
+    """``scdk_tape`` of ``krawczyk.h``."""
 
     _fields_ = [
         ("L", ctypes.c_int64),
@@ -133,7 +133,7 @@ _LIBRARIES: dict[tuple[str, ...], ctypes.CDLL] = {}
 
 
 def source_dir() -> Path:
-    """The directory of ``ikrawczyk.c`` and ``ikrawczyk.h`` (package data, beside this
+    """The directory of ``krawczyk.c`` and ``krawczyk.h`` (package data, beside this
     module)."""
     return Path(str(resources.files("scdk_sym.algebraic.certify")))
 
@@ -144,7 +144,7 @@ def _library(simd: tuple[str, ...] | None = None) -> ctypes.CDLL:
     of one register of that set, and each point's outcome does not depend on it)."""
     simd = simd_flags() if simd is None else simd
     if simd not in _LIBRARIES:
-        source = source_dir() / "ikrawczyk.c"
+        source = source_dir() / "krawczyk.c"
         lib = ctypes.CDLL(str(source_library(source, (*IKRAWCZYK_CFLAGS, *simd))))
         f = lib.scdk_ikrawczyk
         dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
