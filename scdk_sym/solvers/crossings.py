@@ -42,9 +42,10 @@ def crossings(
     dets = np.asarray(dets, dtype=float)
     if dets.size == 0:
         return ()
-    dd = np.concatenate([[start_det(model, start)], dets])
-    if (dd > 0).all() or (dd < 0).all():  # one sign throughout: no change
-        return ()
+    det0 = start_det(model, start)
+    if (det0 > 0 and (dets > 0).all()) or (det0 < 0 and (dets < 0).all()):
+        return ()  # one sign throughout: no change
+    dd = np.concatenate([[det0], dets])
     changes = np.flatnonzero(np.sign(dd[:-1]) * np.sign(dd[1:]) < 0)
     if changes.size == 0:
         return ()

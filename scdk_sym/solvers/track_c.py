@@ -91,6 +91,8 @@ def track_c(
     residual = out.residual
     verify_samples(model, residual, th)
     crossings = track_crossings(model, start, y_can, th, out.det)
+    for a in (out.x, y_can, th, residual):  # arrays of this call: read-only, not copied
+        a.setflags(write=False)
     return TrackResult(
         x=out.x.reshape(N, len(model.workspace)),
         y=y_can,
