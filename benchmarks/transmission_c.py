@@ -7,8 +7,10 @@ generated and compiled here with the C helpers below, every source with ``-std=c
 timed in turn within each repeat (medians printed, microseconds per reading):
 
 - the C transmission: ``scdk_forward`` (the singularity-consistent tracker, warm-started from
-  the last reading), ``scdk_forward`` + ``scdk_jacobian`` (J = d outputs / d motors with its
-  singular test), and ``scdk_margin`` alone (exact singular values of every block);
+  the last reading), ``scdk_forward`` + ``scdk_jacobian`` (J = d outputs / d motors at the
+  reading's solution, with its singular test: its own kernel, ``scdk_loop_jac``, J_p and J_s
+  of the closures in each loop's root frame, and the LU of each stage of J_p), and
+  ``scdk_margin`` alone (exact singular values of every block);
 - the baseline, measured in the same run: a plain warm-started Newton iteration in C on the
   same 18 closure equations with the same generated kernels (``scdk_fwd_gjp``: g and J_p,
   LU of scdk_lu.h, until max |g| <= 1e-12; no branch control, no check), and that Newton

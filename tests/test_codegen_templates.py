@@ -61,14 +61,14 @@ def test_templates_are_the_package_data_files():
     names = sorted(p.name for p in TEMPLATE_DIR.iterdir() if p.is_file())
     parts = [templates.HEADER_PART, *templates.SOURCE_PARTS]
     own = [part.name for part in parts if part.folder == templates.FOLDER]
-    assert names == sorted([*own, transmission_c.HEADER, transmission_c.SOURCE])
+    assert names == sorted(own)
     assert templates.SOURCE_PARTS[0] == (templates.FOLDER, templates.SOURCE)
     assert templates.HEADER_PART == (templates.FOLDER, templates.HEADER)
     # every template part of the package is one of the parts, each beside its Python twin
     found = sorted(p.relative_to(PACKAGE).as_posix() for p in PACKAGE.rglob("*.c.in"))
     assert found == sorted(
         [part.path for part in parts if part.name.endswith(".c.in")]
-        + [f"{templates.FOLDER}/{transmission_c.SOURCE}"]
+        + [f"{transmission_c.FOLDER}/{transmission_c.SOURCE}"]
     )
     for part in parts:
         assert templates.template(part.name, part.folder) == (PACKAGE / part.path).read_text()
@@ -80,7 +80,15 @@ def test_templates_are_the_package_data_files():
     tomllib = pytest.importorskip("tomllib", reason="reading pyproject.toml needs Python 3.11")
     config = tomllib.loads((ROOT / "pyproject.toml").read_text())
     patterns = config["tool"]["setuptools"]["package-data"]["scdk_sym"]
-    for path in [*(part.path for part in parts), *(f"codegen/c/{name}" for name in names)]:
+    transmission = [
+        f"{transmission_c.FOLDER}/{n}" for n in (transmission_c.HEADER, transmission_c.SOURCE)
+    ]
+    assert (PACKAGE / transmission_c.FOLDER / "transmission.py").is_file()  # its Python twin
+    for name in (transmission_c.HEADER, transmission_c.SOURCE):
+        text = templates.template(name, transmission_c.FOLDER)
+        assert text == (PACKAGE / transmission_c.FOLDER / name).read_text()
+    paths = [*(part.path for part in parts), *(f"codegen/c/{name}" for name in names)]
+    for path in [*paths, *transmission]:
         assert any(fnmatch.fnmatch(path, pat) for pat in patterns), path
 
 

@@ -26,6 +26,7 @@ from factories import ROOT, needs_compiler
 import scdk_sym as sc
 from scdk_sym.errors import ModelWarning, SingularTransmissionError
 from scdk_sym.kernels.compile import compile_parallel
+from scdk_sym.robot.blocks import triangular_blocks
 from scdk_sym.solvers.transmission_c import TransmissionSources, write_transmission
 
 pytestmark = needs_compiler()
@@ -235,3 +236,56 @@ def test_the_example_control_loop_builds_and_runs(tmp_path_factory, tmp_path):
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     assert "worst margin" in proc.stdout and "singular ticks: 0" in proc.stdout
     assert "(motor_shin1, motor_shin2) -> (free_foot1, free_foot2)" in proc.stdout
+
+
+def test_the_derivative_kernel_and_its_stage_factors(tmp_path_factory):
+    """The closures in each loop's root frame give ``J_p^-1 J_s`` of the world-frame ones at a
+    tracked configuration with fewer structural nonzeros; the envelope of the stages' LU
+    (``_elimination``, the loops of ``lu_factor`` and ``lu_solve_columns``, written out here)
+    solves them for random values in their patterns, pivots anywhere partial pivoting takes
+    them."""
+    from scdk_sym.solvers.transmission_c import _elimination
+    from scdk_sym.solvers.transmission_frames import loop_jacobians, pattern
+
+    model, _, _ = built("digit_like", tmp_path_factory)
+    T = sc.transmission(model, OUTPUTS["digit_like"])
+    T.forward(motion(model, 5)[0])
+    sym, cfg = model.symbolic, T.configuration()
+    J_p, J_s = loop_jacobians(model, T._stages)
+    assert pattern(J_p).sum() < pattern(sym.J_p).sum() and pattern(J_s).sum() < 0.3 * model.m**2
+    f = ca.Function("f", [sym.y, sym.theta, sym.c], [J_p, J_s, sym.J_p, sym.J_s])
+    y, c = model.chart.to_local(cfg.y)
+    a, b, A, B = (np.array(v) for v in f(y, cfg.theta, c))
+    np.testing.assert_allclose(np.linalg.solve(a, b), np.linalg.solve(A, B), atol=1e-12)
+    rng = np.random.default_rng(1)
+    for name in ("digit_like", "cassie_like", "cassie.xml"):
+        m = load(name)
+        P = pattern(loop_jacobians(m, triangular_blocks(m))[0])
+        for st in triangular_blocks(m):
+            cols, hi, lo, low = _elimination(P, st, set())
+            mask = P[np.ix_(st.rows, cols)]
+            for _ in range(20):
+                Bm = np.where(mask, rng.standard_normal(mask.shape), 0.0)
+                x = rng.standard_normal(len(cols))
+                want = np.linalg.solve(Bm, x)
+                np.testing.assert_allclose(_envelope_solve(Bm, x, hi, lo, low), want, atol=1e-8)
+
+
+def _envelope_solve(B: np.ndarray, x: np.ndarray, hi, lo, low) -> np.ndarray:
+    """``B^-1 x`` by the loops of the C template's ``lu_factor`` and ``lu_solve_columns``."""
+    b, x, n = B.copy(), x.copy(), len(x)
+    piv = []
+    for k in range(n):
+        p = k + int(np.argmax(np.abs(b[k : hi[k] + 1, k])))
+        piv.append(p)
+        b[[k, p]] = b[[p, k]]
+        b[k + 1 : hi[k] + 1, k] /= b[k, k]
+        b[k + 1 : hi[k] + 1, k + 1 :] -= np.outer(b[k + 1 : hi[k] + 1, k], b[k, k + 1 :])
+    for k in range(n):
+        x[[k, piv[k]]] = x[[piv[k], k]]
+    for k in range(n):
+        x[k + 1 : low[k] + 1] -= b[k + 1 : low[k] + 1, k] * x[k]
+    for k in reversed(range(n)):
+        x[k] /= b[k, k]
+        x[lo[k] : k] -= b[lo[k] : k, k] * x[k]
+    return x

@@ -24,8 +24,8 @@ from typing import NamedTuple
 
 from ..errors import BuildError
 
-#: The folder of the templates that mirror no module of their own (the header, the head of
-#: the source, the transmission's), relative to the package ``scdk_sym``.
+#: The folder of the templates that mirror no module of their own (the tracker's header and
+#: the head of its source), relative to the package ``scdk_sym``.
 FOLDER = "codegen/c"
 HEADER = "tracker.h.in"
 SOURCE = "tracker.c.in"

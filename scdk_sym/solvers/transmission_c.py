@@ -9,10 +9,12 @@ CasADi or any other library at run time:
 - ``P_inv_kernels.c/.h``, ``P_inv_tracker.c/.h``: the tracker of the same mechanism with the
   outputs as inputs (``model.with_inputs(outputs)``, prefix ``P_inv``);
 - ``P_transmission.c`` and ``P_transmission.h``, the one header a controller includes: the
-  templates ``codegen/c/transmission.c.in`` and ``transmission.h.in`` filled with the map's
-  tables (which unknown is which output, the blocks of the map and the stages of the
+  templates ``transmission.c.in`` and ``transmission.h.in`` (beside this module) filled with
+  the map's tables (which unknown is which output, the blocks of the map and the stages of the
   closures each depends on, as :meth:`~scdk_sym.solvers.transmission.Transmission.margin`
-  defines them) and its names, units and home values;
+  defines them), its names, units and home values, and the generated kernel of its
+  derivatives, ``P_loop_jac``: ``J_p`` and ``J_s`` of the closures in each loop's root frame
+  (:mod:`scdk_sym.solvers.transmission_frames`);
 - ``scdk_lu.h``, the pivoted LU both use.
 
 Every source compiles with ``gcc -std=c99 -Wall -Wextra -Werror`` and links with ``-lm``
@@ -24,6 +26,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+
+import casadi as ca
+import numpy as np
 
 from ..codegen import status, templates
 from ..codegen.generate import (
@@ -39,8 +44,10 @@ from ..kernels.compile import compile_parallel
 from ..robot import Model
 from ..robot.blocks import Block
 from .transmission import SINGULAR_MARGIN, Transmission, transmission
+from .transmission_frames import derivative_kernel, loop_jacobians, pattern
 
-#: The template files in ``scdk_sym/codegen/c``.
+#: The folder of the transmission's C templates (beside this module), in the package.
+FOLDER = "solvers"
 HEADER = "transmission.h.in"
 SOURCE = "transmission.c.in"
 
@@ -108,6 +115,8 @@ def write_transmission(
     prefix = check_prefix(prefix)
     out = output_directory(directory)
     fwd, inv = f"{prefix}_fwd", f"{prefix}_inv"
+    J_p, J_s = loop_jacobians(trans.model, trans._stages)
+    kernel = derivative_kernel(trans.model, J_p, J_s, f"{prefix}_loop_jac")
     values = {
         "P": prefix,
         "PU": prefix.upper(),
@@ -117,15 +126,16 @@ def write_transmission(
         "INVU": inv.upper(),
         "STATUS_DEFINES": status.transmission_defines(prefix),
         **_description(trans),
-        **_tables(trans),
+        **_tables(trans, pattern(J_p), pattern(J_s)),
+        **_kernel_code(kernel, prefix),
     }
     try:
         forward = generate(trans.model, out, fwd, inverse_kinematics=False)
         inverse = generate(trans.inverse_model, out, inv, inverse_kinematics=False)
         header = out / f"{prefix}_transmission.h"
         code = out / f"{prefix}_transmission.c"
-        header.write_text(templates.fill(templates.template(HEADER), values))
-        code.write_text(templates.fill(templates.template(SOURCE), values))
+        header.write_text(templates.fill(templates.template(HEADER, FOLDER), values))
+        code.write_text(templates.fill(templates.template(SOURCE, FOLDER), values))
     except OSError as exc:
         raise OutputError(f"cannot write: {exc.strerror or exc}", exc.filename or out) from exc
     return TransmissionSources(out, prefix, header, code, forward, inverse)
@@ -203,9 +213,25 @@ def _description(trans: Transmission) -> dict[str, str]:
     }
 
 
-def _tables(trans: Transmission) -> dict[str, str]:
+def _kernel_code(kernel: ca.Function, prefix: str) -> dict[str, str]:
+    """The C of the derivative kernel (written into the transmission's source) and its work
+    sizes (placeholders)."""
+    gen = ca.CodeGenerator(f"{prefix}_loops", {"with_header": False, "with_export": False})
+    gen.add(kernel)
+    return {
+        "LOOP_KERNEL": gen.dump().strip(),
+        "LJ_SZ_ARG": str(max(1, kernel.sz_arg())),
+        "LJ_SZ_RES": str(max(1, kernel.sz_res())),
+        "LJ_SZ_IW": str(max(1, kernel.sz_iw())),
+        "LJ_SZ_W": str(max(1, kernel.sz_w())),
+    }
+
+
+def _tables(trans: Transmission, jp: np.ndarray, js: np.ndarray) -> dict[str, str]:
     """The index tables of the C source: outputs and motors in the two models' unknowns, the
-    blocks and the stages of the closures they depend on (placeholders)."""
+    blocks and the stages of the closures they depend on; each stage's inputs and motors from
+    the structural nonzeros ``jp``, ``js`` of the derivative kernel's ``J_p``, ``J_s``
+    (placeholders)."""
     model, inv = trans.model, trans.inverse_model
     order = trans._stages  # triangular_blocks(model): the stages, dependencies first
     index = {(tuple(st.rows), tuple(st.unknowns)): i for i, st in enumerate(order)}
@@ -222,7 +248,12 @@ def _tables(trans: Transmission) -> dict[str, str]:
     block_motors = [[trans.motors.index(m) for m in ms] for ms, _ in trans.blocks()]
     block_outputs = [[trans.outputs.index(o) for o in os] for _, os in trans.blocks()]
     sizes = [len(st.rows) for st in stages]
-    stage_motors = _stage_motors(model, stages)
+    inputs = [sorted(set(np.flatnonzero(jp[list(st.rows)].any(axis=0)).tolist()) - set(st.unknowns))
+              for st in stages]  # fmt: skip
+    stage_motors = _stage_motors(js, stages, inputs)
+    wanted = {u for ids in inputs for u in ids}
+    wanted |= {model.unknowns.index(o) for o in trans.outputs if o in model.unknowns}
+    elimination = [_elimination(jp, st, wanted) for st in stages]
     sizes += [max(len(a), len(b)) for a, b in zip(block_motors, block_outputs, strict=True)]
     return {
         "OUT_Y": _ints(_position(model, o) for o in trans.outputs),
@@ -230,9 +261,20 @@ def _tables(trans: Transmission) -> dict[str, str]:
         "NSTAGES": str(len(stages)),
         "STAGE_START": _starts([st.rows for st in stages]),
         "STAGE_ROWS": _ints(r for st in stages for r in st.rows),
-        "STAGE_COLS": _ints(u for st in stages for u in st.unknowns),
-        "STAGE_INPUT_START": _starts([st.inputs for st in stages]),
-        "STAGE_INPUTS": _ints(u for st in stages for u in st.inputs),
+        "STAGE_COLS": _ints(u for e in elimination for u in e[0]),
+        "STAGE_HI": _ints(i for e in elimination for i in e[1]),
+        "STAGE_LO": _ints(i for e in elimination for i in e[2]),
+        "STAGE_LOW": _ints(i for e in elimination for i in e[3]),
+        "STAGE_FIRST": _ints(
+            min((e[0].index(u) for u in e[0] if u in wanted), default=len(e[0]))
+            for e in elimination
+        ),
+        "STAGE_CASES": "\n".join(
+            f"    case {i}: return solve_sized(t, {i}, {len(st.rows)});"
+            for i, st in enumerate(stages)
+        ),  # fmt: skip
+        "STAGE_INPUT_START": _starts(inputs),
+        "STAGE_INPUTS": _ints(u for ids in inputs for u in ids),
         "STAGE_MOTOR_START": _starts(stage_motors),
         "STAGE_MOTORS": _ints(j for ids in stage_motors for j in ids),
         "BLOCK_STAGE_START": _starts(block_stages),
@@ -248,24 +290,61 @@ def _tables(trans: Transmission) -> dict[str, str]:
     }
 
 
-def _stage_motors(model: Model, stages: Sequence[Block]) -> list[list[int]]:
+def _stage_motors(
+    js: np.ndarray, stages: Sequence[Block], inputs: Sequence[Sequence[int]]
+) -> list[list[int]]:
     """For each stage (dependencies first), the motors its unknowns depend on: those whose
-    column of ``J_s`` is structurally nonzero on its rows, and those of the stages its inputs
-    belong to (the other columns of ``J_p^-1 J_s`` are zero on its unknowns)."""
-    pattern = model.symbolic.J_s.sparsity()
-    rows, cols = pattern.get_triplet()
-    direct: dict[int, set[int]] = {}
-    for r, c in zip(rows, cols, strict=True):
-        direct.setdefault(int(r), set()).add(int(c))
+    column of ``J_s`` (structural nonzeros ``js``) is nonzero on its rows, and those of the
+    stages its inputs belong to (the other columns of ``J_p^-1 J_s`` are zero on its
+    unknowns)."""
     owner: dict[int, int] = {}
     found: list[list[int]] = []
     for i, st in enumerate(stages):
-        motors = {c for r in st.rows for c in direct.get(r, ())}
-        for u in st.inputs:
+        motors = set(np.flatnonzero(js[list(st.rows)].any(axis=0)).tolist())
+        for u in inputs[i]:
             motors.update(found[owner[u]])
         found.append(sorted(motors))
         owner.update((u, i) for u in st.unknowns)
     return found
+
+
+def _elimination(
+    jp: np.ndarray, stage: Block, wanted: set[int]
+) -> tuple[list[int], list[int], list[int], list[int]]:
+    """The order of a stage's unknowns (columns of its block ``B`` of ``J_p``, structural
+    nonzeros ``jp``) for its LU factorisation, and per column ``k`` of that order the last
+    row ``hi[k]`` that may be nonzero when it is eliminated, the first row ``lo[k]`` of ``U``
+    and the last row of ``L`` (``hi[k]``, or further where a later step exchanges a row in
+    that range with one below it) that may be nonzero.
+
+    The columns come by their last nonzero row, then fewest nonzeros first: a loop's own
+    unknowns, eliminated within its rows, before those it shares with the next loops; then
+    the ``wanted`` unknowns (outputs, inputs of later stages) last, where back substitution
+    starts. The
+    fill is bounded as partial pivoting may have it: at column ``k`` any row from ``k`` to the
+    last one nonzero there may be the pivot, and each of those rows gets the union of their
+    patterns; every other row is zero in column ``k`` (its multiplier 0: skipping it is the
+    same elimination)."""
+    block = jp[np.ix_(list(stage.rows), list(stage.unknowns))]
+    nz = [np.flatnonzero(block[:, j]) for j in range(block.shape[1])]
+    late = [stage.unknowns[j] in wanted for j in range(len(nz))]
+    order = sorted(
+        range(len(nz)), key=lambda j: (int(nz[j].max(initial=-1)), len(nz[j]), late[j], j)
+    )
+    P = block[:, order].copy()
+    n, hi = len(order), []
+    for k in range(n):
+        rows = np.flatnonzero(P[k:, k]) + k
+        last = int(rows.max(initial=k))
+        P[k : last + 1, k:] |= P[k : last + 1, k:].any(axis=0)
+        hi.append(last)
+    lo = [int(np.flatnonzero(np.triu(P)[:, k]).min(initial=k)) for k in range(n)]
+    low = list(hi)  # the rows of L's column k once the later row exchanges are applied
+    for k in range(n):
+        for later in range(k + 1, n):
+            if later <= low[k]:
+                low[k] = max(low[k], hi[later])
+    return [stage.unknowns[j] for j in order], hi, lo, low
 
 
 def _position(model: Model, joint: str) -> int:

@@ -1,0 +1,154 @@
+"""The derivative kernel of the generated C transmission: the closures in each loop's frame.
+
+The model's closures ``g`` are written in the world frame: the position rows of a loop are
+``p_a - p_b`` in world coordinates, which a joint above the loop (a hip motor over the knee
+loop, the knee over the ankle) rotates. Their derivatives in such a joint vanish only at the
+solution (``R' R^T (p_a - p_b)``), not structurally: ``J_s`` and ``J_p`` then hold columns
+that cost as much as the rest and contribute nothing at ``g = 0``.
+
+:func:`loop_jacobians` builds the same closures with each loop's placements relative to its
+root (the deepest link both of its frames hang from): ``g' = S g``, ``S`` block diagonal per
+closure with ``R_root^T`` on its position rows and the identity on its rotation rows
+(``R_a^T R_b`` does not depend on the frame) and distance rows. ``S`` is invertible, so
+``g' = 0`` is the same solution set, and at a solution ``J_p' = S J_p``, ``J_s' = S J_s``
+(the terms ``(dS) g`` vanish): ``J_p'^-1 J_s' = J_p^-1 J_s`` (the implicit function theorem
+on either system gives the derivative of the same solution map), and each stage of the
+block-triangular ``J_p`` (:func:`~scdk_sym.robot.blocks.triangular_blocks`) keeps its
+singular values (``S`` is orthogonal on the rows of a stage). A closure is rewritten only
+where that holds: a 3d, 6d or distance closure whose position rows are all kept by the square
+reduction and whose kept rows lie in one stage; and the whole rewrite only if its ``J_p``,
+``J_s`` involve no entry the world-frame ones do not (the stages and their inputs hold as
+they are). Otherwise the kernel is the world-frame ``J_p``, ``J_s``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import casadi as ca
+import numpy as np
+
+from ..model.rotations import rot_exp
+from ..model.urdf import Tree
+from ..robot import Model
+from ..robot.blocks import Block
+from ..symbolic.kinematics import (
+    closure_residual,
+    floating_motion,
+    joint_motion,
+    spherical_motion,
+)
+
+#: Closure types whose residual is frame-covariant: position rows rotate with the frame,
+#: rotation and distance rows do not change (a "2d" closure keeps world x-y: not rewritten).
+COVARIANT = ("3d", "6d", "distance")
+
+
+def loop_jacobians(model: Model, stages: Sequence[Block]) -> tuple[ca.SX, ca.SX]:
+    """``(J_p', J_s')`` of the closures in each loop's root frame (see the module docstring),
+    or the world-frame ``(J_p, J_s)``."""
+    sym = model.symbolic
+    g = _loop_closures(model, stages)
+    J_p, J_s = ca.jacobian(g, sym.y), -ca.jacobian(g, sym.theta)
+    if not (_within(J_p, sym.J_p) and _within(J_s, sym.J_s)):
+        return sym.J_p, sym.J_s
+    return J_p, J_s
+
+
+def derivative_kernel(model: Model, J_p: ca.SX, J_s: ca.SX, name: str) -> ca.Function:
+    """``(y, theta, c) -> (J_p, J_s)``, dense column-major (the C source's kernel)."""
+    sym = model.symbolic
+    return ca.Function(
+        name,
+        [sym.y, sym.theta, sym.c],
+        [ca.densify(J_p), ca.densify(J_s)],
+        ["y", "theta", "c"],
+        ["J_p", "J_s"],
+    )
+
+
+def _loop_closures(model: Model, stages: Sequence[Block]) -> ca.SX:
+    """The kept closure rows ``g'``, each eligible closure in its loop's root frame."""
+    sym, tree = model.symbolic, model.tree
+    charts = _charts(model)
+    stage_of = {r: i for i, st in enumerate(stages) for r in st.rows}
+    kept = {int(r): i for i, r in enumerate(model.rows)}
+    parent = {j.child: j.parent for j in tree.joints}
+    world = _placements(tree, sym.values, charts, tree.root)
+    rows, start = [], 0
+    for cl in model.closures:
+        span = range(start, start + cl.rows)
+        start += cl.rows
+        T = world
+        if cl.type in COVARIANT and _eligible(cl.type, span, kept, stage_of):
+            root = _common_ancestor(parent, cl.frame_a, cl.frame_b)
+            if root != tree.root:
+                T = _placements(tree, sym.values, charts, root)
+        rows.append(closure_residual(cl, T[cl.frame_a], T[cl.frame_b], sym.values))
+    return ca.vertcat(*rows)[list(model.rows)]
+
+
+def _eligible(kind: str, span: range, kept: Mapping[int, int], stage_of: Mapping) -> bool:
+    """A closure whose position rows are all kept or all dropped, its kept rows in one stage."""
+    position = list(span)[: 1 if kind == "distance" else 3]
+    if 0 < sum(r in kept for r in position) < len(position):
+        return False
+    return len({stage_of.get(kept[r], -1) for r in span if r in kept}) <= 1
+
+
+def _charts(model: Model) -> dict[str, ca.SX]:
+    """The reference rotations of the rotation joints, as the symbolic system has them."""
+    tree, sym = model.tree, model.symbolic
+    known = set(model.unknowns)
+    rotating = [n for n in tree.rotation_joints if f"{n}.rx" in known]
+    charts = {n: ca.reshape(sym.c[9 * i : 9 * i + 9], 3, 3) for i, n in enumerate(rotating)}
+    for n in tree.rotation_joints:
+        if n not in charts and f"{n}.rx" in model.locked:
+            w = np.array([model.locked[f"{n}.{a}"] for a in ("rx", "ry", "rz")])
+            charts[n] = ca.SX(ca.DM(rot_exp(w)))
+    return charts
+
+
+def _placements(
+    tree: Tree, values: Mapping[str, ca.SX | float], charts: Mapping[str, ca.SX], base: str
+) -> dict[str, ca.SX]:
+    """Placements (4x4 SX) of ``base`` and the links below it relative to ``base`` (those of
+    :func:`~scdk_sym.symbolic.kinematics.link_placements` with ``base`` at the origin)."""
+    out: dict[str, ca.SX] = {base: ca.SX.eye(4)}
+    for j in tree.joints:
+        if j.parent not in out:
+            continue
+        T = out[j.parent] @ ca.DM(j.origin)
+        if j.type == "floating":
+            coords = ca.vertcat(*[values[c] for c in j.coordinates])
+            T = T @ floating_motion(coords, charts.get(j.name, ca.SX.eye(3)))
+        elif j.type == "spherical":
+            rho = ca.vertcat(*[values[c] for c in j.coordinates])
+            T = T @ spherical_motion(rho, charts.get(j.name, ca.SX.eye(3)))
+        elif j.movable:
+            T = T @ joint_motion(j.type, j.axis, values[j.name])
+        out[j.child] = T
+    return out
+
+
+def _common_ancestor(parent: Mapping[str, str], a: str, b: str) -> str:
+    """The deepest link that both ``a`` and ``b`` are (or hang from)."""
+    above = [a]
+    while above[-1] in parent:
+        above.append(parent[above[-1]])
+    seen = {b}
+    while b in parent:
+        b = parent[b]
+        seen.add(b)
+    return next(link for link in above if link in seen)
+
+
+def _within(new: ca.SX, old: ca.SX) -> bool:
+    """1 if every structural nonzero of ``new`` is one of ``old``."""
+    mine = set(zip(*new.sparsity().get_triplet(), strict=True))
+    return mine <= set(zip(*old.sparsity().get_triplet(), strict=True))
+
+
+def pattern(expr: ca.SX) -> np.ndarray:
+    """The structural nonzeros of an expression, as a boolean matrix."""
+    return np.array(ca.DM(expr.sparsity(), 1), dtype=bool)
