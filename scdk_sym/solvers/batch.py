@@ -17,13 +17,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..backends import offered
-from ..codegen.library import tracker_library
 from ..errors import InputError, ScdkError, VerificationError
 from ..results import Configuration, SolveResult
 from ..robot import Model, as_vector
 from .query import validate_start
 from .solve import solve
-from .solve_c import convergent_answer
+from .solve_c import bound_solve, convergent_answer
 
 __all__ = ["SolveBatch", "solve_many"]
 
@@ -136,8 +135,7 @@ def _c_rows(model: Model, th: np.ndarray, start: Configuration,
     as the single solve does (:func:`~scdk_sym.solvers.solve_c.convergent_answer`): fills
     ``answers`` and, for an answer that fails its check, ``errors``; the rows the C follower
     refuses are left to :func:`scdk_sym.solve`."""
-    y1, c1 = model.chart.to_local(start.y)
-    call = tracker_library(model).bound_solve(y1, c1, start.theta)
+    start, call = bound_solve(model, start, "convergent")
     for i, theta0 in enumerate(th):
         out = call(theta0)
         if out.status < 0:

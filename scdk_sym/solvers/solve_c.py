@@ -51,7 +51,7 @@ from ..robot import Model
 from .query import target, validate_start
 from .result import Checks, solve_result
 
-__all__ = ["HandOver", "convergent_answer", "solve_c"]
+__all__ = ["HandOver", "bound_solve", "convergent_answer", "solve_c"]
 
 
 @dataclass(frozen=True)
@@ -108,7 +108,7 @@ def solve_c(
     if kwargs.get("max_arc") is not None:
         return HandOver(theta0, start, "max_arc is applied by the compiled follower")
     th0 = target(model, theta0)
-    start, call = _bound(model, start, branch)
+    start, call = bound_solve(model, start, branch)
     out = call(th0)
     if out.status in (ERR_SINGULAR_PATH, ERR_NO_SOLUTION):
         return HandOver(th0, start, f"the C follower returned {STATUS.get(out.status, out.status)}")
@@ -133,7 +133,7 @@ def solve_c(
     return res
 
 
-def _bound(
+def bound_solve(
     model: Model, start: Configuration | None, branch: str
 ) -> tuple[Configuration, BoundSolve]:
     """The start (default home, its shapes checked) and the model's C solve of ``branch``

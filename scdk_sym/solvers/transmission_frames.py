@@ -28,16 +28,9 @@ from collections.abc import Mapping, Sequence
 import casadi as ca
 import numpy as np
 
-from ..model.rotations import rot_exp
-from ..model.urdf import Tree
 from ..robot import Model
 from ..robot.blocks import Block
-from ..symbolic.kinematics import (
-    closure_residual,
-    floating_motion,
-    joint_motion,
-    spherical_motion,
-)
+from ..symbolic.kinematics import closure_residual, link_placements
 
 #: Closure types whose residual is frame-covariant: position rows rotate with the frame,
 #: rotation and distance rows do not change (a "2d" closure keeps world x-y: not rewritten).
@@ -70,11 +63,10 @@ def derivative_kernel(model: Model, J_p: ca.SX, J_s: ca.SX, name: str) -> ca.Fun
 def _loop_closures(model: Model, stages: Sequence[Block]) -> ca.SX:
     """The kept closure rows ``g'``, each eligible closure in its loop's root frame."""
     sym, tree = model.symbolic, model.tree
-    charts = _charts(model)
     stage_of = {r: i for i, st in enumerate(stages) for r in st.rows}
     kept = {int(r): i for i, r in enumerate(model.rows)}
     parent = {j.child: j.parent for j in tree.joints}
-    world = _placements(tree, sym.values, charts, tree.root)
+    world = sym.placements
     rows, start = [], 0
     for cl in model.closures:
         span = range(start, start + cl.rows)
@@ -83,7 +75,7 @@ def _loop_closures(model: Model, stages: Sequence[Block]) -> ca.SX:
         if cl.type in COVARIANT and _eligible(cl.type, span, kept, stage_of):
             root = _common_ancestor(parent, cl.frame_a, cl.frame_b)
             if root != tree.root:
-                T = _placements(tree, sym.values, charts, root)
+                T = link_placements(tree, sym.values, sym.charts, base=root)
         rows.append(closure_residual(cl, T[cl.frame_a], T[cl.frame_b], sym.values))
     return ca.vertcat(*rows)[list(model.rows)]
 
@@ -94,41 +86,6 @@ def _eligible(kind: str, span: range, kept: Mapping[int, int], stage_of: Mapping
     if 0 < sum(r in kept for r in position) < len(position):
         return False
     return len({stage_of.get(kept[r], -1) for r in span if r in kept}) <= 1
-
-
-def _charts(model: Model) -> dict[str, ca.SX]:
-    """The reference rotations of the rotation joints, as the symbolic system has them."""
-    tree, sym = model.tree, model.symbolic
-    known = set(model.unknowns)
-    rotating = [n for n in tree.rotation_joints if f"{n}.rx" in known]
-    charts = {n: ca.reshape(sym.c[9 * i : 9 * i + 9], 3, 3) for i, n in enumerate(rotating)}
-    for n in tree.rotation_joints:
-        if n not in charts and f"{n}.rx" in model.locked:
-            w = np.array([model.locked[f"{n}.{a}"] for a in ("rx", "ry", "rz")])
-            charts[n] = ca.SX(ca.DM(rot_exp(w)))
-    return charts
-
-
-def _placements(
-    tree: Tree, values: Mapping[str, ca.SX | float], charts: Mapping[str, ca.SX], base: str
-) -> dict[str, ca.SX]:
-    """Placements (4x4 SX) of ``base`` and the links below it relative to ``base`` (those of
-    :func:`~scdk_sym.symbolic.kinematics.link_placements` with ``base`` at the origin)."""
-    out: dict[str, ca.SX] = {base: ca.SX.eye(4)}
-    for j in tree.joints:
-        if j.parent not in out:
-            continue
-        T = out[j.parent] @ ca.DM(j.origin)
-        if j.type == "floating":
-            coords = ca.vertcat(*[values[c] for c in j.coordinates])
-            T = T @ floating_motion(coords, charts.get(j.name, ca.SX.eye(3)))
-        elif j.type == "spherical":
-            rho = ca.vertcat(*[values[c] for c in j.coordinates])
-            T = T @ spherical_motion(rho, charts.get(j.name, ca.SX.eye(3)))
-        elif j.movable:
-            T = T @ joint_motion(j.type, j.axis, values[j.name])
-        out[j.child] = T
-    return out
 
 
 def _common_ancestor(parent: Mapping[str, str], a: str, b: str) -> str:

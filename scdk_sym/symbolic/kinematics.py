@@ -53,8 +53,10 @@ def link_placements(
     tree: Tree,
     joint_values: Mapping[str, ca.SX | float],
     charts: Mapping[str, ca.SX] | None = None,
+    base: str | None = None,
 ) -> dict[str, ca.SX]:
-    """World placements (4x4 SX) of every link.
+    """World placements (4x4 SX) of every link, or the placements relative to ``base`` of
+    ``base`` and the links below it.
 
     Args:
         tree: the URDF tree.
@@ -62,9 +64,12 @@ def link_placements(
             joints: ``name.x`` ... ``name.rz``).
         charts: floating or spherical joint name -> reference rotation (3x3) of its chart
             (identity if absent).
+        base: the link placed at the origin (default: the tree's root).
     """
-    out: dict[str, ca.SX] = {tree.root: ca.SX.eye(4)}
+    out: dict[str, ca.SX] = {tree.root if base is None else base: ca.SX.eye(4)}
     for j in tree.joints:
+        if j.parent not in out:  # not below the base
+            continue
         T = out[j.parent] @ ca.DM(j.origin)
         if j.type == "floating":
             coords = ca.vertcat(*[joint_values[c] for c in j.coordinates])

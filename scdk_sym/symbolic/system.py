@@ -37,6 +37,8 @@ class Symbolic:
         placements: link name -> (4, 4) world placement.
         workspace: names of the coordinates of ``x``.
         values: every joint coordinate -> its symbol or constant (what couplings read).
+        charts: rotation joint -> the reference rotation (3x3) of its chart: a block of ``c``
+            for an unknown rotation, the constant rotation of a held one.
     """
 
     y: ca.SX
@@ -52,6 +54,7 @@ class Symbolic:
     placements: Mapping[str, ca.SX]
     workspace: tuple[str, ...] = ()
     values: Mapping[str, ca.SX | float] = field(default_factory=dict)
+    charts: Mapping[str, ca.SX] = field(default_factory=dict)
 
     @property
     def m(self) -> int:
@@ -136,4 +139,5 @@ def build_symbolic(
         placements=T,
         workspace=tuple(workspace),
         values=values,
+        charts=charts,
     )
