@@ -15,7 +15,10 @@ timed in turn within each repeat (medians printed, microseconds per reading):
   same 18 closure equations with the same generated kernels (``scdk_fwd_gjp``: g and J_p,
   LU of scdk_lu.h, until max |g| <= 1e-12; no branch control, no check), and that Newton
   followed by a plain Jacobian (``scdk_fwd_closure`` and one LU solve of J_p^-1 J_s, no
-  singular test); ratios are to the plain Newton;
+  singular test); ratios are to the plain Newton. The tracker factors J_p by the blocks of its
+  block-triangular form (a 6 x 6 knee block, a 12 x 12 ankle block, instead of the whole
+  18 x 18): the same Newton with that block LU is timed too, for the share of the difference
+  that the factorisation makes;
 - a lookup table of the ankle map (motor_shin1, motor_shin2) -> (free_foot1, free_foot2) on a
   0.4-degree grid over the motor box home +- 0.3 rad (the rest of the leg at home), filled from
   the transmission's forward map (the C one, equal to ``sc.transmission``'s to 1e-10: its
@@ -35,10 +38,12 @@ import time
 import warnings
 from pathlib import Path
 
+import casadi as ca
 import numpy as np
 
 import scdk_sym as sc
 from scdk_sym.errors import ModelWarning
+from scdk_sym.graphs import triangular_decomposition
 from scdk_sym.kernels.compile import compile_parallel
 from scdk_sym.solvers.transmission_c import write_transmission
 
@@ -116,6 +121,46 @@ long bench_newton(long n, const double *thetas, int with_jacobian, const int *ou
     return iterations;
 }
 
+/* bench_newton with J_p factored as the tracker does (its block-triangular form: rows, cols
+ * in block order, block b on start[b] .. start[b + 1] - 1; each diagonal block by scdk_lu.h,
+ * the blocks below the diagonal applied in the forward substitution) */
+long bench_newton_blocks(long n, const double *thetas, const int *out_y, const int *rows,
+                         const int *cols, const int *start, int nblocks, double *outs) {
+    const casadi_real *arg[SCDK_FWD_SZ_ARG];
+    casadi_real *res[SCDK_FWD_SZ_RES];
+    casadi_int iw[SCDK_FWD_SZ_IW];
+    casadi_real w[SCDK_FWD_SZ_W];
+    double y[M], g[M], Jp[M * M], B[M * M], x[M];
+    int piv[M], it, r, c, b;
+    long i, iterations = 0;
+    memcpy(y, scdk_fwd_home_y, sizeof y);
+    for (i = 0; i < n; ++i) {
+        const double *th = thetas + i * K;
+        for (it = 0; it < 30; ++it) {
+            double big = 0.0;
+            arg[0] = y, arg[1] = th, arg[2] = scdk_fwd_home_c, res[0] = g, res[1] = Jp;
+            scdk_fwd_gjp(arg, res, iw, w, 0);
+            for (r = 0; r < M; ++r) big = fabs(g[r]) > big ? fabs(g[r]) : big;
+            if (big <= 1e-12) break;
+            for (c = 0; c < M; ++c)
+                for (r = 0; r < M; ++r) B[r + c * M] = Jp[rows[r] + cols[c] * M];
+            for (r = 0; r < M; ++r) x[r] = g[rows[r]];
+            for (b = 0; b < nblocks; ++b) {
+                const int s = start[b], m = start[b + 1] - s;
+                for (c = 0; c < s; ++c)
+                    for (r = s; r < s + m; ++r) x[r] -= B[r + c * M] * x[c];
+                if (!scdk_lu_factor(B + s + s * M, NULL, m, 1, M, piv + s)) return -1;
+                scdk_lu_solve(B + s + s * M, NULL, m, 1, M, piv + s, x + s, NULL, 1, 0);
+            }
+            for (r = 0; r < M; ++r) y[cols[r]] -= x[r];
+            ++iterations;
+        }
+        if (it == 30) return -1;
+        for (r = 0; r < N; ++r) outs[i * N + r] = out_y[r] >= 0 ? y[out_y[r]] : th[-1 - out_y[r]];
+    }
+    return iterations;
+}
+
 /* bilinear interpolation of a table (na x nb x 2, row-major) over the grid a0 + h i,
  * b0 + h j at n points ab (n x 2) into out (n x 2); NaN outside */
 void bench_lookup(long n, const double *ab, const double *table, int na, int nb, double a0,
@@ -156,11 +201,19 @@ class Library:
                                 FLAGS, ("-shared",), cwd=work)  # fmt: skip
         self.lib = ctypes.CDLL(str(path))
         self.lib.bench_newton.restype = ctypes.c_long
+        self.lib.bench_newton_blocks.restype = ctypes.c_long
         self.state = ctypes.create_string_buffer(self.lib.scdk_transmission_size())
         self.k, self.n = model.k, len(OUTPUTS)
         index = [model.unknowns.index(o) if o in model.unknowns else -1 - model.actuated.index(o)
                  for o in OUTPUTS]  # fmt: skip
         self.out_y = np.array(index, dtype=np.intc)
+        pattern = np.array(ca.DM(model.symbolic.J_p.sparsity(), 1), dtype=bool)
+        parts = triangular_decomposition([set(np.flatnonzero(r).tolist()) for r in pattern])
+        assert parts is not None
+        self.blocks = [np.array([i for part in parts for i in part[k]], dtype=np.intc)
+                       for k in (0, 1)]  # fmt: skip
+        sizes = [0] + [len(rows) for rows, _ in parts]
+        self.start = np.cumsum(sizes).astype(np.intc)
 
     def forward(self, thetas: np.ndarray, what: int = 1) -> np.ndarray:
         """(N, n) outputs along the readings from home (what: 1, 3 with J, 5 with margin)."""
@@ -189,6 +242,19 @@ class Library:
         iters = self.lib.bench_newton(len(th), _ptr(th), int(with_jacobian), index, _ptr(out))
         if iters < 0:
             raise RuntimeError("plain Newton did not converge")
+        return out, iters
+
+    def newton_blocks(self, thetas: np.ndarray) -> tuple[np.ndarray, int]:
+        th = np.ascontiguousarray(thetas, dtype=float)
+        out = np.full((len(th), self.n), np.nan)
+        rows, cols = self.blocks
+        iters = self.lib.bench_newton_blocks(
+            len(th), _ptr(th), self.out_y.ctypes.data_as(ctypes.c_void_p),
+            rows.ctypes.data_as(ctypes.c_void_p), cols.ctypes.data_as(ctypes.c_void_p),
+            self.start.ctypes.data_as(ctypes.c_void_p), len(self.start) - 1, _ptr(out),
+        )  # fmt: skip
+        if iters < 0:
+            raise RuntimeError("plain Newton (block LU) did not converge")
         return out, iters
 
     def lookup(self, table: np.ndarray, ab: np.ndarray, origin: np.ndarray) -> np.ndarray:
@@ -256,6 +322,7 @@ def main() -> None:
         print(f"generated and compiled in {time.perf_counter() - t0:.1f} s ({' '.join(FLAGS)})")
         ours = lib.forward(thetas, what=3)
         plain, iters = lib.newton(thetas)
+        blocked, _ = lib.newton_blocks(thetas)
         t0 = time.perf_counter()
         table, origin = ankle_table(lib, model)
         built = time.perf_counter() - t0
@@ -268,6 +335,7 @@ def main() -> None:
             "forward + margin": lambda: lib.forward(thetas, 5),
             "newton": lambda: lib.newton(thetas),
             "newton + jacobian": lambda: lib.newton(thetas, True),
+            "newton blocks": lambda: lib.newton_blocks(thetas),
             "lookup": lambda: lib.lookup(table, thetas[:, [j1, j2]], origin),
         }
         times: dict[str, list[float]] = {name: [] for name in runs}
@@ -283,6 +351,7 @@ def main() -> None:
     for name, label in (
         ("newton", "baseline: plain C Newton on the 18 closures (g, J_p kernel)"),
         ("newton + jacobian", "plain C Newton + plain Jacobian (no singular test)"),
+        ("newton blocks", "C Newton with J_p factored by blocks, as the tracker does"),
         ("forward", "C transmission forward (SC tracker)"),
         ("forward + jacobian", "C transmission forward + jacobian (with singular test)"),
         ("forward + margin", "C transmission forward + margin (exact SVDs)"),
@@ -290,7 +359,8 @@ def main() -> None:
     ):
         print(f"  {label:<58}{us[name]:8.3f} us  {us[name] / base:6.2f}")
     print(f"  plain Newton: {iters / args.samples:.2f} iterations per reading, its outputs "
-          f"within {np.abs(plain - ours).max():.1e} rad of the transmission's")  # fmt: skip
+          f"within {np.abs(plain - ours).max():.1e} rad of the transmission's (by blocks: "
+          f"{np.abs(blocked - ours).max():.1e})")  # fmt: skip
     reach = ~np.isnan(table[..., 0])
     error = np.abs(looked - ours[:, cols]).max(axis=1)
     worst, outside = int(np.nanargmax(error)), int(np.isnan(error).sum())

@@ -5,10 +5,16 @@ determinants on seeded random matrices."""
 from __future__ import annotations
 
 import ctypes
+import warnings
 
+import casadi as ca
 import numpy as np
 import pytest
+from factories import ROOT
 
+import scdk_sym as sc
+from scdk_sym.codegen.generate import generate
+from scdk_sym.errors import ModelWarning
 from scdk_sym.kernels.compile import LU_HEADER, run_compiler
 
 WRAPPER = r"""
@@ -95,3 +101,54 @@ def test_a_zero_column_or_a_nan_fails_the_factorisation(lib):
         a, x = np.asfortranarray(A).ravel(order="F").copy(), np.ones(n)
         piv, det = np.zeros(n, dtype=np.intc), ctypes.c_double()
         assert lib.lu_real(_p(a), n, 1, n, _p(piv), _p(x), 1, 0, ctypes.byref(det)) == 0
+
+
+TRACKER_WRAPPER = r"""
+#include "scdk_tracker.c"
+int blocks(void) { return LU_BLOCKS; }
+int factor_solve(double *a, int *piv, double *b, int transposed, double *det) {
+    if (!lu_factor(a, piv)) return 0;
+    *det = lu_det(a, piv);
+    lu_solve(a, piv, b, transposed);
+    return 1;
+}
+"""
+
+
+@pytest.fixture(scope="module")
+def tracker_lu(tmp_path_factory):
+    """name -> (the tracker's LU of J_p compiled from its generated source, model)."""
+    out = {}
+    for name in ("robot_delta", "digit_like"):
+        d = tmp_path_factory.mktemp(name)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ModelWarning)
+            model = sc.load_model(ROOT / "tests" / "fixtures" / "gepetto" / name)
+        src = generate(model, d)
+        (d / "wrap.c").write_text(TRACKER_WRAPPER)
+        flags = ["-std=c99", "-O1", "-shared", "-fPIC", f"-I{d}"]
+        run_compiler([*flags, str(d / "wrap.c"), str(src.kernels_c), "-o", str(d / "lu.so"), "-lm"])
+        out[name] = (ctypes.CDLL(str(d / "lu.so")), model)
+    return out
+
+
+@pytest.mark.parametrize("name, count", [("robot_delta", 5), ("digit_like", 2)])
+@pytest.mark.parametrize("transposed", [0, 1])
+def test_the_trackers_block_lu_of_j_p_equals_lapack(tracker_lu, name, count, transposed):
+    """The generated tracker factors J_p block by block (its fine block-triangular form):
+    determinant and solves of matrices with J_p's structural sparsity and random entries equal
+    numpy's (the sign of det decides the tracker's branches)."""
+    lib, model = tracker_lu[name]
+    assert lib.blocks() == count
+    pattern = np.array(ca.DM(model.symbolic.J_p.sparsity(), 1), dtype=bool)
+    m = model.m
+    rng = np.random.default_rng(31 + m + transposed)
+    for _ in range(5):
+        A = np.where(pattern, rng.standard_normal((m, m)), 0.0)
+        b = rng.standard_normal(m)
+        a, x = np.asfortranarray(A).ravel(order="F").copy(), b.copy()
+        piv, det = np.zeros(m, dtype=np.intc), ctypes.c_double()
+        assert lib.factor_solve(_p(a), _p(piv), _p(x), transposed, ctypes.byref(det)) == 1
+        ref = np.linalg.solve(A.T if transposed else A, b)
+        assert np.max(np.abs(x - ref)) <= 1e-9 * max(1.0, np.max(np.abs(ref)))
+        assert abs(det.value - np.linalg.det(A)) <= 1e-10 * abs(np.linalg.det(A))

@@ -25,9 +25,11 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+import casadi as ca
 import numpy as np
 
 from ..errors import InputError, OutputError
+from ..graphs import triangular_decomposition
 from ..kernels.compile import (
     LOOP_OPT,
     LU_HEADER,
@@ -251,6 +253,7 @@ def _generate(
         "PERIODIC": _periodic(model),
         "ROTATION": ", ".join(str(i) for idx in model.chart.rotations for i in idx) or "0",
         "NROT_ALLOC": str(max(1, 3 * len(model.chart.rotations))),
+        **_lu_blocks(model),
         **status.template_values(prefix),
     }
     header = templates.fill(templates.template(templates.HEADER), values)
@@ -291,6 +294,71 @@ def _periodic(model) -> str:
     mask = np.zeros(model.m, dtype=int)
     mask[periodic(model)] = 1
     return ", ".join(str(v) for v in mask)
+
+
+def _lu_blocks(model) -> dict[str, str]:
+    """The tables and generated calls of the tracker's block LU of J_p (tracker_numerics.c.in:
+    LU_BLOCKS): J_p's fine block-triangular decomposition, rows and columns in block order, the
+    columns left of each block its rows involve, and the sign of the two permutations."""
+    pattern = np.array(ca.DM(model.symbolic.J_p.sparsity(), 1), dtype=bool)
+    parts = triangular_decomposition([set(np.flatnonzero(r).tolist()) for r in pattern])
+    if model.m == 0 or parts is None or len(parts) < 2:
+        return {"LU_BLOCKS": "1", "LU_SIGN": "1.0", **dict.fromkeys(_LU_TABLES, "0"),
+                **dict.fromkeys(_LU_CALLS, "")}  # fmt: skip
+    rows = [r for block, _ in parts for r in block]
+    cols = [c for _, block in parts for c in block]
+    start = np.cumsum([0] + [len(block) for block, _ in parts]).tolist()
+    permuted = pattern[np.ix_(rows, cols)]
+    left: list[int] = []
+    left_start = [0]
+    for b in range(len(parts)):
+        used = permuted[start[b] : start[b + 1], : start[b]].any(axis=0)
+        left.extend(np.flatnonzero(used).tolist())
+        left_start.append(len(left))
+    blocks = list(zip(start[:-1], np.diff(start).tolist(), strict=True))
+    return {
+        "LU_BLOCKS": str(len(parts)),
+        "LU_ROWS": _ints(rows),
+        "LU_COLS": _ints(cols),
+        "LU_START": _ints(start),
+        "LU_LEFT_START": _ints(left_start),
+        "LU_LEFT": _ints(left),
+        "LU_SIGN": repr(float(_permutation_sign(rows) * _permutation_sign(cols))),
+        "LU_FACTOR_BLOCKS": "\n".join(
+            f"    if (!lu_factor_block(B, piv, {s}, {n})) return 0;" for s, n in blocks),
+        "LU_DET_BLOCKS": "\n".join(
+            f"    det *= scdk_lu_det(LU + {s} + {s} * NY, {n}, 1, NY, piv + {s});"
+            for s, n in blocks),
+        "LU_SOLVE_BLOCKS": "\n".join(
+            f"        lu_solve_block(LU, piv, x, {b}, {s}, {n}, 0);"
+            for b, (s, n) in enumerate(blocks)),
+        "LU_SOLVE_T_BLOCKS": "\n".join(
+            f"        lu_solve_block(LU, piv, x, {b}, {s}, {n}, 1);"
+            for b, (s, n) in reversed(list(enumerate(blocks)))),
+    }  # fmt: skip
+
+
+_LU_TABLES = ("LU_ROWS", "LU_COLS", "LU_START", "LU_LEFT_START", "LU_LEFT")
+_LU_CALLS = ("LU_FACTOR_BLOCKS", "LU_DET_BLOCKS", "LU_SOLVE_BLOCKS", "LU_SOLVE_T_BLOCKS")
+
+
+def _ints(values) -> str:
+    """C initialiser of an int array (one 0 for an empty one: C has no empty arrays)."""
+    return ", ".join(str(int(v)) for v in values) or "0"
+
+
+def _permutation_sign(order: list[int]) -> int:
+    """+1 or -1: the sign of the permutation ``order`` of ``0 .. n - 1``."""
+    seen, sign = [False] * len(order), 1
+    for i in range(len(order)):
+        length, j = 0, i
+        while not seen[j]:
+            seen[j] = True
+            j = order[j]
+            length += 1
+        if length and length % 2 == 0:
+            sign = -sign
+    return sign
 
 
 def _c_literals(module, floats: tuple[str, ...], ints: tuple[str, ...]) -> dict[str, str]:
