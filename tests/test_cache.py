@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -78,11 +79,23 @@ def _entries(cache: Path) -> list[Path]:
     return sorted(p for p in cache.rglob("*") if p.is_file() and not p.name.endswith(DIGEST_SUFFIX))
 
 
+@pytest.fixture(scope="module")
+def clean_cache(tmp_path_factory) -> tuple[Path, dict]:
+    """A cache filled by one clean run of the script, and that run's answers (each fault's
+    test damages a copy)."""
+    root = tmp_path_factory.mktemp("clean")
+    answers, _ = _run(root / "cache", root / "a.zarr")
+    return root / "cache", answers
+
+
 @needs_compiler()
 @pytest.mark.parametrize("fault", ["truncate", "corrupt"])
-def test_damaged_entries_of_every_kind_are_rebuilt_and_answers_unchanged(tmp_path, fault):
+def test_damaged_entries_of_every_kind_are_rebuilt_and_answers_unchanged(
+    tmp_path, fault, clean_cache
+):
     cache = tmp_path / "cache"
-    clean, _ = _run(cache, tmp_path / "a.zarr")
+    shutil.copytree(clean_cache[0], cache)
+    clean = clean_cache[1]
     entries = _entries(cache)
     names = [p.relative_to(cache).as_posix() for p in entries]
     for kind in KINDS:
