@@ -65,6 +65,8 @@ HELPERS = r"""
 #define N SCDK_NOUTPUTS
 #define M SCDK_FWD_NY
 
+static double residual(const double *y, const double *theta, double *g, double *Jp);
+
 /* the transmission along n readings (n x K): what = 1 forward, 3 forward + Jacobian,
  * 5 forward + margin; outputs n x N. Returns 0 or the first error. */
 int bench_transmission(scdk_transmission *t, long n, const double *thetas, int what,
@@ -121,27 +123,18 @@ long bench_newton(long n, const double *thetas, int with_jacobian, const int *ou
     return iterations;
 }
 
-/* bench_newton with J_p factored as the tracker does (its block-triangular form: rows, cols
- * in block order, block b on start[b] .. start[b + 1] - 1; each diagonal block by scdk_lu.h,
- * the blocks below the diagonal applied in the forward substitution) */
+/* bench_newton (no Jacobian) with J_p factored as the tracker does (its block-triangular form:
+ * rows, cols in block order, block b on start[b] .. start[b + 1] - 1; each diagonal block by
+ * scdk_lu.h, the blocks below the diagonal applied in the forward substitution) */
 long bench_newton_blocks(long n, const double *thetas, const int *out_y, const int *rows,
                          const int *cols, const int *start, int nblocks, double *outs) {
-    const casadi_real *arg[SCDK_FWD_SZ_ARG];
-    casadi_real *res[SCDK_FWD_SZ_RES];
-    casadi_int iw[SCDK_FWD_SZ_IW];
-    casadi_real w[SCDK_FWD_SZ_W];
     double y[M], g[M], Jp[M * M], B[M * M], x[M];
     int piv[M], it, r, c, b;
     long i, iterations = 0;
     memcpy(y, scdk_fwd_home_y, sizeof y);
     for (i = 0; i < n; ++i) {
         const double *th = thetas + i * K;
-        for (it = 0; it < 30; ++it) {
-            double big = 0.0;
-            arg[0] = y, arg[1] = th, arg[2] = scdk_fwd_home_c, res[0] = g, res[1] = Jp;
-            scdk_fwd_gjp(arg, res, iw, w, 0);
-            for (r = 0; r < M; ++r) big = fabs(g[r]) > big ? fabs(g[r]) : big;
-            if (big <= 1e-12) break;
+        for (it = 0; it < 30 && residual(y, th, g, Jp) > 1e-12; ++it, ++iterations) {
             for (c = 0; c < M; ++c)
                 for (r = 0; r < M; ++r) B[r + c * M] = Jp[rows[r] + cols[c] * M];
             for (r = 0; r < M; ++r) x[r] = g[rows[r]];
@@ -153,12 +146,25 @@ long bench_newton_blocks(long n, const double *thetas, const int *out_y, const i
                 scdk_lu_solve(B + s + s * M, NULL, m, 1, M, piv + s, x + s, NULL, 1, 0);
             }
             for (r = 0; r < M; ++r) y[cols[r]] -= x[r];
-            ++iterations;
         }
         if (it == 30) return -1;
         for (r = 0; r < N; ++r) outs[i * N + r] = out_y[r] >= 0 ? y[out_y[r]] : th[-1 - out_y[r]];
     }
     return iterations;
+}
+
+/* g and J_p at (y, theta) by the generated kernel (home chart); returns max |g| */
+static double residual(const double *y, const double *theta, double *g, double *Jp) {
+    const casadi_real *arg[SCDK_FWD_SZ_ARG];
+    casadi_real *res[SCDK_FWD_SZ_RES];
+    casadi_int iw[SCDK_FWD_SZ_IW];
+    casadi_real w[SCDK_FWD_SZ_W];
+    double big = 0.0;
+    int r;
+    arg[0] = y, arg[1] = theta, arg[2] = scdk_fwd_home_c, res[0] = g, res[1] = Jp;
+    scdk_fwd_gjp(arg, res, iw, w, 0);
+    for (r = 0; r < M; ++r) big = fabs(g[r]) > big ? fabs(g[r]) : big;
+    return big;
 }
 
 /* bilinear interpolation of a table (na x nb x 2, row-major) over the grid a0 + h i,
