@@ -112,6 +112,7 @@ int factor_solve(double *a, int *piv, double *b, int transposed, double *det) {
     lu_solve(a, piv, b, transposed);
     return 1;
 }
+double rcond(double *a, int *piv) { return lu_factor(a, piv) ? rcond_lu(a, piv) : -1.0; }
 """
 
 
@@ -139,6 +140,7 @@ def test_the_trackers_block_lu_of_j_p_equals_lapack(tracker_lu, name, count, tra
     determinant and solves of matrices with J_p's structural sparsity and random entries equal
     numpy's (the sign of det decides the tracker's branches)."""
     lib, model = tracker_lu[name]
+    lib.rcond.restype = ctypes.c_double
     assert lib.blocks() == count
     pattern = np.array(ca.DM(model.symbolic.J_p.sparsity(), 1), dtype=bool)
     m = model.m
@@ -152,3 +154,6 @@ def test_the_trackers_block_lu_of_j_p_equals_lapack(tracker_lu, name, count, tra
         ref = np.linalg.solve(A.T if transposed else A, b)
         assert np.max(np.abs(x - ref)) <= 1e-9 * max(1.0, np.max(np.abs(ref)))
         assert abs(det.value - np.linalg.det(A)) <= 1e-10 * abs(np.linalg.det(A))
+        a = np.asfortranarray(A).ravel(order="F").copy()
+        ref = 1.0 / (m * np.linalg.norm(A, 1) * np.linalg.norm(np.linalg.inv(A), 1))
+        assert abs(lib.rcond(_p(a), _p(piv)) - ref) <= 1e-9 * ref  # the atlas sweep's bound
