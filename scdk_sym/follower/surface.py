@@ -12,10 +12,15 @@ from ..results import Configuration, Crossing, SolveResult
 from .calls import follower_calls
 
 
+def det_jp(model, cfg: Configuration | SolveResult) -> float:
+    """``det J_p`` at a configuration (or a solve result), in the chart centred on it."""
+    y, c = model.chart.to_local(cfg.y)
+    return float(np.linalg.det(np.array(model_calls(model).jac(y, cfg.theta, c)[0])))
+
+
 def det_sign(model, cfg: Configuration | SolveResult) -> float:
     """Sign of det J_p at a configuration (or a solve result)."""
-    y, c = model.chart.to_local(cfg.y)
-    return 1.0 if np.linalg.det(np.array(model_calls(model).jac(y, cfg.theta, c)[0])) > 0 else -1.0
+    return 1.0 if det_jp(model, cfg) > 0 else -1.0
 
 
 def branches_cross(Jp: np.ndarray, Js: np.ndarray) -> bool:

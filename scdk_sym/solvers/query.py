@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError, NotAssembledError
+from ..follower.surface import det_jp
 from ..follower.tangent import null_direction
 from ..kernels.fastcall import model_calls
 from ..products import CHECKED_START
@@ -95,8 +96,7 @@ def start_det(model: Model, start: Configuration) -> float:
     memo = _memo(model)
     if memo.det is not None and memo.det[0] is start:
         return memo.det[1]
-    y_loc, c = model.chart.to_local(start.y)
-    det = float(np.linalg.det(model_calls(model).jac(y_loc, start.theta, c)[0]))
+    det = det_jp(model, start)
     memo.det = (start, det)
     return det
 
