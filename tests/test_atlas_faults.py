@@ -135,3 +135,23 @@ def test_a_second_writer_refuses_in_one_line_and_a_stale_lock_is_taken_over(tmp_
         assert previous["pid"] == holder.pid
         assert json.loads(lock_path(out).read_text())["pid"] == os.getpid()
     assert "stale lock" in capsys.readouterr().err and not lock_path(out).exists()
+
+
+def test_dask_loggers_with_their_own_level_are_quiet_while_a_cluster_closes():
+    """Dask's configuration sets ``tornado.application`` to ERROR on its own: silencing the
+    parent loggers alone let a stop print the traceback of Dask's cancelled future."""
+    import logging
+
+    pytest.importorskip("distributed")
+    from scdk_sym.atlases.distributed import _quiet_distributed
+
+    child = logging.getLogger("tornado.application")
+    before = child.level
+    child.setLevel(logging.ERROR)  # what Dask's configuration gives it
+    try:
+        with _quiet_distributed():
+            assert not child.isEnabledFor(logging.ERROR)
+            assert not logging.getLogger("distributed.client").isEnabledFor(logging.ERROR)
+        assert child.level == logging.ERROR
+    finally:
+        child.setLevel(before)

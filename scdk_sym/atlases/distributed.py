@@ -113,8 +113,19 @@ def _silence_distributed() -> None:
     """
     import logging
 
-    for name in _DASK_LOGGERS:
-        logging.getLogger(name).setLevel(logging.CRITICAL)
+    for logger in _dask_loggers():
+        logger.setLevel(logging.CRITICAL)
+
+
+def _dask_loggers() -> list:
+    """The loggers of :data:`_DASK_LOGGERS` and every logger below them that exists: Dask's
+    configuration gives some their own level (``tornado.application``: ERROR), which a level
+    set on the parent does not override."""
+    import logging
+
+    names = list(logging.Logger.manager.loggerDict)  # a copy: other threads may add loggers
+    below = [n for n in names if n.split(".")[0] in _DASK_LOGGERS and n not in _DASK_LOGGERS]
+    return [logging.getLogger(name) for name in (*_DASK_LOGGERS, *below)]
 
 
 @contextlib.contextmanager
@@ -125,9 +136,7 @@ def _quiet_distributed():
     Closing the connections of killed workers makes ``distributed`` log the closed comms
     with their tracebacks (at INFO); the failure is reported on its own.
     """
-    import logging
-
-    loggers = [logging.getLogger(name) for name in _DASK_LOGGERS]
+    loggers = _dask_loggers()
     levels = [logger.level for logger in loggers]
     _silence_distributed()
     try:
