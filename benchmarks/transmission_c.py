@@ -38,13 +38,12 @@ import time
 import warnings
 from pathlib import Path
 
-import casadi as ca
 import numpy as np
 
 import scdk_sym as sc
 from scdk_sym.errors import ModelWarning
-from scdk_sym.graphs import triangular_decomposition
 from scdk_sym.kernels.compile import compile_parallel
+from scdk_sym.robot.blocks import triangular_blocks
 from scdk_sym.solvers.transmission_c import write_transmission
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -213,13 +212,10 @@ class Library:
         index = [model.unknowns.index(o) if o in model.unknowns else -1 - model.actuated.index(o)
                  for o in OUTPUTS]  # fmt: skip
         self.out_y = np.array(index, dtype=np.intc)
-        pattern = np.array(ca.DM(model.symbolic.J_p.sparsity(), 1), dtype=bool)
-        parts = triangular_decomposition([set(np.flatnonzero(r).tolist()) for r in pattern])
-        assert parts is not None
-        self.blocks = [np.array([i for part in parts for i in part[k]], dtype=np.intc)
-                       for k in (0, 1)]  # fmt: skip
-        sizes = [0] + [len(rows) for rows, _ in parts]
-        self.start = np.cumsum(sizes).astype(np.intc)
+        parts = triangular_blocks(model)  # the tracker's blocks of J_p
+        self.blocks = [np.array([i for b in parts for i in b.rows], dtype=np.intc),
+                       np.array([i for b in parts for i in b.unknowns], dtype=np.intc)]  # fmt: skip
+        self.start = np.cumsum([0] + [len(b.rows) for b in parts]).astype(np.intc)
 
     def forward(self, thetas: np.ndarray, what: int = 1) -> np.ndarray:
         """(N, n) outputs along the readings from home (what: 1, 3 with J, 5 with margin)."""

@@ -29,7 +29,6 @@ import casadi as ca
 import numpy as np
 
 from ..errors import InputError, OutputError
-from ..graphs import triangular_decomposition
 from ..kernels.compile import (
     LOOP_OPT,
     LU_HEADER,
@@ -40,6 +39,7 @@ from ..kernels.compile import (
     write_c_parts,
 )
 from ..kernels.tracker_functions import UNOPTIMISED, build_tracker_kernels
+from ..robot.blocks import triangular_blocks
 from . import status, templates
 
 #: Flags compiling each source of the shared library built for Python (the optimisation
@@ -298,16 +298,17 @@ def _periodic(model) -> str:
 
 def _lu_blocks(model) -> dict[str, str]:
     """The tables and generated calls of the tracker's block LU of J_p (tracker_numerics.c.in:
-    LU_BLOCKS): J_p's fine block-triangular decomposition, rows and columns in block order, the
+    LU_BLOCKS): the blocks of :func:`~scdk_sym.robot.blocks.triangular_blocks` (J_p's fine
+    block-triangular decomposition), rows and columns in block order, the
     columns left of each block its rows involve, and the sign of the two permutations."""
-    pattern = np.array(ca.DM(model.symbolic.J_p.sparsity(), 1), dtype=bool)
-    parts = triangular_decomposition([set(np.flatnonzero(r).tolist()) for r in pattern])
-    if model.m == 0 or parts is None or len(parts) < 2:
+    parts = triangular_blocks(model)
+    if model.m == 0 or len(parts) < 2:
         return {"LU_BLOCKS": "1", "LU_SIGN": "1.0", **dict.fromkeys(_LU_TABLES, "0"),
                 **dict.fromkeys(_LU_CALLS, "")}  # fmt: skip
-    rows = [r for block, _ in parts for r in block]
-    cols = [c for _, block in parts for c in block]
-    start = np.cumsum([0] + [len(block) for block, _ in parts]).tolist()
+    rows = [r for block in parts for r in block.rows]
+    cols = [c for block in parts for c in block.unknowns]
+    start = np.cumsum([0] + [len(block.rows) for block in parts]).tolist()
+    pattern = np.array(ca.DM(model.symbolic.J_p.sparsity(), 1), dtype=bool)
     permuted = pattern[np.ix_(rows, cols)]
     left: list[int] = []
     left_start = [0]
@@ -318,11 +319,11 @@ def _lu_blocks(model) -> dict[str, str]:
     blocks = list(zip(start[:-1], np.diff(start).tolist(), strict=True))
     return {
         "LU_BLOCKS": str(len(parts)),
-        "LU_ROWS": _ints(rows),
-        "LU_COLS": _ints(cols),
-        "LU_START": _ints(start),
-        "LU_LEFT_START": _ints(left_start),
-        "LU_LEFT": _ints(left),
+        "LU_ROWS": c_ints(rows),
+        "LU_COLS": c_ints(cols),
+        "LU_START": c_ints(start),
+        "LU_LEFT_START": c_ints(left_start),
+        "LU_LEFT": c_ints(left),
         "LU_SIGN": repr(float(_permutation_sign(rows) * _permutation_sign(cols))),
         "LU_FACTOR_BLOCKS": "\n".join(
             f"    if (!lu_factor_block(B, piv, {s}, {n})) return 0;" for s, n in blocks),
@@ -342,7 +343,7 @@ _LU_TABLES = ("LU_ROWS", "LU_COLS", "LU_START", "LU_LEFT_START", "LU_LEFT")
 _LU_CALLS = ("LU_FACTOR_BLOCKS", "LU_DET_BLOCKS", "LU_SOLVE_BLOCKS", "LU_SOLVE_T_BLOCKS")
 
 
-def _ints(values) -> str:
+def c_ints(values) -> str:
     """C initialiser of an int array (one 0 for an empty one: C has no empty arrays)."""
     return ", ".join(str(int(v)) for v in values) or "0"
 

@@ -353,6 +353,7 @@ def tracker_library(model) -> CTracker:
 #: What the C tracker's sources are made from besides the model (its index key covers them).
 TRACKER_SOURCES = (
     "codegen", "kernels/tracker_functions.py", "kernels/c/scdk_lu.h", "graphs.py",
+    "robot/blocks.py",
     *(part.path for part in (*templates.SOURCE_PARTS, templates.HEADER_PART)),
 )  # fmt: skip
 

@@ -57,7 +57,7 @@ def independent_blocks(model: ModelEvaluation) -> tuple[Block, ...]:
     the order of their first unknown."""
     sym = model.symbolic
     P = np.array(ca.DM(sym.J_p.sparsity(), 1), dtype=bool)
-    S = np.array(ca.DM(ca.jacobian(sym.g, sym.theta).sparsity(), 1), dtype=bool)
+    S = np.array(ca.DM(sym.J_s.sparsity(), 1), dtype=bool)  # J_s = -dg/dtheta
     m = model.m
     # union-find over unknowns: the unknowns of one row belong together
     parent = list(range(m))
@@ -72,7 +72,7 @@ def independent_blocks(model: ModelEvaluation) -> tuple[Block, ...]:
         cols = [int(c) for c in np.flatnonzero(row)]
         for c in cols[1:]:
             parent[find(c)] = find(cols[0])
-    owner = _row_closures(model)
+    owner = row_closures(model)
     groups: dict[int, list[int]] = {}
     for i in range(m):
         groups.setdefault(find(i), []).append(i)
@@ -98,14 +98,14 @@ def triangular_blocks(model: ModelEvaluation) -> tuple[Block, ...]:
     """
     sym = model.symbolic
     P = np.array(ca.DM(sym.J_p.sparsity(), 1), dtype=bool)
-    S = np.array(ca.DM(ca.jacobian(sym.g, sym.theta).sparsity(), 1), dtype=bool)
+    S = np.array(ca.DM(sym.J_s.sparsity(), 1), dtype=bool)  # J_s = -dg/dtheta
     m = model.m
     whole = Block(tuple(range(m)), tuple(range(model.k)), tuple(range(m)),
                   tuple(range(len(model.closures))))  # fmt: skip
     parts = triangular_decomposition([set(np.flatnonzero(row).tolist()) for row in P])
     if m == 0 or parts is None:
         return (whole,)
-    owner = _row_closures(model)
+    owner = row_closures(model)
     blocks = []
     for rows, cols in parts:
         involved = set(np.flatnonzero(P[rows].any(axis=0)).tolist())
@@ -131,7 +131,7 @@ def triangular_models(model: ModelT) -> tuple[ModelT, ...]:
     return tuple(_block_model(model, b, i) for i, b in enumerate(blocks))
 
 
-def _row_closures(model: ModelEvaluation) -> list[int]:
+def row_closures(model: ModelEvaluation) -> list[int]:
     """Closure index of each row of ``g_all``."""
     return np.repeat(np.arange(len(model.closures)), np.diff(model.row_offsets)).tolist()
 
@@ -163,7 +163,7 @@ def _block_model(model: ModelT, block: Block, index: int) -> ModelT:
     for ci in block.closures:
         offsets[ci] = start
         start += model.closures[ci].rows
-    owner = _row_closures(model)
+    owner = row_closures(model)
 
     def local(r: int) -> int:  # a row of the full closure system, in the block's rows
         return offsets[owner[r]] + int(r - model.row_offsets[owner[r]])

@@ -35,6 +35,7 @@ from ..codegen.generate import (
     COMPILE_FLAGS,
     LINK_FLAGS,
     GeneratedSources,
+    c_ints,
     check_prefix,
     generate,
     output_directory,
@@ -256,16 +257,16 @@ def _tables(trans: Transmission, jp: np.ndarray, js: np.ndarray) -> dict[str, st
     elimination = [_elimination(jp, st, wanted) for st in stages]
     sizes += [max(len(a), len(b)) for a, b in zip(block_motors, block_outputs, strict=True)]
     return {
-        "OUT_Y": _ints(_position(model, o) for o in trans.outputs),
-        "MOTOR_Y": _ints(_position(inv, m) for m in trans.motors),
+        "OUT_Y": c_ints(_position(model, o) for o in trans.outputs),
+        "MOTOR_Y": c_ints(_position(inv, m) for m in trans.motors),
         "NSTAGES": str(len(stages)),
         "STAGE_START": _starts([st.rows for st in stages]),
-        "STAGE_ROWS": _ints(r for st in stages for r in st.rows),
-        "STAGE_COLS": _ints(u for e in elimination for u in e[0]),
-        "STAGE_HI": _ints(i for e in elimination for i in e[1]),
-        "STAGE_LO": _ints(i for e in elimination for i in e[2]),
-        "STAGE_LOW": _ints(i for e in elimination for i in e[3]),
-        "STAGE_FIRST": _ints(
+        "STAGE_ROWS": c_ints(r for st in stages for r in st.rows),
+        "STAGE_COLS": c_ints(u for e in elimination for u in e[0]),
+        "STAGE_HI": c_ints(i for e in elimination for i in e[1]),
+        "STAGE_LO": c_ints(i for e in elimination for i in e[2]),
+        "STAGE_LOW": c_ints(i for e in elimination for i in e[3]),
+        "STAGE_FIRST": c_ints(
             min((e[0].index(u) for u in e[0] if u in wanted), default=len(e[0]))
             for e in elimination
         ),
@@ -274,15 +275,15 @@ def _tables(trans: Transmission, jp: np.ndarray, js: np.ndarray) -> dict[str, st
             for i, st in enumerate(stages)
         ),  # fmt: skip
         "STAGE_INPUT_START": _starts(inputs),
-        "STAGE_INPUTS": _ints(u for ids in inputs for u in ids),
+        "STAGE_INPUTS": c_ints(u for ids in inputs for u in ids),
         "STAGE_MOTOR_START": _starts(stage_motors),
-        "STAGE_MOTORS": _ints(j for ids in stage_motors for j in ids),
+        "STAGE_MOTORS": c_ints(j for ids in stage_motors for j in ids),
         "BLOCK_STAGE_START": _starts(block_stages),
-        "BLOCK_STAGES": _ints(s for ids in block_stages for s in ids),
+        "BLOCK_STAGES": c_ints(s for ids in block_stages for s in ids),
         "BLOCK_MOTOR_START": _starts(block_motors),
-        "BLOCK_MOTORS": _ints(j for ids in block_motors for j in ids),
+        "BLOCK_MOTORS": c_ints(j for ids in block_motors for j in ids),
         "BLOCK_OUTPUT_START": _starts(block_outputs),
-        "BLOCK_OUTPUTS": _ints(i for ids in block_outputs for i in ids),
+        "BLOCK_OUTPUTS": c_ints(i for ids in block_outputs for i in ids),
         "MAX_DIM": str(max([1, *sizes])),
         "JP_ALLOC": str(max(1, model.m * model.m)),
         "JS_ALLOC": str(max(1, model.m * model.k)),
@@ -357,18 +358,12 @@ def _position(model: Model, joint: str) -> int:
     raise InputError(f"joint {joint!r} is neither an unknown nor an input of {model.name!r}")
 
 
-def _ints(values) -> str:
-    """C initialiser of an int array (one 0 for an empty one: C has no empty arrays)."""
-    text = ", ".join(str(int(v)) for v in values)
-    return text or "0"
-
-
 def _starts(groups: Sequence[Sequence[int]]) -> str:
     """C initialiser of the offsets of consecutive groups in a flat array (len + 1 values)."""
     offsets = [0]
     for group in groups:
         offsets.append(offsets[-1] + len(group))
-    return _ints(offsets)
+    return c_ints(offsets)
 
 
 def _doubles(values) -> str:

@@ -34,7 +34,7 @@ import casadi as ca
 import numpy as np
 
 from ..robot import Model
-from ..robot.blocks import Block
+from ..robot.blocks import Block, row_closures
 from ..symbolic.kinematics import closure_residual, link_placements
 from ..symbolic.screws import closure_joint_jacobian
 
@@ -50,12 +50,11 @@ def loop_jacobians(model: Model, stages: Sequence[Block]) -> tuple[ca.SX, ca.SX]
     about half the operations), by differentiation elsewhere."""
     sym = model.symbolic
     g, screws = _loop_closures(model, stages)
-    J_p, J_s = ca.jacobian(g, sym.y), -ca.jacobian(g, sym.theta)
-    if not (_within(J_p, sym.J_p) and _within(J_s, sym.J_s)):
+    P, S = ca.jacobian_sparsity(g, sym.y), ca.jacobian_sparsity(g, sym.theta)
+    if not (_within(P, sym.J_p.sparsity()) and _within(S, sym.J_s.sparsity())):
         return sym.J_p, sym.J_s
-    rows = list(model.rows)
-    S_p, S_s = _screw_rows(model, screws, g, rows)
-    return ca.project(S_p, J_p.sparsity()), ca.project(-S_s, J_s.sparsity())
+    S_p, S_s = _screw_rows(model, screws, g, list(model.rows))
+    return ca.project(S_p, P), ca.project(-S_s, S)
 
 
 def derivative_kernel(model: Model, J_p: ca.SX, J_s: ca.SX, name: str) -> ca.Function:
@@ -107,30 +106,19 @@ def _screw_rows(
     names = sorted({name for cols in screws if cols for name in cols})
     values = ca.vertcat(*[ca.SX(sym.values[n]) for n in names]) if names else ca.SX(0, 1)
     dq_dy, dq_dt = ca.jacobian(values, sym.y), ca.jacobian(values, sym.theta)
-    blocks, start = [], 0
-    for cl, cols in zip(model.closures, screws, strict=True):
-        if cols is None:
-            blocks.append(ca.SX(cl.rows, len(names)))
-        else:
-            blocks.append(ca.horzcat(*[cols.get(n, ca.SX(cl.rows, 1)) for n in names]))
-        start += cl.rows
+    blocks = [
+        ca.SX(cl.rows, len(names)) if cols is None
+        else ca.horzcat(*[cols.get(n, ca.SX(cl.rows, 1)) for n in names])
+        for cl, cols in zip(model.closures, screws, strict=True)
+    ]  # fmt: skip
     D = ca.vertcat(*blocks)[list(rows), :]
     S_p, S_s = D @ dq_dy, D @ dq_dt
-    plain = [i for i, r in enumerate(rows) if screws[_closure_of(model, r)] is None]
+    owner = row_closures(model)
+    plain = [i for i, r in enumerate(rows) if screws[owner[r]] is None]
     if plain:
         S_p[plain, :] = ca.jacobian(g[plain], sym.y)
         S_s[plain, :] = ca.jacobian(g[plain], sym.theta)
     return S_p, S_s
-
-
-def _closure_of(model: Model, row: int) -> int:
-    """The index of the closure a (full) residual row belongs to."""
-    start = 0
-    for i, cl in enumerate(model.closures):
-        start += cl.rows
-        if row < start:
-            return i
-    raise IndexError(row)
 
 
 def _eligible(kind: str, span: range, kept: Mapping[int, int], stage_of: Mapping) -> bool:
@@ -153,10 +141,10 @@ def _common_ancestor(parent: Mapping[str, str], a: str, b: str) -> str:
     return next(link for link in above if link in seen)
 
 
-def _within(new: ca.SX, old: ca.SX) -> bool:
+def _within(new: ca.Sparsity, old: ca.Sparsity) -> bool:
     """1 if every structural nonzero of ``new`` is one of ``old``."""
-    mine = set(zip(*new.sparsity().get_triplet(), strict=True))
-    return mine <= set(zip(*old.sparsity().get_triplet(), strict=True))
+    mine = set(zip(*new.get_triplet(), strict=True))
+    return mine <= set(zip(*old.get_triplet(), strict=True))
 
 
 def pattern(expr: ca.SX) -> np.ndarray:
